@@ -1,0 +1,77 @@
+//! `firn check`: validate a scene and show what it resolves to.
+
+use std::path::PathBuf;
+
+use clap::Args;
+use firn_core::scene::{Shape, TimeStep};
+use firn_mpm::Simulation;
+
+use crate::Failure;
+use crate::scene_source::load_scene;
+
+/// Arguments of `firn check`.
+#[derive(Args, Debug)]
+pub struct CheckArgs {
+    /// Scene file (TOML); without one, the bundled default scene is checked.
+    pub scene: Option<PathBuf>,
+}
+
+/// Validates the scene and prints particle count, grid, memory and first Δt.
+pub fn check(args: CheckArgs) -> Result<(), Failure> {
+    let (scene, _) = load_scene(args.scene.as_deref())?;
+    let simulation = Simulation::new(scene.clone()).map_err(|error| Failure::BadInput(format!("error: {error}")))?;
+    let cells = scene.domain.cells();
+    let layout = simulation.grid_layout();
+    let nodes = layout.node_dims();
+    println!("scene       {}", scene.name);
+    println!(
+        "domain      [{}, {}, {}] to [{}, {}, {}] m, h = {} m",
+        scene.domain.min.x, scene.domain.min.y, scene.domain.min.z, scene.domain.max.x, scene.domain.max.y, scene.domain.max.z,
+        scene.domain.cell_size
+    );
+    println!(
+        "grid        {} x {} x {} cells ({} x {} x {} nodes with padding)",
+        cells[0], cells[1], cells[2], nodes.x, nodes.y, nodes.z
+    );
+    println!("transfer    {:?}", scene.solver.transfer);
+    println!("particles   {}", simulation.particles().len());
+    for (index, body) in scene.bodies.iter().enumerate() {
+        let shape = match body.shape {
+            Shape::Sphere { radius, .. } => format!("sphere r = {radius}"),
+            Shape::Box { size, .. } => format!("box {} x {} x {}", size.x, size.y, size.z),
+            Shape::Cylinder { radius, height, .. } => format!("cylinder r = {radius}, height {height}"),
+        };
+        let material = &scene.materials[body.material];
+        println!(
+            "  body {index}    {shape}, material {}, {} particles per cell",
+            material.name, body.particles_per_cell
+        );
+    }
+    for material in &scene.materials {
+        println!(
+            "material    {}: E = {:.3e} Pa, nu = {}, xi = {}, theta_c = {:.2e}, theta_s = {:.2e}, rho0 = {} kg/m3",
+            material.name,
+            material.youngs_modulus,
+            material.poisson_ratio,
+            material.hardening,
+            material.critical_compression,
+            material.critical_stretch,
+            material.density
+        );
+    }
+    println!("colliders   {} (plus the 6 domain walls)", scene.colliders.len());
+    println!("memory      {:.1} MiB (grid and particles)", simulation.memory_bytes() as f64 / (1024.0 * 1024.0));
+    let policy = match scene.time.step {
+        TimeStep::Fixed { dt } => format!("fixed {dt:.2e} s"),
+        TimeStep::Adaptive { cfl, max_dt } => format!("adaptive, cfl {cfl}, at most {max_dt:.2e} s"),
+    };
+    println!("time step   {policy}; first step {:.3e} s", simulation.next_dt());
+    println!(
+        "frames      {} at {} fps ({} s)",
+        scene.time.frame_count(),
+        scene.time.fps,
+        scene.time.duration
+    );
+    println!("output      {}", scene.output.directory.display());
+    Ok(())
+}

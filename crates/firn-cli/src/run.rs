@@ -1,0 +1,276 @@
+//! `firn run`: simulate a scene frame by frame, writing caches, the manifest
+//! and checkpoints, with progress on the terminal.
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use clap::Args;
+use firn_core::Scene;
+use firn_io::{FrameRecord, Manifest, PvdCollection, RunStatus, ensure_writable_dir};
+use firn_mpm::Simulation;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+use crate::Failure;
+use crate::frames::{prepare_cache_dirs, read_checkpoint, scene_json, write_checkpoint, write_frame};
+use crate::scene_source::load_scene;
+
+/// Arguments of `firn run`.
+#[derive(Args, Debug)]
+pub struct RunArgs {
+    /// Scene file (TOML); without one, the bundled snowball-against-a-wall scene runs.
+    pub scene: Option<PathBuf>,
+    /// Output directory (default: the scene's [output] directory).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Stop after this frame instead of the scene's last frame.
+    #[arg(long)]
+    pub frames: Option<u32>,
+    /// Worker threads (default: all cores). Results are identical for any count.
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Continue an interrupted run from its last checkpoint in the output directory.
+    #[arg(long)]
+    pub resume: bool,
+    /// Print nothing but errors and the final summary line.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// File name of the checkpoint inside the output directory.
+const CHECKPOINT_FILE: &str = "checkpoint.firnckpt";
+/// File name of the manifest inside the output directory.
+const MANIFEST_FILE: &str = "manifest.json";
+
+/// Runs the simulation described by `args`.
+pub fn run(args: RunArgs) -> Result<(), Failure> {
+    let (mut scene, scene_file) = load_scene(args.scene.as_deref())?;
+    if let Some(out) = &args.out {
+        scene.output.directory = out.clone();
+    }
+    let threads = configure_threads(args.threads)?;
+    let directory = scene.output.directory.clone();
+    ensure_writable_dir(&directory)
+        .and_then(|()| prepare_cache_dirs(&scene, &directory))
+        .map_err(|error| {
+        Failure::BadInput(format!(
+            "error: {error}\n  fix: choose a writable directory with --out DIR or [output] directory"
+        ))
+    })?;
+    let last_frame = scene.time.frame_count().min(args.frames.unwrap_or(u32::MAX));
+    let scene_json = scene_json(&scene);
+    let mut state = if args.resume {
+        RunState::resume(scene, &directory, &scene_json)?
+    } else {
+        RunState::fresh(scene, scene_file, threads, &directory, scene_json)?
+    };
+    state.run_frames(last_frame, args.quiet)
+}
+
+/// Sets up rayon's pool; returns the thread count in use.
+fn configure_threads(threads: Option<usize>) -> Result<usize, Failure> {
+    if let Some(count) = threads {
+        if count == 0 {
+            return Err(Failure::BadInput(
+                "error: --threads must be at least 1\n  fix: pass --threads 1 or more, or leave it out to use all cores".into(),
+            ));
+        }
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(count)
+            .build_global()
+            .map_err(|error| Failure::Failed(format!("error: cannot start {count} threads: {error}")))?;
+    }
+    Ok(rayon::current_num_threads())
+}
+
+/// A run in progress: the simulation, where it writes, and what it wrote.
+struct RunState {
+    simulation: Simulation,
+    directory: PathBuf,
+    manifest: Manifest,
+    pvd: PvdCollection,
+    frame: u32,
+    scene_json: serde_json::Value,
+}
+
+impl RunState {
+    /// Starts a new run and writes frame 0 (the initial state).
+    fn fresh(
+        scene: Scene,
+        scene_file: Option<PathBuf>,
+        threads: usize,
+        directory: &Path,
+        scene_json: serde_json::Value,
+    ) -> Result<RunState, Failure> {
+        let cells = scene.domain.cells();
+        let simulation = Simulation::new(scene).map_err(|error| Failure::BadInput(format!("error: {error}")))?;
+        let manifest = Manifest {
+            firn_version: env!("CARGO_PKG_VERSION").to_string(),
+            scene_file: scene_file.map(|path| path.display().to_string()),
+            scene: scene_json.clone(),
+            backend: "cpu".into(),
+            threads,
+            particle_count: simulation.particles().len(),
+            grid_cells: cells,
+            frames: Vec::new(),
+            status: RunStatus::Running,
+        };
+        let mut state = RunState {
+            simulation,
+            directory: directory.to_path_buf(),
+            manifest,
+            pvd: PvdCollection::new(),
+            frame: 0,
+            scene_json,
+        };
+        state.record_frame(0, 0, Duration::ZERO)?;
+        Ok(state)
+    }
+
+    /// Picks up a run from the checkpoint in `directory`.
+    fn resume(scene: Scene, directory: &Path, scene_json: &serde_json::Value) -> Result<RunState, Failure> {
+        let checkpoint_path = directory.join(CHECKPOINT_FILE);
+        let manifest_path = directory.join(MANIFEST_FILE);
+        if !checkpoint_path.exists() {
+            return Err(Failure::BadInput(format!(
+                "error: cannot resume: no checkpoint at {}\n  fix: run without --resume to start over, or point --out at the run's directory",
+                checkpoint_path.display()
+            )));
+        }
+        let restored = read_checkpoint(&checkpoint_path).map_err(|message| {
+            Failure::BadInput(format!("error: cannot resume: {message}\n  fix: run without --resume to start over"))
+        })?;
+        if &restored.scene_json != scene_json {
+            return Err(Failure::BadInput(format!(
+                "error: cannot resume: the scene differs from the one that wrote {}\n  fix: resume with the same scene file, or run without --resume to start over",
+                checkpoint_path.display()
+            )));
+        }
+        let mut manifest = Manifest::read(&manifest_path).map_err(|error| {
+            Failure::BadInput(format!("error: cannot resume: {error}\n  fix: run without --resume to start over"))
+        })?;
+        manifest.frames.retain(|record| record.index <= restored.frame);
+        manifest.status = RunStatus::Running;
+        manifest.threads = rayon::current_num_threads();
+        let mut pvd = PvdCollection::read(&directory.join("particles.pvd")).unwrap_or_default();
+        pvd.remove_after(restored.snapshot.time + 1e-12);
+        let simulation = Simulation::from_snapshot(scene, restored.snapshot)
+            .map_err(|error| Failure::BadInput(format!("error: cannot resume: {error}")))?;
+        Ok(RunState {
+            simulation,
+            directory: directory.to_path_buf(),
+            manifest,
+            pvd,
+            frame: restored.frame,
+            scene_json: scene_json.clone(),
+        })
+    }
+
+    /// Simulates and writes frames up to `last_frame`.
+    fn run_frames(&mut self, last_frame: u32, quiet: bool) -> Result<(), Failure> {
+        let fps = self.simulation.scene().time.fps;
+        let progress = progress_bar(last_frame, self.frame, quiet);
+        let started = Instant::now();
+        let mut substeps_total = 0u64;
+        while self.frame < last_frame {
+            let frame = self.frame + 1;
+            let frame_started = Instant::now();
+            let substeps = match self.simulation.advance_to(frame as f64 / fps) {
+                Ok(substeps) => substeps,
+                Err(error) => return Err(self.fail(format!("error: the simulation stopped in frame {frame}: {error}"))),
+            };
+            self.record_frame(frame, substeps, frame_started.elapsed())?;
+            substeps_total += substeps as u64;
+            let rate = substeps_total as f64 / started.elapsed().as_secs_f64().max(1e-9);
+            progress.set_position(self.frame as u64);
+            progress.set_message(format!("t = {:.3} s, {rate:.0} substeps/s", self.simulation.time()));
+        }
+        progress.finish_and_clear();
+        self.write_checkpoint()?;
+        if last_frame >= self.simulation.scene().time.frame_count() {
+            self.manifest.status = RunStatus::Finished;
+        }
+        self.write_manifest()?;
+        let cost = self.mean_cost();
+        println!(
+            "firn: {} frames of {} particles in {:.1} s ({cost:.0} ns per particle-substep); caches and manifest in {}",
+            self.frame,
+            self.simulation.particles().len(),
+            started.elapsed().as_secs_f64(),
+            self.directory.display()
+        );
+        Ok(())
+    }
+
+    /// Writes the current frame's caches, its manifest record and, when due, a checkpoint.
+    fn record_frame(&mut self, index: u32, substeps: u32, wall: Duration) -> Result<(), Failure> {
+        let files = write_frame(&self.simulation, index, &self.directory, &mut self.pvd)
+            .map_err(|error| self.fail(format!("error: {error}")))?;
+        let particles = self.simulation.particles().len().max(1) as f64;
+        let wall_seconds = wall.as_secs_f64();
+        self.manifest.record_frame(FrameRecord {
+            index,
+            time: self.simulation.time(),
+            substeps,
+            wall_seconds,
+            ns_per_particle_substep: if substeps > 0 { wall_seconds * 1e9 / (particles * substeps as f64) } else { 0.0 },
+            files,
+        });
+        self.frame = index;
+        let every = self.simulation.scene().output.checkpoint_every;
+        if every > 0 && index > 0 && index % every == 0 {
+            self.write_checkpoint()?;
+        }
+        self.write_manifest()
+    }
+
+    fn write_checkpoint(&mut self) -> Result<(), Failure> {
+        let path = self.directory.join(CHECKPOINT_FILE);
+        write_checkpoint(&self.simulation, self.frame, &self.scene_json, &path)
+            .map_err(|error| self.fail(format!("error: {error}")))
+    }
+
+    fn write_manifest(&mut self) -> Result<(), Failure> {
+        let path = self.directory.join(MANIFEST_FILE);
+        self.manifest
+            .write(&path)
+            .map_err(|error| Failure::Failed(format!("error: {error}")))
+    }
+
+    /// Records a failure in the manifest (best effort) and classifies it.
+    fn fail(&mut self, message: String) -> Failure {
+        self.manifest.status = RunStatus::Failed { message: message.clone() };
+        // The run has already failed; a manifest that cannot be written changes nothing.
+        let _ = self.manifest.write(&self.directory.join(MANIFEST_FILE));
+        Failure::Failed(message)
+    }
+
+    /// Mean cost over the frames of this manifest that took substeps.
+    fn mean_cost(&self) -> f64 {
+        let (seconds, work) = self
+            .manifest
+            .frames
+            .iter()
+            .fold((0.0, 0.0), |(seconds, work), record| {
+                (seconds + record.wall_seconds, work + record.substeps as f64)
+            });
+        if work > 0.0 {
+            seconds * 1e9 / (work * self.manifest.particle_count.max(1) as f64)
+        } else {
+            0.0
+        }
+    }
+}
+
+/// A progress bar showing frame, simulated time, substeps/s and ETA.
+fn progress_bar(last_frame: u32, first_frame: u32, quiet: bool) -> ProgressBar {
+    let bar = ProgressBar::with_draw_target(
+        Some(last_frame as u64),
+        if quiet { ProgressDrawTarget::hidden() } else { ProgressDrawTarget::stderr() },
+    );
+    bar.set_style(
+        ProgressStyle::with_template("{bar:30.cyan/blue} frame {pos}/{len}  {msg}  ETA {eta}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar.set_position(first_frame as u64);
+    bar
+}

@@ -1,0 +1,221 @@
+//! B-spline interpolation kernels of the Material Point Method.
+//!
+//! A particle at grid coordinate `X = (x − origin) / h` interacts with the
+//! nodes of a small stencil; the weight of node `i` is the dyadic product
+//! `w_i = N(X_x − i_x) N(X_y − i_y) N(X_z − i_z)` (thesis eq. 37-38) and its
+//! gradient is the product rule applied per axis (eq. 39-40).
+
+use glam::{IVec3, Vec3};
+
+/// The 1D cubic B-spline N(x) of the thesis (eq. 37), support |x| < 2.
+pub fn cubic(x: f32) -> f32 {
+    let a = x.abs();
+    if a < 1.0 {
+        0.5 * a * a * a - a * a + 2.0 / 3.0
+    } else if a < 2.0 {
+        let b = 2.0 - a;
+        b * b * b / 6.0
+    } else {
+        0.0
+    }
+}
+
+/// Derivative N'(x) of the cubic B-spline (eq. 39).
+pub fn cubic_derivative(x: f32) -> f32 {
+    let a = x.abs();
+    let slope = if a < 1.0 {
+        1.5 * a * a - 2.0 * a
+    } else if a < 2.0 {
+        let b = 2.0 - a;
+        -0.5 * b * b
+    } else {
+        0.0
+    };
+    slope * x.signum()
+}
+
+/// The 1D quadratic B-spline, support |x| < 1.5 (used with APIC).
+pub fn quadratic(x: f32) -> f32 {
+    let a = x.abs();
+    if a < 0.5 {
+        0.75 - a * a
+    } else if a < 1.5 {
+        let b = 1.5 - a;
+        0.5 * b * b
+    } else {
+        0.0
+    }
+}
+
+/// Derivative of the quadratic B-spline.
+pub fn quadratic_derivative(x: f32) -> f32 {
+    let a = x.abs();
+    let slope = if a < 0.5 {
+        -2.0 * a
+    } else if a < 1.5 {
+        a - 1.5
+    } else {
+        0.0
+    };
+    slope * x.signum()
+}
+
+/// Per-axis weights of one particle over an `N`-node-wide stencil.
+///
+/// `values[k]` holds, per axis, the 1D weight of the node `base + k` along that
+/// axis; `slopes[k]` its derivative with respect to the grid coordinate (divide
+/// by h for a spatial gradient).
+#[derive(Clone, Copy, Debug)]
+pub struct StencilWeights<const N: usize> {
+    /// Grid index of the stencil's first node on each axis.
+    pub base: IVec3,
+    /// Offset of the particle from the base node, in cells.
+    pub offset: Vec3,
+    /// 1D weights per stencil node and axis.
+    pub values: [Vec3; N],
+    /// 1D weight derivatives per stencil node and axis (per cell).
+    pub slopes: [Vec3; N],
+}
+
+impl<const N: usize> StencilWeights<N> {
+    /// Weight w_ip of stencil node (i, j, k).
+    #[inline(always)]
+    pub fn weight(&self, i: usize, j: usize, k: usize) -> f32 {
+        self.values[i].x * self.values[j].y * self.values[k].z
+    }
+
+    /// Gradient ∇w_ip of stencil node (i, j, k) per cell (eq. 40); divide by h.
+    #[inline(always)]
+    pub fn gradient(&self, i: usize, j: usize, k: usize) -> Vec3 {
+        let (wx, wy, wz) = (self.values[i].x, self.values[j].y, self.values[k].z);
+        Vec3::new(
+            self.slopes[i].x * wy * wz,
+            wx * self.slopes[j].y * wz,
+            wx * wy * self.slopes[k].z,
+        )
+    }
+
+    /// Vector from the particle to stencil node (i, j, k), in cells.
+    #[inline(always)]
+    pub fn node_offset(&self, i: usize, j: usize, k: usize) -> Vec3 {
+        Vec3::new(i as f32, j as f32, k as f32) - self.offset
+    }
+}
+
+/// Cubic B-spline weights over the 4x4x4 stencil of a particle at grid
+/// coordinate `x` (nodes ⌊x⌋−1 … ⌊x⌋+2 per axis).
+#[inline(always)]
+pub fn cubic_weights(x: Vec3) -> StencilWeights<4> {
+    let base_node = x.floor() - Vec3::ONE;
+    let offset = x - base_node;
+    let mut values = [Vec3::ZERO; 4];
+    let mut slopes = [Vec3::ZERO; 4];
+    for (k, (value, slope)) in values.iter_mut().zip(slopes.iter_mut()).enumerate() {
+        let d = offset - Vec3::splat(k as f32);
+        *value = Vec3::new(cubic(d.x), cubic(d.y), cubic(d.z));
+        // d = x − x_i; dN(x − x_i)/dx = N'(d).
+        *slope = Vec3::new(cubic_derivative(d.x), cubic_derivative(d.y), cubic_derivative(d.z));
+    }
+    StencilWeights {
+        base: base_node.as_ivec3(),
+        offset,
+        values,
+        slopes,
+    }
+}
+
+/// Quadratic B-spline weights over the 3x3x3 stencil of a particle at grid
+/// coordinate `x` (nodes ⌊x − ½⌋ … ⌊x − ½⌋+2 per axis).
+#[inline(always)]
+pub fn quadratic_weights(x: Vec3) -> StencilWeights<3> {
+    let base_node = (x - Vec3::splat(0.5)).floor();
+    let offset = x - base_node;
+    let mut values = [Vec3::ZERO; 3];
+    let mut slopes = [Vec3::ZERO; 3];
+    for (k, (value, slope)) in values.iter_mut().zip(slopes.iter_mut()).enumerate() {
+        let d = offset - Vec3::splat(k as f32);
+        *value = Vec3::new(quadratic(d.x), quadratic(d.y), quadratic(d.z));
+        *slope = Vec3::new(
+            quadratic_derivative(d.x),
+            quadratic_derivative(d.y),
+            quadratic_derivative(d.z),
+        );
+    }
+    StencilWeights {
+        base: base_node.as_ivec3(),
+        offset,
+        values,
+        slopes,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn check_partition<const N: usize>(weights: StencilWeights<N>) {
+        let mut sum = 0.0f64;
+        let mut gradient_sum = [0.0f64; 3];
+        let mut first_moment = [0.0f64; 3];
+        for i in 0..N {
+            for j in 0..N {
+                for k in 0..N {
+                    let w = weights.weight(i, j, k) as f64;
+                    sum += w;
+                    let g = weights.gradient(i, j, k);
+                    let d = weights.node_offset(i, j, k);
+                    for axis in 0..3 {
+                        gradient_sum[axis] += g[axis] as f64;
+                        first_moment[axis] += w * d[axis] as f64;
+                    }
+                }
+            }
+        }
+        assert!((sum - 1.0).abs() < 1e-5, "weights sum to {sum}");
+        for axis in 0..3 {
+            assert!(gradient_sum[axis].abs() < 1e-5, "gradients sum to {gradient_sum:?}");
+            // Linear precision: Σ w_i (x_i − x_p) = 0.
+            assert!(first_moment[axis].abs() < 1e-5, "first moment {first_moment:?}");
+        }
+    }
+
+    proptest! {
+        #[test]
+        fn cubic_is_a_partition_of_unity(x in 0.0f32..50.0, y in 0.0f32..50.0, z in 0.0f32..50.0) {
+            check_partition(cubic_weights(Vec3::new(x, y, z)));
+        }
+
+        #[test]
+        fn quadratic_is_a_partition_of_unity(x in 0.0f32..50.0, y in 0.0f32..50.0, z in 0.0f32..50.0) {
+            check_partition(quadratic_weights(Vec3::new(x, y, z)));
+        }
+
+        #[test]
+        fn derivatives_match_finite_differences(x in -2.5f32..2.5) {
+            let h = 1e-3;
+            let fd_cubic = (cubic(x + h) - cubic(x - h)) / (2.0 * h);
+            prop_assert!((fd_cubic - cubic_derivative(x)).abs() < 2e-3);
+            let fd_quadratic = (quadratic(x + h) - quadratic(x - h)) / (2.0 * h);
+            // The quadratic spline's derivative jumps at |x| = 0.5 only in its second derivative.
+            prop_assert!((fd_quadratic - quadratic_derivative(x)).abs() < 2e-3);
+        }
+    }
+
+    #[test]
+    fn cubic_matches_the_thesis_values() {
+        assert!((cubic(0.0) - 2.0 / 3.0).abs() < 1e-7);
+        assert!((cubic(1.0) - 1.0 / 6.0).abs() < 1e-7);
+        assert_eq!(cubic(2.0), 0.0);
+        assert_eq!(cubic(-3.0), 0.0);
+        assert!((cubic_derivative(1.0) + 0.5).abs() < 1e-7);
+    }
+
+    #[test]
+    fn stencils_cover_the_support() {
+        let w = cubic_weights(Vec3::new(5.3, 7.0, 0.99));
+        assert_eq!(w.base, IVec3::new(4, 6, -1));
+        let q = quadratic_weights(Vec3::new(5.3, 7.0, 0.49));
+        assert_eq!(q.base, IVec3::new(4, 6, -1));
+    }
+}

@@ -1,0 +1,15 @@
+//! The scene: what is simulated, for how long, and where results go.
+//!
+//! [`model`] holds the plain data types a program can build in code;
+//! [`mod@format`] reads them from TOML scene files (`format = 1`) and reports bad
+//! input with file, line, column and a fix; [`sampling`] turns bodies of snow
+//! into particles.
+
+pub mod format;
+pub mod material;
+pub mod model;
+pub mod sampling;
+
+pub use format::SceneError;
+pub use material::Material;
+pub use model::*;

@@ -1,0 +1,32 @@
+//! Output side of the firn snow simulator.
+//!
+//! Everything a run leaves on disk goes through this crate: per-frame particle
+//! caches (binary PLY for Blender/Houdini, VTK PolyData plus a `.pvd` time
+//! series for ParaView), the run manifest that records what was produced, and
+//! binary checkpoints for resuming. Every file is written atomically, so a
+//! crash or a full disk never leaves a half-written file under its final name.
+//!
+//! Writers borrow particle data through [`FrameData`] instead of copying it out
+//! of the solver.
+
+// The writers hand raw slices of `f32`/`u32`/`u64` to formats that are
+// little-endian by definition; refusing big-endian targets keeps that sound.
+#[cfg(not(target_endian = "little"))]
+compile_error!("firn-io writes raw little-endian data and supports little-endian targets only");
+
+pub mod atomic;
+pub mod checkpoint;
+pub mod error;
+pub mod frame;
+pub mod manifest;
+pub mod ply;
+pub mod vtk;
+mod xml;
+
+pub use atomic::{ensure_writable_dir, write_atomically};
+pub use checkpoint::Checkpoint;
+pub use error::IoError;
+pub use frame::{Attribute, AttributeValues, FrameData, FrameError};
+pub use manifest::{FrameRecord, Manifest, RunStatus};
+pub use ply::{PlyCloud, PlyColumn, PlyValues, read_ply, write_ply};
+pub use vtk::{PvdCollection, PvdEntry, write_vtp};

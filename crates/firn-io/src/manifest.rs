@@ -1,0 +1,190 @@
+//! The run manifest: a JSON record of how a run was configured and which
+//! files each frame produced, rewritten atomically after every frame so that
+//! tools (and a resumed run) can trust it at any moment.
+
+use std::fs;
+use std::path::Path;
+
+use serde::{Deserialize, Deserializer, Serialize};
+
+use crate::IoError;
+use crate::atomic::write_atomically;
+
+/// Everything worth knowing about a run and its outputs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Manifest {
+    /// Version of firn that produced the run.
+    pub firn_version: String,
+    /// The scene file the run was started from, if any.
+    pub scene_file: Option<String>,
+    /// The fully resolved scene, defaults included, so the run can be reproduced.
+    pub scene: serde_json::Value,
+    /// Compute backend name (e.g. "cpu").
+    pub backend: String,
+    /// Worker threads used.
+    pub threads: usize,
+    /// Number of simulated particles.
+    pub particle_count: usize,
+    /// Background grid resolution in cells per axis.
+    pub grid_cells: [u32; 3],
+    /// Completed frames in order.
+    pub frames: Vec<FrameRecord>,
+    /// Whether the run is still going, finished or failed.
+    pub status: RunStatus,
+}
+
+/// What one output frame took and produced.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FrameRecord {
+    /// Frame number.
+    pub index: u32,
+    /// Simulation time at the frame, in seconds.
+    #[serde(deserialize_with = "null_as_nan")]
+    pub time: f64,
+    /// Solver substeps taken since the previous frame.
+    pub substeps: u32,
+    /// Wall-clock seconds spent on the frame.
+    #[serde(deserialize_with = "null_as_nan")]
+    pub wall_seconds: f64,
+    /// Cost per particle per substep in nanoseconds, the throughput figure.
+    #[serde(deserialize_with = "null_as_nan")]
+    pub ns_per_particle_substep: f64,
+    /// This frame's outputs (caches, images), relative to the manifest.
+    pub files: Vec<String>,
+}
+
+/// The state of a run, as recorded in its manifest.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(tag = "state", rename_all = "snake_case")]
+pub enum RunStatus {
+    /// The run is in progress (or was killed without a chance to say so).
+    Running,
+    /// The run completed all frames.
+    Finished,
+    /// The run stopped on an error.
+    Failed {
+        /// The error, as shown to the user.
+        message: String,
+    },
+}
+
+impl Manifest {
+    /// Records a finished frame, dropping any records from that frame on,
+    /// which a resumed run is redoing.
+    pub fn record_frame(&mut self, record: FrameRecord) {
+        self.frames.retain(|frame| frame.index < record.index);
+        self.frames.push(record);
+    }
+
+    /// Writes the manifest as pretty JSON, atomically.
+    pub fn write(&self, path: &Path) -> Result<(), IoError> {
+        write_atomically(path, |out| {
+            serde_json::to_writer_pretty(&mut *out, self)?;
+            out.write_all(b"\n")
+        })
+    }
+
+    /// Reads a manifest written by [`Manifest::write`].
+    pub fn read(path: &Path) -> Result<Self, IoError> {
+        let bytes = fs::read(path).map_err(|source| IoError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        serde_json::from_slice(&bytes).map_err(|source| IoError::Json {
+            path: path.to_path_buf(),
+            source,
+        })
+    }
+}
+
+/// JSON has no NaN or infinity; serde_json writes them as `null`, so read
+/// `null` back as NaN rather than rejecting the whole manifest.
+fn null_as_nan<'de, D: Deserializer<'de>>(deserializer: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(deserializer)?.unwrap_or(f64::NAN))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn frame(index: u32) -> FrameRecord {
+        FrameRecord {
+            index,
+            time: f64::from(index) / 24.0,
+            substeps: 40,
+            wall_seconds: 1.25,
+            ns_per_particle_substep: 85.5,
+            files: vec![format!("frames/frame_{index:04}.ply")],
+        }
+    }
+
+    fn sample() -> Manifest {
+        Manifest {
+            firn_version: "0.1.0".into(),
+            scene_file: Some("scenes/avalanche.toml".into()),
+            scene: serde_json::json!({ "gravity": [0.0, -9.81, 0.0], "frames": 48 }),
+            backend: "cpu".into(),
+            threads: 16,
+            particle_count: 1_000_000,
+            grid_cells: [128, 64, 128],
+            frames: vec![frame(0), frame(1)],
+            status: RunStatus::Failed {
+                message: "out of memory".into(),
+            },
+        }
+    }
+
+    #[test]
+    fn the_manifest_round_trips_through_its_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("manifest.json");
+        sample().write(&path).unwrap();
+        assert_eq!(Manifest::read(&path).unwrap(), sample());
+    }
+
+    #[test]
+    fn the_status_is_tagged_with_its_state() {
+        let json = serde_json::to_value(sample()).unwrap();
+        assert_eq!(
+            json["status"],
+            serde_json::json!({ "state": "failed", "message": "out of memory" })
+        );
+        let running = serde_json::to_value(RunStatus::Running).unwrap();
+        assert_eq!(running, serde_json::json!({ "state": "running" }));
+    }
+
+    #[test]
+    fn non_finite_timings_survive_as_nan() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("manifest.json");
+        let mut manifest = sample();
+        manifest.frames[0].ns_per_particle_substep = f64::INFINITY;
+        manifest.write(&path).unwrap();
+        assert!(
+            Manifest::read(&path).unwrap().frames[0]
+                .ns_per_particle_substep
+                .is_nan()
+        );
+    }
+
+    #[test]
+    fn recording_a_frame_again_drops_the_later_ones() {
+        let mut manifest = sample();
+        manifest.record_frame(frame(2));
+        manifest.record_frame(frame(1));
+        let indices: Vec<u32> = manifest.frames.iter().map(|frame| frame.index).collect();
+        assert_eq!(indices, [0, 1]);
+    }
+
+    #[test]
+    fn a_malformed_manifest_names_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("manifest.json");
+        fs::write(&path, "{ not json").unwrap();
+        let message = Manifest::read(&path).unwrap_err().to_string();
+        assert!(
+            message.starts_with(&format!("cannot parse {}", path.display())),
+            "{message}"
+        );
+    }
+}

@@ -1,0 +1,74 @@
+//! Particle state, structure of arrays (thesis Tabelle 3): each attribute is
+//! one contiguous array so that every pass streams only what it reads.
+
+use glam::{Mat3, Vec3};
+
+/// All material points of a simulation.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Particles {
+    /// Positions x_p.
+    pub position: Vec<Vec3>,
+    /// Velocities v_p.
+    pub velocity: Vec<Vec3>,
+    /// Masses m_p.
+    pub mass: Vec<f32>,
+    /// Initial volumes V_p^0 = m_p / ρ_p^0 (step 2 of the algorithm).
+    pub volume0: Vec<f32>,
+    /// Elastic deformation gradients F_E.
+    pub elastic: Vec<Mat3>,
+    /// Plastic volume ratios J_P = det F_P.
+    pub plastic_j: Vec<f32>,
+    /// V_p^0 τ_p: initial volume times the Kirchhoff stress of the current F_E,
+    /// kept from the end of the last step so the next scatter needs no SVD.
+    pub stress: Vec<Mat3>,
+    /// APIC affine velocity matrices C_p (empty with PIC/FLIP).
+    pub affine: Vec<Mat3>,
+    /// Material index per particle, into the scene's materials.
+    pub material: Vec<u16>,
+}
+
+impl Particles {
+    /// Number of particles.
+    pub fn len(&self) -> usize {
+        self.position.len()
+    }
+
+    /// Whether there are no particles.
+    pub fn is_empty(&self) -> bool {
+        self.position.is_empty()
+    }
+
+    /// Current density m_p / (J V_p^0) of particle `p`, with J = J_E J_P.
+    pub fn density(&self, p: usize) -> f32 {
+        let j = self.elastic[p].determinant() * self.plastic_j[p];
+        self.mass[p] / (j * self.volume0[p])
+    }
+
+    /// Bytes held per particle (for memory estimates).
+    pub fn bytes_per_particle(with_affine: bool) -> usize {
+        let vectors = 2 * std::mem::size_of::<Vec3>();
+        let scalars = 3 * std::mem::size_of::<f32>() + std::mem::size_of::<u16>();
+        let matrices = (2 + usize::from(with_affine)) * std::mem::size_of::<Mat3>();
+        // Plus the u32 bin order entry.
+        vectors + scalars + matrices + std::mem::size_of::<u32>()
+    }
+
+    /// Reorders every attribute so that new index `i` holds old particle `order[i]`.
+    pub fn permute(&mut self, order: &[u32]) {
+        fn gather<T: Copy>(values: &mut Vec<T>, order: &[u32]) {
+            if values.is_empty() {
+                return;
+            }
+            *values = order.iter().map(|&p| values[p as usize]).collect();
+        }
+        gather(&mut self.position, order);
+        gather(&mut self.velocity, order);
+        gather(&mut self.mass, order);
+        gather(&mut self.volume0, order);
+        gather(&mut self.elastic, order);
+        gather(&mut self.plastic_j, order);
+        gather(&mut self.stress, order);
+        gather(&mut self.affine, order);
+        gather(&mut self.material, order);
+    }
+}

@@ -1,0 +1,428 @@
+//! The time loop: one [`Simulation`] owns the particles, the grid and the
+//! colliders, and advances them substep by substep (thesis §3.4, Figure 5).
+
+use firn_core::math::bspline::{cubic_weights, quadratic_weights};
+use firn_core::scene::sampling::sample_bodies;
+use firn_core::scene::{Scene, TimeStep, Transfer};
+use glam::{Mat3, Vec3};
+
+use crate::binning::Bins;
+use crate::constitutive::MaterialConstants;
+use crate::contact::ColliderSet;
+use crate::grid::{Grid, GridLayout};
+use crate::particles::Particles;
+use crate::transfer::{
+    self, GatherStats, GridForces, ParticleProblem, ProblemKind, UpdateContext, gather_apic, gather_pic_flip,
+};
+
+/// Particles are physically reordered by block every this many substeps, so
+/// that the scatter and gather stream through memory.
+const REORDER_INTERVAL: u64 = 16;
+
+/// How far (in cells) a particle may stray outside the domain before the run
+/// stops: the walls act on the grid, so snow can sit a fraction of a cell out.
+const LEAVE_TOLERANCE_CELLS: f32 = 1.0;
+
+/// Why a simulation could not start or continue.
+#[derive(Debug, thiserror::Error)]
+pub enum SimulationError {
+    /// The scene's bodies produced no particles.
+    #[error("the scene has no particles: add a [[bodies]] table or make a body larger than a grid cell")]
+    NoParticles,
+    /// The state went bad during a substep; nothing of that substep is kept.
+    #[error("at t = {time:.4} s (substep {step}, Δt = {dt:.3e} s) particle {particle} {what} at ({x:.3}, {y:.3}, {z:.3}).\n  likely cause: {hint}", x = position.x, y = position.y, z = position.z)]
+    Unstable {
+        /// Simulated time at the start of the failed substep.
+        time: f64,
+        /// Index of the failed substep.
+        step: u64,
+        /// Δt of the failed substep.
+        dt: f32,
+        /// The first particle in trouble.
+        particle: usize,
+        /// "became non-finite" or "left the domain".
+        what: &'static str,
+        /// Where it was.
+        position: Vec3,
+        /// What to change in the scene.
+        hint: String,
+    },
+    /// A snapshot does not fit the scene it is restored into.
+    #[error("the checkpoint does not match the scene: {0}")]
+    SnapshotMismatch(String),
+}
+
+/// The full state needed to continue a run bit for bit.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Snapshot {
+    /// Simulated time.
+    pub time: f64,
+    /// Substeps taken so far.
+    pub steps: u64,
+    /// Largest |v_p|² after the last substep (drives the next Δt).
+    pub max_speed_squared: f32,
+    /// Largest squared wave speed after the last substep.
+    pub max_wave_speed_squared: f32,
+    /// All particle attributes, in their current order.
+    pub particles: Particles,
+}
+
+/// Totals over all particles, summed in f64 in particle order.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Diagnostics {
+    /// Σ m_p.
+    pub mass: f64,
+    /// Σ m_p v_p.
+    pub momentum: [f64; 3],
+    /// Σ m_p x_p × v_p, plus the APIC affine part.
+    pub angular_momentum: [f64; 3],
+    /// Σ m_p x_p / Σ m_p.
+    pub center_of_mass: [f64; 3],
+    /// Σ ½ m_p |v_p|².
+    pub kinetic_energy: f64,
+}
+
+/// A running snow simulation on the CPU.
+#[derive(Clone, Debug)]
+pub struct Simulation {
+    scene: Scene,
+    materials: Vec<MaterialConstants>,
+    particles: Particles,
+    grid: Grid,
+    bins: Bins,
+    colliders: ColliderSet,
+    time: f64,
+    steps: u64,
+    stats: GatherStats,
+}
+
+impl Simulation {
+    /// Fills the scene's bodies with particles and estimates their volumes
+    /// (step 2). The scene should have passed [`Scene::validate`].
+    pub fn new(scene: Scene) -> Result<Simulation, SimulationError> {
+        let seeds = sample_bodies(&scene);
+        if seeds.positions.is_empty() {
+            return Err(SimulationError::NoParticles);
+        }
+        let count = seeds.positions.len();
+        let particles = Particles {
+            position: seeds.positions,
+            velocity: seeds.velocities,
+            mass: seeds.masses,
+            volume0: vec![0.0; count],
+            elastic: vec![Mat3::IDENTITY; count],
+            plastic_j: vec![1.0; count],
+            stress: vec![Mat3::ZERO; count],
+            affine: match scene.solver.transfer {
+                Transfer::PicFlip => Vec::new(),
+                Transfer::Apic => vec![Mat3::ZERO; count],
+            },
+            material: seeds.materials,
+        };
+        let mut simulation = Simulation::with_particles(scene, particles, 0.0, 0);
+        simulation.estimate_volumes();
+        simulation.stats = simulation.initial_stats();
+        Ok(simulation)
+    }
+
+    /// Continues from a snapshot taken by [`Simulation::snapshot`] of the same scene.
+    pub fn from_snapshot(scene: Scene, snapshot: Snapshot) -> Result<Simulation, SimulationError> {
+        let particles = snapshot.particles;
+        let count = particles.len();
+        let apic = scene.solver.transfer == Transfer::Apic;
+        let lengths_match = [
+            particles.velocity.len(),
+            particles.mass.len(),
+            particles.volume0.len(),
+            particles.elastic.len(),
+            particles.plastic_j.len(),
+            particles.stress.len(),
+            particles.material.len(),
+        ]
+        .iter()
+        .all(|&len| len == count)
+            && particles.affine.len() == if apic { count } else { 0 };
+        if count == 0 || !lengths_match {
+            return Err(SimulationError::SnapshotMismatch(
+                "particle arrays are empty or of different lengths".into(),
+            ));
+        }
+        if particles.material.iter().any(|&m| m as usize >= scene.materials.len()) {
+            return Err(SimulationError::SnapshotMismatch("a particle refers to an unknown material".into()));
+        }
+        let mut simulation = Simulation::with_particles(scene, particles, snapshot.time, snapshot.steps);
+        simulation.stats = GatherStats {
+            max_speed_squared: snapshot.max_speed_squared,
+            max_wave_speed_squared: snapshot.max_wave_speed_squared,
+            problem: None,
+        };
+        Ok(simulation)
+    }
+
+    fn with_particles(scene: Scene, particles: Particles, time: f64, steps: u64) -> Simulation {
+        let domain = &scene.domain;
+        Simulation {
+            materials: scene.materials.iter().map(MaterialConstants::new).collect(),
+            grid: Grid::new(domain.min, domain.max, domain.cell_size),
+            colliders: ColliderSet::new(domain, &scene.colliders),
+            bins: Bins::default(),
+            particles,
+            time,
+            steps,
+            stats: GatherStats::default(),
+            scene,
+        }
+    }
+
+    /// Step 2: scatter mass once and read the density back at each particle.
+    fn estimate_volumes(&mut self) {
+        self.bins.rebuild(&self.grid.layout, &self.particles.position);
+        match self.scene.solver.transfer {
+            Transfer::PicFlip => {
+                transfer::scatter_mass(&mut self.grid, &self.bins, &self.particles, cubic_weights);
+                transfer::estimate_volumes(&self.grid, &mut self.particles, cubic_weights);
+            }
+            Transfer::Apic => {
+                transfer::scatter_mass(&mut self.grid, &self.bins, &self.particles, quadratic_weights);
+                transfer::estimate_volumes(&self.grid, &mut self.particles, quadratic_weights);
+            }
+        }
+        transfer::clear_grid(&mut self.grid, &self.bins);
+    }
+
+    fn initial_stats(&self) -> GatherStats {
+        let max_speed_squared = self
+            .particles
+            .velocity
+            .iter()
+            .map(|v| v.length_squared())
+            .fold(0.0, f32::max);
+        let max_wave_speed_squared = self
+            .particles
+            .material
+            .iter()
+            .map(|&m| self.materials[m as usize].wave_speed_squared)
+            .fold(0.0, f32::max);
+        GatherStats {
+            max_speed_squared,
+            max_wave_speed_squared,
+            problem: None,
+        }
+    }
+
+    /// The Δt the next substep will take (before clipping to a frame end):
+    /// fixed, or Δt = CFL · h / (max |v_p| + max c_p) capped at the maximum,
+    /// with c_p the elastic wave speed including hardening.
+    pub fn next_dt(&self) -> f32 {
+        match self.scene.time.step {
+            TimeStep::Fixed { dt } => dt,
+            TimeStep::Adaptive { cfl, max_dt } => {
+                let speed = self.stats.max_speed_squared.sqrt() + self.stats.max_wave_speed_squared.sqrt();
+                if speed > 0.0 {
+                    (cfl * self.scene.domain.cell_size / speed).min(max_dt)
+                } else {
+                    max_dt
+                }
+            }
+        }
+    }
+
+    /// Advances one substep, never past time `until`; returns the Δt taken.
+    pub fn step(&mut self, until: f64) -> Result<f32, SimulationError> {
+        let dt = (self.next_dt() as f64).min(until - self.time).max(0.0) as f32;
+        let layout = self.grid.layout;
+        if self.steps % REORDER_INTERVAL == 0 {
+            self.bins.rebuild(&layout, &self.particles.position);
+            self.particles.permute(&self.bins.order);
+        }
+        self.bins.rebuild(&layout, &self.particles.position);
+        let transfer_scheme = self.scene.solver.transfer;
+        match transfer_scheme {
+            Transfer::PicFlip => transfer::scatter_pic_flip(&mut self.grid, &self.bins, &self.particles),
+            Transfer::Apic => transfer::scatter_apic(&mut self.grid, &self.bins, &self.particles, dt),
+        }
+        let colliders = self.colliders.placed_at(self.time + dt as f64);
+        let forces = match transfer_scheme {
+            Transfer::PicFlip => GridForces::Separate,
+            Transfer::Apic => GridForces::InMomentum,
+        };
+        transfer::update_grid(
+            &mut self.grid,
+            &self.bins,
+            forces,
+            dt,
+            self.scene.solver.gravity,
+            &colliders,
+        );
+        let tolerance = Vec3::splat(LEAVE_TOLERANCE_CELLS * layout.cell_size);
+        let context = UpdateContext {
+            dt,
+            materials: &self.materials,
+            colliders: &colliders,
+            lower: self.scene.domain.min - tolerance,
+            upper: self.scene.domain.max + tolerance,
+        };
+        let stats = match transfer_scheme {
+            Transfer::PicFlip => gather_pic_flip(&self.grid, &mut self.particles, self.scene.solver.flip_blend, &context),
+            Transfer::Apic => gather_apic(&self.grid, &mut self.particles, &context),
+        };
+        transfer::clear_grid(&mut self.grid, &self.bins);
+        if let Some(problem) = stats.problem {
+            return Err(self.instability(problem, dt));
+        }
+        self.time += dt as f64;
+        self.steps += 1;
+        self.stats = stats;
+        Ok(dt)
+    }
+
+    /// Substeps until time `until` is reached; returns the number of substeps.
+    pub fn advance_to(&mut self, until: f64) -> Result<u32, SimulationError> {
+        let mut substeps = 0;
+        while until - self.time > 1e-9 {
+            self.step(until)?;
+            substeps += 1;
+        }
+        Ok(substeps)
+    }
+
+    /// An explanation of a failed substep with a concrete fix.
+    fn instability(&self, problem: ParticleProblem, dt: f32) -> SimulationError {
+        let material_index = self.particles.material[problem.particle] as usize;
+        let material = &self.scene.materials[material_index];
+        let h = self.scene.domain.cell_size;
+        let wave_speed = self
+            .stats
+            .max_wave_speed_squared
+            .max(self.materials[material_index].wave_speed_squared)
+            .sqrt();
+        let stable_dt = 0.3 * h / (wave_speed + self.stats.max_speed_squared.sqrt());
+        let waves = format!(
+            "E = {:.3e} Pa makes elastic waves travel at {wave_speed:.0} m/s, crossing a cell (h = {h} m) in {:.2e} s",
+            material.youngs_modulus,
+            h / wave_speed
+        );
+        let step_fix = match self.scene.time.step {
+            TimeStep::Fixed { .. } => {
+                format!("in [time] set dt = {stable_dt:.1e} or step = \"adaptive\"")
+            }
+            TimeStep::Adaptive { cfl, .. } => {
+                format!("in [time] set cfl = {:.2} (now {cfl}) or dt = {stable_dt:.1e}", cfl * 0.5)
+            }
+        };
+        let (what, hint) = match problem.kind {
+            ProblemKind::NonFinite => (
+                "became non-finite (NaN or infinity)",
+                format!("the time step Δt = {dt:.2e} s is too large: {waves}; {step_fix}"),
+            ),
+            ProblemKind::LeftDomain => (
+                "left the domain",
+                format!(
+                    "snow moved too far in one step or was pushed through a wall ({waves}): {step_fix}, \
+                     and check that moving colliders stay inside [domain]"
+                ),
+            ),
+        };
+        SimulationError::Unstable {
+            time: self.time,
+            step: self.steps,
+            dt,
+            particle: problem.particle,
+            what,
+            position: problem.position,
+            hint,
+        }
+    }
+
+    /// Everything needed to continue this run bit for bit.
+    pub fn snapshot(&self) -> Snapshot {
+        Snapshot {
+            time: self.time,
+            steps: self.steps,
+            max_speed_squared: self.stats.max_speed_squared,
+            max_wave_speed_squared: self.stats.max_wave_speed_squared,
+            particles: self.particles.clone(),
+        }
+    }
+
+    /// The scene being simulated.
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// The particles (read-only).
+    pub fn particles(&self) -> &Particles {
+        &self.particles
+    }
+
+    /// Simulated time in seconds.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// Substeps taken.
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    /// Grid geometry.
+    pub fn grid_layout(&self) -> GridLayout {
+        self.grid.layout
+    }
+
+    /// Bytes held by the grid and the particles.
+    pub fn memory_bytes(&self) -> usize {
+        let apic = self.scene.solver.transfer == Transfer::Apic;
+        self.grid.memory_bytes() + self.particles.len() * Particles::bytes_per_particle(apic)
+    }
+
+    /// Current density of every particle (kg/m³).
+    pub fn densities(&self) -> Vec<f32> {
+        (0..self.particles.len()).map(|p| self.particles.density(p)).collect()
+    }
+
+    /// J_E = det F_E of every particle.
+    pub fn elastic_j(&self) -> Vec<f32> {
+        self.particles.elastic.iter().map(Mat3::determinant).collect()
+    }
+
+    /// Mass, momentum, angular momentum, centre of mass and kinetic energy.
+    pub fn diagnostics(&self) -> Diagnostics {
+        diagnostics(&self.particles, self.grid.layout.cell_size, self.scene.solver.transfer)
+    }
+}
+
+/// Totals over particles; with APIC the angular momentum includes the affine
+/// part m_p (h²/4) ε : C_pᵀ of each particle's velocity field.
+pub fn diagnostics(particles: &Particles, cell_size: f32, transfer: Transfer) -> Diagnostics {
+    let mut totals = Diagnostics::default();
+    let mut weighted_position = [0.0f64; 3];
+    let inertia = (cell_size as f64).powi(2) / 4.0;
+    for p in 0..particles.len() {
+        let m = particles.mass[p] as f64;
+        let x = particles.position[p].as_dvec3();
+        let v = particles.velocity[p].as_dvec3();
+        let mut angular = x.cross(v) * m;
+        if transfer == Transfer::Apic {
+            let c = particles.affine[p].as_dmat3();
+            // ε_abc C_cb: (C_zy − C_yz, C_xz − C_zx, C_yx − C_xy), C_rc = column c, row r.
+            let curl = glam::DVec3::new(
+                c.y_axis.z - c.z_axis.y,
+                c.z_axis.x - c.x_axis.z,
+                c.x_axis.y - c.y_axis.x,
+            );
+            angular += curl * (m * inertia);
+        }
+        totals.mass += m;
+        totals.kinetic_energy += 0.5 * m * v.length_squared();
+        for axis in 0..3 {
+            totals.momentum[axis] += m * v[axis];
+            totals.angular_momentum[axis] += angular[axis];
+            weighted_position[axis] += m * x[axis];
+        }
+    }
+    if totals.mass > 0.0 {
+        totals.center_of_mass = weighted_position.map(|w| w / totals.mass);
+    }
+    totals
+}

@@ -1,0 +1,472 @@
+//! Particle ↔ grid transfers: the scatter (thesis steps 1 and 3), the grid
+//! update (steps 4 and 5) and the gather with the particle update (steps 7
+//! to 10), for both transfer schemes.
+//!
+//! - PIC/FLIP with cubic B-splines (Stomakhin et al. 2013, the thesis): the
+//!   scatter sums mass, momentum and the elastic force
+//!   f_i = −Σ_p V_p^0 τ_p ∇w_ip (eq. 31-33); the gather blends
+//!   v_p = (1 − α) v_PIC + α v_FLIP (step 8).
+//! - APIC with quadratic B-splines (Jiang et al. 2015, in the MLS-MPM form of
+//!   Hu et al. 2018): the scatter sums w_ip (m_p v_p + (m_p C_p −
+//!   Δt V_p^0 M_p⁻¹ τ_p)(x_i − x_p)) with M_p⁻¹ = 4/h², which conserves angular
+//!   momentum; the gather rebuilds v_p and C_p = M_p⁻¹ Σ_i w_ip v_i (x_i − x_p)ᵀ.
+
+use std::marker::PhantomData;
+
+use glam::{IVec3, Mat3, Vec3};
+use rayon::prelude::*;
+
+use firn_core::math::bspline::{StencilWeights, cubic_weights, quadratic_weights};
+
+use crate::binning::Bins;
+use crate::constitutive::{MaterialConstants, PlasticProjection, scaled_stress};
+use crate::contact::{PlacedCollider, collide_all};
+use crate::grid::{BLOCK_NODES, Grid, GridLayout, Node};
+use crate::particles::Particles;
+
+/// Writes into grid nodes from several threads at once.
+///
+/// Sound only because [`scatter_by_colour`] and [`for_each_active_block`] hand
+/// each thread a set of nodes no other thread touches at the same time (see
+/// [`crate::binning`] for why same-coloured blocks never share a node).
+struct NodeWriter<'a> {
+    nodes: *mut Node,
+    len: usize,
+    _grid: PhantomData<&'a mut [Node]>,
+}
+
+// SAFETY: the writer is only shared across threads by the two drivers below,
+// whose callers never touch the same node from two threads.
+unsafe impl Sync for NodeWriter<'_> {}
+
+impl<'a> NodeWriter<'a> {
+    fn new(nodes: &'a mut [Node]) -> NodeWriter<'a> {
+        NodeWriter {
+            nodes: nodes.as_mut_ptr(),
+            len: nodes.len(),
+            _grid: PhantomData,
+        }
+    }
+
+    /// Applies `change` to node `index`.
+    #[inline(always)]
+    fn update(&self, index: usize, change: impl FnOnce(&mut Node)) {
+        assert!(index < self.len, "node {index} outside the grid");
+        // SAFETY: in bounds (checked above); no other thread writes this node
+        // now (the drivers' disjointness), and no reference outlives the call.
+        change(unsafe { &mut *self.nodes.add(index) });
+    }
+
+    /// Applies `visit` to the 64 nodes of block `block`.
+    #[inline(always)]
+    fn update_block(&self, block: usize, visit: impl FnOnce(&mut [Node])) {
+        let first = block * BLOCK_NODES;
+        assert!(first + BLOCK_NODES <= self.len, "block {block} outside the grid");
+        // SAFETY: in bounds (checked above); the caller visits each block from
+        // one thread only, and the slice does not outlive the call.
+        visit(unsafe { std::slice::from_raw_parts_mut(self.nodes.add(first), BLOCK_NODES) });
+    }
+}
+
+/// Runs `scatter` on every occupied block, colour by colour; blocks of one
+/// colour run in parallel.
+fn scatter_by_colour(grid: &mut Grid, bins: &Bins, scatter: impl Fn(&[u32], &NodeWriter) + Sync) {
+    let writer = NodeWriter::new(&mut grid.nodes);
+    for colour in &bins.colours {
+        colour
+            .par_iter()
+            .for_each(|&block| scatter(bins.particles_of(&bins.occupied[block as usize]), &writer));
+    }
+}
+
+/// Runs `visit` on the 64 nodes of every active block, blocks in parallel.
+fn for_each_active_block(grid: &mut Grid, bins: &Bins, visit: impl Fn(IVec3, &mut [Node]) + Sync) {
+    let layout = grid.layout;
+    let writer = NodeWriter::new(&mut grid.nodes);
+    bins.active_blocks.par_iter().with_min_len(16).for_each(|&block| {
+        // Each active block appears once in the list: one thread per block.
+        writer.update_block(block as usize, |nodes| visit(layout.block_coord(block as usize), nodes));
+    });
+}
+
+/// Linear node indices of a particle's stencil, node (i, j, k) at
+/// `[(i * N + j) * N + k]`.
+#[inline(always)]
+fn stencil_indices<const N: usize>(layout: &GridLayout, base: IVec3) -> impl Fn(usize, usize, usize) -> usize {
+    let layout = *layout;
+    move |i, j, k| layout.node_index(base + IVec3::new(i as i32, j as i32, k as i32))
+}
+
+/// Steps 1 and 3 for PIC/FLIP: mass, momentum and elastic force on the grid.
+pub fn scatter_pic_flip(grid: &mut Grid, bins: &Bins, particles: &Particles) {
+    let layout = grid.layout;
+    let inverse_h = 1.0 / layout.cell_size;
+    scatter_by_colour(grid, bins, |block, writer| {
+        for &p in block {
+            let p = p as usize;
+            let weights = cubic_weights(layout.to_grid(particles.position[p]));
+            let mass = particles.mass[p];
+            let momentum = particles.velocity[p] * mass;
+            let stress = particles.stress[p];
+            let index = stencil_indices::<4>(&layout, weights.base);
+            for i in 0..4 {
+                for j in 0..4 {
+                    for k in 0..4 {
+                        let w = weights.weight(i, j, k);
+                        let force = -(stress * (weights.gradient(i, j, k) * inverse_h));
+                        writer.update(index(i, j, k), |node| {
+                            node.mass += mass * w;
+                            node.velocity += momentum * w;
+                            node.velocity_new += force;
+                        });
+                    }
+                }
+            }
+        }
+    });
+}
+
+/// Steps 1 and 3 for APIC: mass and affine momentum including the force impulse.
+pub fn scatter_apic(grid: &mut Grid, bins: &Bins, particles: &Particles, dt: f32) {
+    let layout = grid.layout;
+    let h = layout.cell_size;
+    let inverse_inertia = 4.0 / (h * h);
+    scatter_by_colour(grid, bins, |block, writer| {
+        for &p in block {
+            let p = p as usize;
+            let weights = quadratic_weights(layout.to_grid(particles.position[p]));
+            let mass = particles.mass[p];
+            let momentum = particles.velocity[p] * mass;
+            // Maps a node offset in cells to momentum: (m C − Δt M⁻¹ V0 τ) h.
+            let affine = (particles.affine[p] * mass - particles.stress[p] * (dt * inverse_inertia)) * h;
+            let index = stencil_indices::<3>(&layout, weights.base);
+            for i in 0..3 {
+                for j in 0..3 {
+                    for k in 0..3 {
+                        let w = weights.weight(i, j, k);
+                        let node_momentum = (momentum + affine * weights.node_offset(i, j, k)) * w;
+                        writer.update(index(i, j, k), |node| {
+                            node.mass += mass * w;
+                            node.velocity += node_momentum;
+                        });
+                    }
+                }
+            }
+        }
+    });
+}
+
+/// Mass only, for the one-time density estimate (step 2).
+pub fn scatter_mass<const N: usize>(
+    grid: &mut Grid,
+    bins: &Bins,
+    particles: &Particles,
+    weights_at: fn(Vec3) -> StencilWeights<N>,
+) {
+    let layout = grid.layout;
+    scatter_by_colour(grid, bins, |block, writer| {
+        for &p in block {
+            let p = p as usize;
+            let weights = weights_at(layout.to_grid(particles.position[p]));
+            let index = stencil_indices::<N>(&layout, weights.base);
+            for i in 0..N {
+                for j in 0..N {
+                    for k in 0..N {
+                        let mass = particles.mass[p] * weights.weight(i, j, k);
+                        writer.update(index(i, j, k), |node| node.mass += mass);
+                    }
+                }
+            }
+        }
+    });
+}
+
+/// Step 2: ρ_p^0 = Σ_i m_i w_ip / h³ and V_p^0 = m_p / ρ_p^0, from a grid
+/// holding the scattered mass.
+pub fn estimate_volumes<const N: usize>(
+    grid: &Grid,
+    particles: &mut Particles,
+    weights_at: fn(Vec3) -> StencilWeights<N>,
+) {
+    let layout = grid.layout;
+    let cell_volume = layout.cell_size.powi(3);
+    let (positions, masses) = (&particles.position, &particles.mass);
+    particles
+        .volume0
+        .par_iter_mut()
+        .enumerate()
+        .for_each(|(p, volume)| {
+            let weights = weights_at(layout.to_grid(positions[p]));
+            let index = stencil_indices::<N>(&layout, weights.base);
+            let mut density = 0.0;
+            for i in 0..N {
+                for j in 0..N {
+                    for k in 0..N {
+                        density += grid.nodes[index(i, j, k)].mass * weights.weight(i, j, k);
+                    }
+                }
+            }
+            *volume = masses[p] * cell_volume / density;
+        });
+}
+
+/// How the grid update treats the second node vector.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GridForces {
+    /// It holds the force f_i (PIC/FLIP).
+    Separate,
+    /// Forces are already in the momentum (APIC).
+    InMomentum,
+}
+
+/// Steps 4 and 5: v_i = p_i / m_i, v_i* = v_i + Δt (f_i / m_i + g), then grid
+/// collisions, on every node with mass.
+pub fn update_grid(
+    grid: &mut Grid,
+    bins: &Bins,
+    forces: GridForces,
+    dt: f32,
+    gravity: Vec3,
+    colliders: &[PlacedCollider],
+) {
+    let layout = grid.layout;
+    for_each_active_block(grid, bins, |block, nodes| {
+        for (local, node) in nodes.iter_mut().enumerate() {
+            if node.mass <= 0.0 {
+                continue;
+            }
+            let inverse_mass = 1.0 / node.mass;
+            node.velocity *= inverse_mass;
+            let acceleration = match forces {
+                GridForces::Separate => node.velocity_new * inverse_mass + gravity,
+                GridForces::InMomentum => gravity,
+            };
+            let position = layout.node_position(GridLayout::node_in_block(block, local));
+            node.velocity_new = collide_all(colliders, position, node.velocity + acceleration * dt);
+        }
+    });
+}
+
+/// Zeroes every node the last scatter could have touched.
+pub fn clear_grid(grid: &mut Grid, bins: &Bins) {
+    for_each_active_block(grid, bins, |_, nodes| nodes.fill(Node::default()));
+}
+
+/// What the gather learned about the particles, for the next Δt and for
+/// catching a simulation that blows up.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct GatherStats {
+    /// Largest |v_p|².
+    pub max_speed_squared: f32,
+    /// Largest squared elastic wave speed, hardening included.
+    pub max_wave_speed_squared: f32,
+    /// The first (lowest-index) particle in trouble, if any.
+    pub problem: Option<ParticleProblem>,
+}
+
+/// A particle whose state went wrong.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ParticleProblem {
+    /// Particle index.
+    pub particle: usize,
+    /// What went wrong.
+    pub kind: ProblemKind,
+    /// Where the particle was.
+    pub position: Vec3,
+}
+
+/// Kinds of particle trouble.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ProblemKind {
+    /// Position, velocity or deformation became NaN or infinite.
+    NonFinite,
+    /// The particle moved outside the domain.
+    LeftDomain,
+}
+
+impl GatherStats {
+    /// Combines two partial results; order-independent, hence deterministic.
+    fn merge(self, other: GatherStats) -> GatherStats {
+        let problem = match (self.problem, other.problem) {
+            (Some(a), Some(b)) => Some(if a.particle <= b.particle { a } else { b }),
+            (a, b) => a.or(b),
+        };
+        GatherStats {
+            max_speed_squared: self.max_speed_squared.max(other.max_speed_squared),
+            max_wave_speed_squared: self.max_wave_speed_squared.max(other.max_wave_speed_squared),
+            problem,
+        }
+    }
+}
+
+/// Everything the particle update needs besides the particle itself.
+#[derive(Clone, Copy)]
+pub struct UpdateContext<'a> {
+    /// Substep Δt.
+    pub dt: f32,
+    /// Materials by index.
+    pub materials: &'a [MaterialConstants],
+    /// Colliders at the end of the step.
+    pub colliders: &'a [PlacedCollider],
+    /// Lower domain corner, widened by the tolerance for leaving.
+    pub lower: Vec3,
+    /// Upper domain corner, widened likewise.
+    pub upper: Vec3,
+}
+
+/// One particle's mutable state during the gather.
+struct ParticleUpdate<'a> {
+    position: &'a mut Vec3,
+    velocity: &'a mut Vec3,
+    elastic: &'a mut Mat3,
+    plastic_j: &'a mut f32,
+    stress: &'a mut Mat3,
+    volume0: f32,
+    material: u16,
+}
+
+impl ParticleUpdate<'_> {
+    /// Steps 7, 9 and 10 for a particle whose new grid velocity and velocity
+    /// gradient are known: plasticity (eq. 41-43), the stress for the next
+    /// scatter, particle collisions at the predicted position, advection.
+    #[inline(always)]
+    fn finish(self, index: usize, velocity_gradient: Mat3, velocity: Vec3, context: &UpdateContext) -> GatherStats {
+        let constants = &context.materials[self.material as usize];
+        let trial = (Mat3::IDENTITY + velocity_gradient * context.dt) * *self.elastic;
+        let projection = PlasticProjection::new(trial, constants);
+        let elastic = projection.elastic();
+        let plastic_j = *self.plastic_j * projection.plastic_j_ratio();
+        *self.stress = scaled_stress(&projection, elastic, plastic_j, self.volume0, constants);
+        *self.elastic = elastic;
+        *self.plastic_j = plastic_j;
+
+        let predicted = *self.position + velocity * context.dt;
+        let velocity = collide_all(context.colliders, predicted, velocity);
+        *self.velocity = velocity;
+        *self.position += velocity * context.dt;
+
+        let position = *self.position;
+        let finite = position.is_finite() && velocity.is_finite() && plastic_j.is_finite() && elastic.is_finite();
+        let inside = position.cmpge(context.lower).all() && position.cmple(context.upper).all();
+        let problem = match (finite, inside) {
+            (false, _) => Some(ProblemKind::NonFinite),
+            (true, false) => Some(ProblemKind::LeftDomain),
+            (true, true) => None,
+        };
+        GatherStats {
+            max_speed_squared: velocity.length_squared(),
+            max_wave_speed_squared: constants.wave_speed_squared * constants.hardening_factor(plastic_j),
+            problem: problem.map(|kind| ParticleProblem {
+                particle: index,
+                kind,
+                position,
+            }),
+        }
+    }
+}
+
+/// Steps 7-10 for PIC/FLIP with FLIP share `flip`.
+pub fn gather_pic_flip(grid: &Grid, particles: &mut Particles, flip: f32, context: &UpdateContext) -> GatherStats {
+    let layout = grid.layout;
+    let inverse_h = 1.0 / layout.cell_size;
+    let nodes = &grid.nodes;
+    (
+        particles.position.par_iter_mut(),
+        particles.velocity.par_iter_mut(),
+        particles.elastic.par_iter_mut(),
+        particles.plastic_j.par_iter_mut(),
+        particles.stress.par_iter_mut(),
+        particles.volume0.par_iter(),
+        particles.material.par_iter(),
+    )
+        .into_par_iter()
+        .enumerate()
+        .with_min_len(512)
+        .map(|(p, (position, velocity, elastic, plastic_j, stress, volume0, material))| {
+            let weights = cubic_weights(layout.to_grid(*position));
+            let index = stencil_indices::<4>(&layout, weights.base);
+            let mut pic = Vec3::ZERO;
+            let mut change = Vec3::ZERO;
+            let mut gradient = Mat3::ZERO;
+            for i in 0..4 {
+                for j in 0..4 {
+                    for k in 0..4 {
+                        let node = &nodes[index(i, j, k)];
+                        let w = weights.weight(i, j, k);
+                        let grad_w = weights.gradient(i, j, k) * inverse_h;
+                        pic += node.velocity_new * w;
+                        change += (node.velocity_new - node.velocity) * w;
+                        gradient += outer(node.velocity_new, grad_w);
+                    }
+                }
+            }
+            let blended = pic * (1.0 - flip) + (*velocity + change) * flip;
+            let update = ParticleUpdate {
+                position,
+                velocity,
+                elastic,
+                plastic_j,
+                stress,
+                volume0: *volume0,
+                material: *material,
+            };
+            update.finish(p, gradient, blended, context)
+        })
+        .reduce(GatherStats::default, GatherStats::merge)
+}
+
+/// Steps 7-10 for APIC: v_p = Σ w_ip v_i, C_p = (4/h²) Σ w_ip v_i (x_i − x_p)ᵀ,
+/// and ∇v_p = C_p.
+pub fn gather_apic(grid: &Grid, particles: &mut Particles, context: &UpdateContext) -> GatherStats {
+    let layout = grid.layout;
+    // (4/h²) times the offset in world units (cells · h).
+    let affine_scale = 4.0 / layout.cell_size;
+    let nodes = &grid.nodes;
+    (
+        particles.position.par_iter_mut(),
+        particles.velocity.par_iter_mut(),
+        particles.elastic.par_iter_mut(),
+        particles.plastic_j.par_iter_mut(),
+        particles.stress.par_iter_mut(),
+        particles.affine.par_iter_mut(),
+        particles.volume0.par_iter(),
+        particles.material.par_iter(),
+    )
+        .into_par_iter()
+        .enumerate()
+        .with_min_len(512)
+        .map(|(p, (position, velocity, elastic, plastic_j, stress, affine, volume0, material))| {
+            let weights = quadratic_weights(layout.to_grid(*position));
+            let index = stencil_indices::<3>(&layout, weights.base);
+            let mut new_velocity = Vec3::ZERO;
+            let mut new_affine = Mat3::ZERO;
+            for i in 0..3 {
+                for j in 0..3 {
+                    for k in 0..3 {
+                        let w = weights.weight(i, j, k);
+                        let node_velocity = nodes[index(i, j, k)].velocity_new * w;
+                        new_velocity += node_velocity;
+                        new_affine += outer(node_velocity, weights.node_offset(i, j, k));
+                    }
+                }
+            }
+            *affine = new_affine * affine_scale;
+            let update = ParticleUpdate {
+                position,
+                velocity,
+                elastic,
+                plastic_j,
+                stress,
+                volume0: *volume0,
+                material: *material,
+            };
+            update.finish(p, *affine, new_velocity, context)
+        })
+        .reduce(GatherStats::default, GatherStats::merge)
+}
+
+/// The outer product a bᵀ.
+#[inline(always)]
+pub fn outer(a: Vec3, b: Vec3) -> Mat3 {
+    Mat3::from_cols(a * b.x, a * b.y, a * b.z)
+}
