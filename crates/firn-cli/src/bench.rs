@@ -9,8 +9,8 @@ use std::time::Instant;
 use clap::{Args, ValueEnum};
 use firn_core::Material;
 use firn_core::scene::{
-    Body, CacheFormat, Contact, ContactMode, Domain, OutputSettings, Scene, Shape, SolverSettings, TimeSettings,
-    TimeStep, Transfer,
+    Body, CacheFormat, Contact, ContactMode, Domain, OutputSettings, Scene, Shape, SolverSettings,
+    TimeSettings, TimeStep, Transfer,
 };
 use firn_mpm::Simulation;
 use glam::Vec3;
@@ -77,7 +77,9 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
         rayon::ThreadPoolBuilder::new()
             .num_threads(count.max(1))
             .build_global()
-            .map_err(|error| Failure::Failed(format!("error: cannot start {count} threads: {error}")))?;
+            .map_err(|error| {
+                Failure::Failed(format!("error: cannot start {count} threads: {error}"))
+            })?;
     }
     let transfers: &[Transfer] = match args.transfer {
         TransferChoice::PicFlip => &[Transfer::PicFlip],
@@ -105,7 +107,8 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
             }
         }
     }
-    let json = serde_json::to_string_pretty(&records).map_err(|error| Failure::Failed(error.to_string()))?;
+    let json = serde_json::to_string_pretty(&records)
+        .map_err(|error| Failure::Failed(error.to_string()))?;
     firn_io::write_atomically(&args.json, |out| out.write_all(json.as_bytes()))
         .map_err(|error| Failure::BadInput(format!("error: {error}")))?;
     println!("wrote {}", args.json.display());
@@ -125,7 +128,8 @@ fn measure(scene: Scene, grid: u32, args: &BenchArgs) -> Result<BenchRecord, Fai
         TimeStep::Adaptive { max_dt, .. } => max_dt,
     };
     let transfer = scene.solver.transfer;
-    let mut simulation = Simulation::new(scene).map_err(|error| Failure::Failed(format!("error: {error}")))?;
+    let mut simulation =
+        Simulation::new(scene).map_err(|error| Failure::Failed(format!("error: {error}")))?;
     let fail = |error: firn_mpm::SimulationError| Failure::Failed(format!("error: {error}"));
     for _ in 0..args.warmup {
         simulation.step(f64::INFINITY).map_err(fail)?;

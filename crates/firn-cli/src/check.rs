@@ -19,14 +19,20 @@ pub struct CheckArgs {
 /// Validates the scene and prints particle count, grid, memory and first Δt.
 pub fn check(args: CheckArgs) -> Result<(), Failure> {
     let (scene, _) = load_scene(args.scene.as_deref())?;
-    let simulation = Simulation::new(scene.clone()).map_err(|error| Failure::BadInput(format!("error: {error}")))?;
+    let simulation = Simulation::new(scene.clone())
+        .map_err(|error| Failure::BadInput(format!("error: {error}")))?;
     let cells = scene.domain.cells();
     let layout = simulation.grid_layout();
     let nodes = layout.node_dims();
     println!("scene       {}", scene.name);
     println!(
         "domain      [{}, {}, {}] to [{}, {}, {}] m, h = {} m",
-        scene.domain.min.x, scene.domain.min.y, scene.domain.min.z, scene.domain.max.x, scene.domain.max.y, scene.domain.max.z,
+        scene.domain.min.x,
+        scene.domain.min.y,
+        scene.domain.min.z,
+        scene.domain.max.x,
+        scene.domain.max.y,
+        scene.domain.max.z,
         scene.domain.cell_size
     );
     println!(
@@ -39,7 +45,9 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
         let shape = match body.shape {
             Shape::Sphere { radius, .. } => format!("sphere r = {radius}"),
             Shape::Box { size, .. } => format!("box {} x {} x {}", size.x, size.y, size.z),
-            Shape::Cylinder { radius, height, .. } => format!("cylinder r = {radius}, height {height}"),
+            Shape::Cylinder { radius, height, .. } => {
+                format!("cylinder r = {radius}, height {height}")
+            }
         };
         let material = &scene.materials[body.material];
         println!(
@@ -59,13 +67,24 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
             material.density
         );
     }
-    println!("colliders   {} (plus the 6 domain walls)", scene.colliders.len());
-    println!("memory      {:.1} MiB (grid and particles)", simulation.memory_bytes() as f64 / (1024.0 * 1024.0));
+    println!(
+        "colliders   {} (plus the 6 domain walls)",
+        scene.colliders.len()
+    );
+    println!(
+        "memory      {:.1} MiB (grid and particles)",
+        simulation.memory_bytes() as f64 / (1024.0 * 1024.0)
+    );
     let policy = match scene.time.step {
         TimeStep::Fixed { dt } => format!("fixed {dt:.2e} s"),
-        TimeStep::Adaptive { cfl, max_dt } => format!("adaptive, cfl {cfl}, at most {max_dt:.2e} s"),
+        TimeStep::Adaptive { cfl, max_dt } => {
+            format!("adaptive, cfl {cfl}, at most {max_dt:.2e} s")
+        }
     };
-    println!("time step   {policy}; first step {:.3e} s", simulation.next_dt());
+    println!(
+        "time step   {policy}; first step {:.3e} s",
+        simulation.next_dt()
+    );
     println!(
         "frames      {} at {} fps ({} s)",
         scene.time.frame_count(),

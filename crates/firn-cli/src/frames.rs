@@ -39,8 +39,16 @@ pub fn write_frame(
     let particles = simulation.particles();
     let wanted = &scene.output.attributes;
     let derived = DerivedAttributes {
-        density: if wanted.contains(&SceneAttribute::Density) { simulation.densities() } else { Vec::new() },
-        elastic_j: if wanted.contains(&SceneAttribute::ElasticJ) { simulation.elastic_j() } else { Vec::new() },
+        density: if wanted.contains(&SceneAttribute::Density) {
+            simulation.densities()
+        } else {
+            Vec::new()
+        },
+        elastic_j: if wanted.contains(&SceneAttribute::ElasticJ) {
+            simulation.elastic_j()
+        } else {
+            Vec::new()
+        },
         material: particles.material.iter().map(|&m| m as u32).collect(),
     };
     let mut frame = FrameData::new(index, simulation.time(), &particles.position);
@@ -85,7 +93,12 @@ fn attribute_data<'a>(
 }
 
 /// Writes a checkpoint of `simulation` taken after frame `frame`.
-pub fn write_checkpoint(simulation: &Simulation, frame: u32, scene_json: &serde_json::Value, path: &Path) -> Result<(), IoError> {
+pub fn write_checkpoint(
+    simulation: &Simulation,
+    frame: u32,
+    scene_json: &serde_json::Value,
+    path: &Path,
+) -> Result<(), IoError> {
     let snapshot = simulation.snapshot();
     let mut checkpoint = Checkpoint::new(serde_json::json!({
         "frame": frame,

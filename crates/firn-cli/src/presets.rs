@@ -23,6 +23,8 @@ pub fn print_presets() {
             lambda
         );
     }
-    println!("\nsnow = Stomakhin et al. 2013, Table 2 (rho0 = 400); thesis = the thesis' test scene, §6.3.");
+    println!(
+        "\nsnow = Stomakhin et al. 2013, Table 2 (rho0 = 400); thesis = the thesis' test scene, §6.3."
+    );
     println!("Override any parameter in a [materials.NAME] table; see docs/scene-format.md.");
 }

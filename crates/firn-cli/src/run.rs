@@ -11,7 +11,9 @@ use firn_mpm::Simulation;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use crate::Failure;
-use crate::frames::{prepare_cache_dirs, read_checkpoint, scene_json, write_checkpoint, write_frame};
+use crate::frames::{
+    prepare_cache_dirs, read_checkpoint, scene_json, write_checkpoint, write_frame,
+};
 use crate::scene_source::load_scene;
 
 /// Arguments of `firn run`.
@@ -56,7 +58,10 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
             "error: {error}\n  fix: choose a writable directory with --out DIR or [output] directory"
         ))
     })?;
-    let last_frame = scene.time.frame_count().min(args.frames.unwrap_or(u32::MAX));
+    let last_frame = scene
+        .time
+        .frame_count()
+        .min(args.frames.unwrap_or(u32::MAX));
     let scene_json = scene_json(&scene);
     let mut state = if args.resume {
         RunState::resume(scene, &directory, &scene_json)?
@@ -77,7 +82,9 @@ fn configure_threads(threads: Option<usize>) -> Result<usize, Failure> {
         rayon::ThreadPoolBuilder::new()
             .num_threads(count)
             .build_global()
-            .map_err(|error| Failure::Failed(format!("error: cannot start {count} threads: {error}")))?;
+            .map_err(|error| {
+                Failure::Failed(format!("error: cannot start {count} threads: {error}"))
+            })?;
     }
     Ok(rayon::current_num_threads())
 }
@@ -102,7 +109,8 @@ impl RunState {
         scene_json: serde_json::Value,
     ) -> Result<RunState, Failure> {
         let cells = scene.domain.cells();
-        let simulation = Simulation::new(scene).map_err(|error| Failure::BadInput(format!("error: {error}")))?;
+        let simulation =
+            Simulation::new(scene).map_err(|error| Failure::BadInput(format!("error: {error}")))?;
         let manifest = Manifest {
             firn_version: env!("CARGO_PKG_VERSION").to_string(),
             scene_file: scene_file.map(|path| path.display().to_string()),
@@ -127,7 +135,11 @@ impl RunState {
     }
 
     /// Picks up a run from the checkpoint in `directory`.
-    fn resume(scene: Scene, directory: &Path, scene_json: &serde_json::Value) -> Result<RunState, Failure> {
+    fn resume(
+        scene: Scene,
+        directory: &Path,
+        scene_json: &serde_json::Value,
+    ) -> Result<RunState, Failure> {
         let checkpoint_path = directory.join(CHECKPOINT_FILE);
         let manifest_path = directory.join(MANIFEST_FILE);
         if !checkpoint_path.exists() {
@@ -137,7 +149,9 @@ impl RunState {
             )));
         }
         let restored = read_checkpoint(&checkpoint_path).map_err(|message| {
-            Failure::BadInput(format!("error: cannot resume: {message}\n  fix: run without --resume to start over"))
+            Failure::BadInput(format!(
+                "error: cannot resume: {message}\n  fix: run without --resume to start over"
+            ))
         })?;
         if &restored.scene_json != scene_json {
             return Err(Failure::BadInput(format!(
@@ -146,9 +160,13 @@ impl RunState {
             )));
         }
         let mut manifest = Manifest::read(&manifest_path).map_err(|error| {
-            Failure::BadInput(format!("error: cannot resume: {error}\n  fix: run without --resume to start over"))
+            Failure::BadInput(format!(
+                "error: cannot resume: {error}\n  fix: run without --resume to start over"
+            ))
         })?;
-        manifest.frames.retain(|record| record.index <= restored.frame);
+        manifest
+            .frames
+            .retain(|record| record.index <= restored.frame);
         manifest.status = RunStatus::Running;
         manifest.threads = rayon::current_num_threads();
         let mut pvd = PvdCollection::read(&directory.join("particles.pvd")).unwrap_or_default();
@@ -176,13 +194,20 @@ impl RunState {
             let frame_started = Instant::now();
             let substeps = match self.simulation.advance_to(frame as f64 / fps) {
                 Ok(substeps) => substeps,
-                Err(error) => return Err(self.fail(format!("error: the simulation stopped in frame {frame}: {error}"))),
+                Err(error) => {
+                    return Err(self.fail(format!(
+                        "error: the simulation stopped in frame {frame}: {error}"
+                    )));
+                }
             };
             self.record_frame(frame, substeps, frame_started.elapsed())?;
             substeps_total += substeps as u64;
             let rate = substeps_total as f64 / started.elapsed().as_secs_f64().max(1e-9);
             progress.set_position(self.frame as u64);
-            progress.set_message(format!("t = {:.3} s, {rate:.0} substeps/s", self.simulation.time()));
+            progress.set_message(format!(
+                "t = {:.3} s, {rate:.0} substeps/s",
+                self.simulation.time()
+            ));
         }
         progress.finish_and_clear();
         self.write_checkpoint()?;
@@ -212,12 +237,16 @@ impl RunState {
             time: self.simulation.time(),
             substeps,
             wall_seconds,
-            ns_per_particle_substep: if substeps > 0 { wall_seconds * 1e9 / (particles * substeps as f64) } else { 0.0 },
+            ns_per_particle_substep: if substeps > 0 {
+                wall_seconds * 1e9 / (particles * substeps as f64)
+            } else {
+                0.0
+            },
             files,
         });
         self.frame = index;
         let every = self.simulation.scene().output.checkpoint_every;
-        if every > 0 && index > 0 && index % every == 0 {
+        if every > 0 && index > 0 && index.is_multiple_of(every) {
             self.write_checkpoint()?;
         }
         self.write_manifest()
@@ -238,7 +267,9 @@ impl RunState {
 
     /// Records a failure in the manifest (best effort) and classifies it.
     fn fail(&mut self, message: String) -> Failure {
-        self.manifest.status = RunStatus::Failed { message: message.clone() };
+        self.manifest.status = RunStatus::Failed {
+            message: message.clone(),
+        };
         // The run has already failed; a manifest that cannot be written changes nothing.
         let _ = self.manifest.write(&self.directory.join(MANIFEST_FILE));
         Failure::Failed(message)
@@ -246,13 +277,13 @@ impl RunState {
 
     /// Mean cost over the frames of this manifest that took substeps.
     fn mean_cost(&self) -> f64 {
-        let (seconds, work) = self
-            .manifest
-            .frames
-            .iter()
-            .fold((0.0, 0.0), |(seconds, work), record| {
-                (seconds + record.wall_seconds, work + record.substeps as f64)
-            });
+        let (seconds, work) =
+            self.manifest
+                .frames
+                .iter()
+                .fold((0.0, 0.0), |(seconds, work), record| {
+                    (seconds + record.wall_seconds, work + record.substeps as f64)
+                });
         if work > 0.0 {
             seconds * 1e9 / (work * self.manifest.particle_count.max(1) as f64)
         } else {
@@ -265,7 +296,11 @@ impl RunState {
 fn progress_bar(last_frame: u32, first_frame: u32, quiet: bool) -> ProgressBar {
     let bar = ProgressBar::with_draw_target(
         Some(last_frame as u64),
-        if quiet { ProgressDrawTarget::hidden() } else { ProgressDrawTarget::stderr() },
+        if quiet {
+            ProgressDrawTarget::hidden()
+        } else {
+            ProgressDrawTarget::stderr()
+        },
     );
     bar.set_style(
         ProgressStyle::with_template("{bar:30.cyan/blue} frame {pos}/{len}  {msg}  ETA {eta}")

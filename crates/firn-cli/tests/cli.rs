@@ -24,7 +24,10 @@ velocity = [2.0, -1.0, 0.0]
 "#;
 
 fn firn(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_firn")).args(args).output().expect("firn runs")
+    Command::new(env!("CARGO_BIN_EXE_firn"))
+        .args(args)
+        .output()
+        .expect("firn runs")
 }
 
 fn write_scene(dir: &Path, name: &str, text: &str) -> PathBuf {
@@ -40,7 +43,13 @@ fn text(bytes: &[u8]) -> String {
 fn run_small(dir: &Path, out: &str, extra: &[&str]) -> Output {
     let scene = write_scene(dir, "small.toml", SMALL_SCENE);
     let out = dir.join(out);
-    let mut args = vec!["run", scene.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet"];
+    let mut args = vec![
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ];
     args.extend_from_slice(extra);
     firn(&args)
 }
@@ -52,19 +61,37 @@ fn a_run_writes_caches_manifest_and_collection() {
     assert!(output.status.success(), "{}", text(&output.stderr));
     let out = dir.path().join("run");
     for frame in 0..=4 {
-        assert!(out.join(format!("ply/frame_{frame:05}.ply")).is_file(), "PLY of frame {frame}");
-        assert!(out.join(format!("vtk/frame_{frame:05}.vtp")).is_file(), "VTP of frame {frame}");
+        assert!(
+            out.join(format!("ply/frame_{frame:05}.ply")).is_file(),
+            "PLY of frame {frame}"
+        );
+        assert!(
+            out.join(format!("vtk/frame_{frame:05}.vtp")).is_file(),
+            "VTP of frame {frame}"
+        );
     }
-    let manifest: serde_json::Value = serde_json::from_str(&fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    let manifest: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
     assert_eq!(manifest["frames"].as_array().unwrap().len(), 5);
     assert_eq!(manifest["status"]["state"], "finished");
-    assert!(manifest["frames"][2]["ns_per_particle_substep"].as_f64().unwrap() > 0.0);
+    assert!(
+        manifest["frames"][2]["ns_per_particle_substep"]
+            .as_f64()
+            .unwrap()
+            > 0.0
+    );
     let pvd = fs::read_to_string(out.join("particles.pvd")).unwrap();
     assert_eq!(pvd.matches("<DataSet").count(), 5);
     let cloud = firn_io::read_ply(&out.join("ply/frame_00004.ply")).unwrap();
     let positions = cloud.positions().unwrap();
     assert!(!positions.is_empty());
-    assert!(cloud.floats("density").unwrap().iter().all(|d| d.is_finite() && *d > 0.0));
+    assert!(
+        cloud
+            .floats("density")
+            .unwrap()
+            .iter()
+            .all(|d| d.is_finite() && *d > 0.0)
+    );
     // No temporary files are left behind.
     for entry in fs::read_dir(out.join("ply")).unwrap() {
         let name = entry.unwrap().file_name();
@@ -75,8 +102,16 @@ fn a_run_writes_caches_manifest_and_collection() {
 #[test]
 fn thread_count_does_not_change_the_bits() {
     let dir = tempfile::tempdir().unwrap();
-    assert!(run_small(dir.path(), "one", &["--threads", "1"]).status.success());
-    assert!(run_small(dir.path(), "two", &["--threads", "2"]).status.success());
+    assert!(
+        run_small(dir.path(), "one", &["--threads", "1"])
+            .status
+            .success()
+    );
+    assert!(
+        run_small(dir.path(), "two", &["--threads", "2"])
+            .status
+            .success()
+    );
     let one = fs::read(dir.path().join("one/ply/frame_00004.ply")).unwrap();
     let two = fs::read(dir.path().join("two/ply/frame_00004.ply")).unwrap();
     assert!(one == two, "1 and 2 threads gave different frames");
@@ -97,8 +132,10 @@ fn a_resumed_run_matches_an_uninterrupted_one() {
         let resumed = fs::read(dir.path().join("resumed").join(&name)).unwrap();
         assert!(straight == resumed, "frame {frame} differs after resume");
     }
-    let manifest: serde_json::Value =
-        serde_json::from_str(&fs::read_to_string(dir.path().join("resumed/manifest.json")).unwrap()).unwrap();
+    let manifest: serde_json::Value = serde_json::from_str(
+        &fs::read_to_string(dir.path().join("resumed/manifest.json")).unwrap(),
+    )
+    .unwrap();
     assert_eq!(manifest["frames"].as_array().unwrap().len(), 5);
 }
 
@@ -108,41 +145,70 @@ fn assert_rejected(scene_text: &str, location: &str, fragments: &[&str]) {
     let dir = tempfile::tempdir().unwrap();
     let scene = write_scene(dir.path(), "bad.toml", scene_text);
     let out = dir.path().join("out");
-    let output = firn(&["run", scene.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet"]);
+    let output = firn(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
     let stderr = text(&output.stderr);
     assert_eq!(output.status.code(), Some(2), "{stderr}");
-    assert!(stderr.contains(&format!("bad.toml:{location}")), "expected location {location} in: {stderr}");
+    assert!(
+        stderr.contains(&format!("bad.toml:{location}")),
+        "expected location {location} in: {stderr}"
+    );
     assert!(stderr.contains("fix:"), "no fix in: {stderr}");
     for fragment in fragments {
-        assert!(stderr.contains(fragment), "expected `{fragment}` in: {stderr}");
+        assert!(
+            stderr.contains(fragment),
+            "expected `{fragment}` in: {stderr}"
+        );
     }
     assert!(!out.exists(), "output written for a bad scene");
 }
 
 #[test]
 fn unknown_key_is_rejected_with_its_location() {
-    assert_rejected(&SMALL_SCENE.replace("radius = 0.08", "radus = 0.08"), "15:1", &["radus"]);
+    assert_rejected(
+        &SMALL_SCENE.replace("radius = 0.08", "radus = 0.08"),
+        "15:1",
+        &["radus"],
+    );
 }
 
 #[test]
 fn wrong_type_is_rejected_with_its_location() {
-    assert_rejected(&SMALL_SCENE.replace("cell_size = 0.05", "cell_size = \"fine\""), "6:13", &["cell_size"]);
+    assert_rejected(
+        &SMALL_SCENE.replace("cell_size = 0.05", "cell_size = \"fine\""),
+        "6:13",
+        &["cell_size"],
+    );
 }
 
 #[test]
 fn non_positive_cell_size_is_rejected() {
-    assert_rejected(&SMALL_SCENE.replace("cell_size = 0.05", "cell_size = -0.05"), "6:13", &["cell_size"]);
+    assert_rejected(
+        &SMALL_SCENE.replace("cell_size = 0.05", "cell_size = -0.05"),
+        "6:13",
+        &["cell_size"],
+    );
 }
 
 #[test]
 fn incompressible_poisson_ratio_is_rejected() {
-    let scene = format!("{SMALL_SCENE}material = \"soft\"\n\n[materials.soft]\npoisson_ratio = 0.5\n");
+    let scene =
+        format!("{SMALL_SCENE}material = \"soft\"\n\n[materials.soft]\npoisson_ratio = 0.5\n");
     assert_rejected(&scene, "20:17", &["poisson_ratio"]);
 }
 
 #[test]
 fn body_outside_the_domain_is_rejected() {
-    assert_rejected(&SMALL_SCENE.replace("[0.25, 0.2, 0.25]", "[0.25, 0.45, 0.25]"), "14:10", &["bodies[0]"]);
+    assert_rejected(
+        &SMALL_SCENE.replace("[0.25, 0.2, 0.25]", "[0.25, 0.45, 0.25]"),
+        "14:10",
+        &["bodies[0]"],
+    );
 }
 
 #[test]
@@ -153,7 +219,9 @@ fn a_scene_without_snow_is_rejected() {
 
 #[test]
 fn a_body_too_small_for_a_particle_is_rejected() {
-    let scene = SMALL_SCENE.replace("radius = 0.08", "radius = 0.001").replace("velocity", "particles_per_cell = 1\nvelocity");
+    let scene = SMALL_SCENE
+        .replace("radius = 0.08", "radius = 0.001")
+        .replace("velocity", "particles_per_cell = 1\nvelocity");
     assert_rejected(&scene, "1", &["bodies[0]"]);
 }
 
@@ -164,7 +232,10 @@ fn an_unreadable_scene_file_is_rejected() {
     let output = firn(&["run", missing.to_str().unwrap(), "--quiet"]);
     assert_eq!(output.status.code(), Some(2));
     let stderr = text(&output.stderr);
-    assert!(stderr.contains("missing.toml") && stderr.contains("fix:"), "{stderr}");
+    assert!(
+        stderr.contains("missing.toml") && stderr.contains("fix:"),
+        "{stderr}"
+    );
 }
 
 #[test]
@@ -174,10 +245,19 @@ fn an_unwritable_output_directory_is_rejected() {
     let blocker = dir.path().join("blocker");
     fs::write(&blocker, "a file, not a directory").unwrap();
     let out = blocker.join("out");
-    let output = firn(&["run", scene.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet"]);
+    let output = firn(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
     assert_eq!(output.status.code(), Some(2));
     let stderr = text(&output.stderr);
-    assert!(stderr.contains("blocker") && stderr.contains("fix:"), "{stderr}");
+    assert!(
+        stderr.contains("blocker") && stderr.contains("fix:"),
+        "{stderr}"
+    );
 }
 
 #[test]

@@ -160,7 +160,10 @@ mod tests {
             let particles = bins.particles_of(block);
             assert!(particles.windows(2).all(|w| w[0] < w[1]), "stable order");
             for &p in particles {
-                assert_eq!(block_key(&grid, positions[p as usize]), grid.block_index(block.coord));
+                assert_eq!(
+                    block_key(&grid, positions[p as usize]),
+                    grid.block_index(block.coord)
+                );
                 seen[p as usize] = true;
             }
         }

@@ -59,9 +59,10 @@ impl PlasticProjection {
     #[inline(always)]
     pub fn new(trial_elastic: Mat3, constants: &MaterialConstants) -> PlasticProjection {
         let trial = svd3(trial_elastic);
-        let clamped = trial
-            .sigma
-            .clamp(Vec3::splat(constants.min_stretch), Vec3::splat(constants.max_stretch));
+        let clamped = trial.sigma.clamp(
+            Vec3::splat(constants.min_stretch),
+            Vec3::splat(constants.max_stretch),
+        );
         PlasticProjection { trial, clamped }
     }
 
@@ -96,7 +97,13 @@ impl PlasticProjection {
 /// Kirchhoff stress τ = ∂Ψ/∂F_E F_Eᵀ = 2μ (F_E − R_E) F_Eᵀ + λ (J_E − 1) J_E I
 /// of the fixed-corotated energy with hardened μ, λ (eq. 34-36).
 #[inline(always)]
-pub fn kirchhoff_stress(elastic: Mat3, rotation: Mat3, elastic_j: f32, mu: f32, lambda: f32) -> Mat3 {
+pub fn kirchhoff_stress(
+    elastic: Mat3,
+    rotation: Mat3,
+    elastic_j: f32,
+    mu: f32,
+    lambda: f32,
+) -> Mat3 {
     (elastic - rotation) * elastic.transpose() * (2.0 * mu)
         + Mat3::from_diagonal(Vec3::splat(lambda * (elastic_j - 1.0) * elastic_j))
 }

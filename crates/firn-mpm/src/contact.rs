@@ -14,7 +14,12 @@ use glam::Vec3;
 ///   is left alone;
 /// - slip: like separate, but a separating normal velocity is removed too.
 #[inline(always)]
-pub fn apply_contact(velocity: Vec3, collider_velocity: Vec3, normal: Vec3, contact: Contact) -> Vec3 {
+pub fn apply_contact(
+    velocity: Vec3,
+    collider_velocity: Vec3,
+    normal: Vec3,
+    contact: Contact,
+) -> Vec3 {
     let relative = velocity - collider_velocity;
     let normal_speed = relative.dot(normal);
     let tangential = relative - normal * normal_speed;
@@ -94,7 +99,9 @@ impl ColliderSet {
         self.colliders
             .iter()
             .map(|collider| {
-                let (position, velocity) = collider.motion.state_at(collider.geometry.reference_point(), time);
+                let (position, velocity) = collider
+                    .motion
+                    .state_at(collider.geometry.reference_point(), time);
                 PlacedCollider {
                     geometry: collider.geometry.moved_to(position),
                     velocity,
@@ -131,21 +138,34 @@ mod tests {
     #[test]
     fn sticking_when_friction_wins() {
         // v_n = −2, |v_t| = 1 ≤ μ·2 with μ = 0.6: the snow sticks.
-        let v = apply_contact(Vec3::new(1.0, -2.0, 0.0), Vec3::ZERO, UP, contact(ContactMode::Separate, 0.6));
+        let v = apply_contact(
+            Vec3::new(1.0, -2.0, 0.0),
+            Vec3::ZERO,
+            UP,
+            contact(ContactMode::Separate, 0.6),
+        );
         assert!(close(v, Vec3::ZERO), "{v}");
     }
 
     #[test]
     fn sliding_loses_mu_times_normal_speed() {
         // v_n = −1, v_t = (3, 0, 4) with |v_t| = 5, μ = 0.5: |v_t| becomes 4.5.
-        let v = apply_contact(Vec3::new(3.0, -1.0, 4.0), Vec3::ZERO, UP, contact(ContactMode::Separate, 0.5));
+        let v = apply_contact(
+            Vec3::new(3.0, -1.0, 4.0),
+            Vec3::ZERO,
+            UP,
+            contact(ContactMode::Separate, 0.5),
+        );
         assert!(close(v, Vec3::new(2.7, 0.0, 3.6)), "{v}");
     }
 
     #[test]
     fn separating_snow_is_untouched_by_the_thesis_law() {
         let v = Vec3::new(1.0, 2.0, 0.0);
-        assert_eq!(apply_contact(v, Vec3::ZERO, UP, contact(ContactMode::Separate, 0.5)), v);
+        assert_eq!(
+            apply_contact(v, Vec3::ZERO, UP, contact(ContactMode::Separate, 0.5)),
+            v
+        );
         // Slip removes the normal part but not the tangential one.
         let slip = apply_contact(v, Vec3::ZERO, UP, contact(ContactMode::Slip, 0.5));
         assert!(close(slip, Vec3::new(1.0, 0.0, 0.0)), "{slip}");
@@ -153,7 +173,12 @@ mod tests {
 
     #[test]
     fn frictionless_contact_keeps_the_tangential_velocity() {
-        let v = apply_contact(Vec3::new(1.0, -3.0, 0.0), Vec3::ZERO, UP, contact(ContactMode::Separate, 0.0));
+        let v = apply_contact(
+            Vec3::new(1.0, -3.0, 0.0),
+            Vec3::ZERO,
+            UP,
+            contact(ContactMode::Separate, 0.0),
+        );
         assert!(close(v, Vec3::new(1.0, 0.0, 0.0)), "{v}");
     }
 
@@ -162,25 +187,49 @@ mod tests {
         // A floor rising at 1 m/s; snow falling at 1 m/s and sliding at 2 m/s.
         // Relative: v_n = −2, v_t = 2; μ = 0.25 removes 0.5 → v_t = 1.5.
         let floor_velocity = Vec3::new(0.0, 1.0, 0.0);
-        let v = apply_contact(Vec3::new(2.0, -1.0, 0.0), floor_velocity, UP, contact(ContactMode::Separate, 0.25));
+        let v = apply_contact(
+            Vec3::new(2.0, -1.0, 0.0),
+            floor_velocity,
+            UP,
+            contact(ContactMode::Separate, 0.25),
+        );
         assert!(close(v, Vec3::new(1.5, 1.0, 0.0)), "{v}");
         // Snow resting on it (relative velocity zero) moves with it.
-        let rest = apply_contact(floor_velocity, floor_velocity, UP, contact(ContactMode::Separate, 0.25));
+        let rest = apply_contact(
+            floor_velocity,
+            floor_velocity,
+            UP,
+            contact(ContactMode::Separate, 0.25),
+        );
         assert!(close(rest, floor_velocity));
         // A sticky collider imposes its velocity.
-        let sticky = apply_contact(Vec3::new(5.0, -5.0, 1.0), floor_velocity, UP, contact(ContactMode::Sticky, 0.0));
+        let sticky = apply_contact(
+            Vec3::new(5.0, -5.0, 1.0),
+            floor_velocity,
+            UP,
+            contact(ContactMode::Sticky, 0.0),
+        );
         assert!(close(sticky, floor_velocity));
     }
 
     #[test]
     fn only_points_inside_a_collider_are_affected() {
         let ball = PlacedCollider {
-            geometry: ColliderGeometry::Sphere { center: Vec3::ZERO, radius: 1.0 },
+            geometry: ColliderGeometry::Sphere {
+                center: Vec3::ZERO,
+                radius: 1.0,
+            },
             velocity: Vec3::ZERO,
             contact: contact(ContactMode::Separate, 0.0),
         };
         let towards_centre = Vec3::new(-1.0, 0.0, 0.0);
-        assert_eq!(ball.collide(Vec3::new(1.5, 0.0, 0.0), towards_centre), towards_centre);
-        assert!(close(ball.collide(Vec3::new(0.9, 0.0, 0.0), towards_centre), Vec3::ZERO));
+        assert_eq!(
+            ball.collide(Vec3::new(1.5, 0.0, 0.0), towards_centre),
+            towards_centre
+        );
+        assert!(close(
+            ball.collide(Vec3::new(0.9, 0.0, 0.0), towards_centre),
+            Vec3::ZERO
+        ));
     }
 }

@@ -46,7 +46,9 @@ impl GridLayout {
     /// A layout covering `[min, max]` with spacing `cell_size`, plus padding.
     pub fn new(min: Vec3, max: Vec3, cell_size: f32) -> GridLayout {
         let origin = min - Vec3::splat(PADDING_NODES as f32 * cell_size);
-        let cells = ((max - min) / cell_size - Vec3::splat(1e-4)).ceil().max(Vec3::ONE);
+        let cells = ((max - min) / cell_size - Vec3::splat(1e-4))
+            .ceil()
+            .max(Vec3::ONE);
         let nodes_needed = cells.as_ivec3() + IVec3::splat(1 + 2 * PADDING_NODES);
         let blocks = ((nodes_needed + IVec3::splat(BLOCK_WIDTH - 1)) / BLOCK_WIDTH).as_uvec3();
         GridLayout {
@@ -86,7 +88,8 @@ impl GridLayout {
     /// Linear index of a block from its block coordinate.
     #[inline(always)]
     pub fn block_index(&self, block: IVec3) -> usize {
-        ((block.x as u32 * self.blocks.y + block.y as u32) * self.blocks.z + block.z as u32) as usize
+        ((block.x as u32 * self.blocks.y + block.y as u32) * self.blocks.z + block.z as u32)
+            as usize
     }
 
     /// Block coordinate of a linear block index.

@@ -12,7 +12,8 @@ use crate::contact::ColliderSet;
 use crate::grid::{Grid, GridLayout};
 use crate::particles::Particles;
 use crate::transfer::{
-    self, GatherStats, GridForces, ParticleProblem, ProblemKind, UpdateContext, gather_apic, gather_pic_flip,
+    self, GatherStats, GridForces, ParticleProblem, ProblemKind, UpdateContext, gather_apic,
+    gather_pic_flip,
 };
 
 /// Particles are physically reordered by block every this many substeps, so
@@ -27,7 +28,9 @@ const LEAVE_TOLERANCE_CELLS: f32 = 1.0;
 #[derive(Debug, thiserror::Error)]
 pub enum SimulationError {
     /// The scene's bodies produced no particles.
-    #[error("the scene has no particles: add a [[bodies]] table or make a body larger than a grid cell")]
+    #[error(
+        "the scene has no particles: add a [[bodies]] table or make a body larger than a grid cell"
+    )]
     NoParticles,
     /// The state went bad during a substep; nothing of that substep is kept.
     #[error("at t = {time:.4} s (substep {step}, Δt = {dt:.3e} s) particle {particle} {what} at ({x:.3}, {y:.3}, {z:.3}).\n  likely cause: {hint}", x = position.x, y = position.y, z = position.z)]
@@ -147,10 +150,17 @@ impl Simulation {
                 "particle arrays are empty or of different lengths".into(),
             ));
         }
-        if particles.material.iter().any(|&m| m as usize >= scene.materials.len()) {
-            return Err(SimulationError::SnapshotMismatch("a particle refers to an unknown material".into()));
+        if particles
+            .material
+            .iter()
+            .any(|&m| m as usize >= scene.materials.len())
+        {
+            return Err(SimulationError::SnapshotMismatch(
+                "a particle refers to an unknown material".into(),
+            ));
         }
-        let mut simulation = Simulation::with_particles(scene, particles, snapshot.time, snapshot.steps);
+        let mut simulation =
+            Simulation::with_particles(scene, particles, snapshot.time, snapshot.steps);
         simulation.stats = GatherStats {
             max_speed_squared: snapshot.max_speed_squared,
             max_wave_speed_squared: snapshot.max_wave_speed_squared,
@@ -176,14 +186,20 @@ impl Simulation {
 
     /// Step 2: scatter mass once and read the density back at each particle.
     fn estimate_volumes(&mut self) {
-        self.bins.rebuild(&self.grid.layout, &self.particles.position);
+        self.bins
+            .rebuild(&self.grid.layout, &self.particles.position);
         match self.scene.solver.transfer {
             Transfer::PicFlip => {
                 transfer::scatter_mass(&mut self.grid, &self.bins, &self.particles, cubic_weights);
                 transfer::estimate_volumes(&self.grid, &mut self.particles, cubic_weights);
             }
             Transfer::Apic => {
-                transfer::scatter_mass(&mut self.grid, &self.bins, &self.particles, quadratic_weights);
+                transfer::scatter_mass(
+                    &mut self.grid,
+                    &self.bins,
+                    &self.particles,
+                    quadratic_weights,
+                );
                 transfer::estimate_volumes(&self.grid, &mut self.particles, quadratic_weights);
             }
         }
@@ -217,7 +233,8 @@ impl Simulation {
         match self.scene.time.step {
             TimeStep::Fixed { dt } => dt,
             TimeStep::Adaptive { cfl, max_dt } => {
-                let speed = self.stats.max_speed_squared.sqrt() + self.stats.max_wave_speed_squared.sqrt();
+                let speed =
+                    self.stats.max_speed_squared.sqrt() + self.stats.max_wave_speed_squared.sqrt();
                 if speed > 0.0 {
                     (cfl * self.scene.domain.cell_size / speed).min(max_dt)
                 } else {
@@ -231,15 +248,19 @@ impl Simulation {
     pub fn step(&mut self, until: f64) -> Result<f32, SimulationError> {
         let dt = (self.next_dt() as f64).min(until - self.time).max(0.0) as f32;
         let layout = self.grid.layout;
-        if self.steps % REORDER_INTERVAL == 0 {
+        if self.steps.is_multiple_of(REORDER_INTERVAL) {
             self.bins.rebuild(&layout, &self.particles.position);
             self.particles.permute(&self.bins.order);
         }
         self.bins.rebuild(&layout, &self.particles.position);
         let transfer_scheme = self.scene.solver.transfer;
         match transfer_scheme {
-            Transfer::PicFlip => transfer::scatter_pic_flip(&mut self.grid, &self.bins, &self.particles),
-            Transfer::Apic => transfer::scatter_apic(&mut self.grid, &self.bins, &self.particles, dt),
+            Transfer::PicFlip => {
+                transfer::scatter_pic_flip(&mut self.grid, &self.bins, &self.particles)
+            }
+            Transfer::Apic => {
+                transfer::scatter_apic(&mut self.grid, &self.bins, &self.particles, dt)
+            }
         }
         let colliders = self.colliders.placed_at(self.time + dt as f64);
         let forces = match transfer_scheme {
@@ -263,7 +284,12 @@ impl Simulation {
             upper: self.scene.domain.max + tolerance,
         };
         let stats = match transfer_scheme {
-            Transfer::PicFlip => gather_pic_flip(&self.grid, &mut self.particles, self.scene.solver.flip_blend, &context),
+            Transfer::PicFlip => gather_pic_flip(
+                &self.grid,
+                &mut self.particles,
+                self.scene.solver.flip_blend,
+                &context,
+            ),
             Transfer::Apic => gather_apic(&self.grid, &mut self.particles, &context),
         };
         transfer::clear_grid(&mut self.grid, &self.bins);
@@ -307,7 +333,10 @@ impl Simulation {
                 format!("in [time] set dt = {stable_dt:.1e} or step = \"adaptive\"")
             }
             TimeStep::Adaptive { cfl, .. } => {
-                format!("in [time] set cfl = {:.2} (now {cfl}) or dt = {stable_dt:.1e}", cfl * 0.5)
+                format!(
+                    "in [time] set cfl = {:.2} (now {cfl}) or dt = {stable_dt:.1e}",
+                    cfl * 0.5
+                )
             }
         };
         let (what, hint) = match problem.kind {
@@ -378,17 +407,27 @@ impl Simulation {
 
     /// Current density of every particle (kg/m³).
     pub fn densities(&self) -> Vec<f32> {
-        (0..self.particles.len()).map(|p| self.particles.density(p)).collect()
+        (0..self.particles.len())
+            .map(|p| self.particles.density(p))
+            .collect()
     }
 
     /// J_E = det F_E of every particle.
     pub fn elastic_j(&self) -> Vec<f32> {
-        self.particles.elastic.iter().map(Mat3::determinant).collect()
+        self.particles
+            .elastic
+            .iter()
+            .map(Mat3::determinant)
+            .collect()
     }
 
     /// Mass, momentum, angular momentum, centre of mass and kinetic energy.
     pub fn diagnostics(&self) -> Diagnostics {
-        diagnostics(&self.particles, self.grid.layout.cell_size, self.scene.solver.transfer)
+        diagnostics(
+            &self.particles,
+            self.grid.layout.cell_size,
+            self.scene.solver.transfer,
+        )
     }
 }
 

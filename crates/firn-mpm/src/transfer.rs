@@ -61,7 +61,10 @@ impl<'a> NodeWriter<'a> {
     #[inline(always)]
     fn update_block(&self, block: usize, visit: impl FnOnce(&mut [Node])) {
         let first = block * BLOCK_NODES;
-        assert!(first + BLOCK_NODES <= self.len, "block {block} outside the grid");
+        assert!(
+            first + BLOCK_NODES <= self.len,
+            "block {block} outside the grid"
+        );
         // SAFETY: in bounds (checked above); the caller visits each block from
         // one thread only, and the slice does not outlive the call.
         visit(unsafe { std::slice::from_raw_parts_mut(self.nodes.add(first), BLOCK_NODES) });
@@ -83,16 +86,24 @@ fn scatter_by_colour(grid: &mut Grid, bins: &Bins, scatter: impl Fn(&[u32], &Nod
 fn for_each_active_block(grid: &mut Grid, bins: &Bins, visit: impl Fn(IVec3, &mut [Node]) + Sync) {
     let layout = grid.layout;
     let writer = NodeWriter::new(&mut grid.nodes);
-    bins.active_blocks.par_iter().with_min_len(16).for_each(|&block| {
-        // Each active block appears once in the list: one thread per block.
-        writer.update_block(block as usize, |nodes| visit(layout.block_coord(block as usize), nodes));
-    });
+    bins.active_blocks
+        .par_iter()
+        .with_min_len(16)
+        .for_each(|&block| {
+            // Each active block appears once in the list: one thread per block.
+            writer.update_block(block as usize, |nodes| {
+                visit(layout.block_coord(block as usize), nodes)
+            });
+        });
 }
 
 /// Linear node indices of a particle's stencil, node (i, j, k) at
 /// `[(i * N + j) * N + k]`.
 #[inline(always)]
-fn stencil_indices<const N: usize>(layout: &GridLayout, base: IVec3) -> impl Fn(usize, usize, usize) -> usize {
+fn stencil_indices<const N: usize>(
+    layout: &GridLayout,
+    base: IVec3,
+) -> impl Fn(usize, usize, usize) -> usize {
     let layout = *layout;
     move |i, j, k| layout.node_index(base + IVec3::new(i as i32, j as i32, k as i32))
 }
@@ -138,7 +149,8 @@ pub fn scatter_apic(grid: &mut Grid, bins: &Bins, particles: &Particles, dt: f32
             let mass = particles.mass[p];
             let momentum = particles.velocity[p] * mass;
             // Maps a node offset in cells to momentum: (m C − Δt M⁻¹ V0 τ) h.
-            let affine = (particles.affine[p] * mass - particles.stress[p] * (dt * inverse_inertia)) * h;
+            let affine =
+                (particles.affine[p] * mass - particles.stress[p] * (dt * inverse_inertia)) * h;
             let index = stencil_indices::<3>(&layout, weights.base);
             for i in 0..3 {
                 for j in 0..3 {
@@ -293,7 +305,9 @@ impl GatherStats {
         };
         GatherStats {
             max_speed_squared: self.max_speed_squared.max(other.max_speed_squared),
-            max_wave_speed_squared: self.max_wave_speed_squared.max(other.max_wave_speed_squared),
+            max_wave_speed_squared: self
+                .max_wave_speed_squared
+                .max(other.max_wave_speed_squared),
             problem,
         }
     }
@@ -330,7 +344,13 @@ impl ParticleUpdate<'_> {
     /// gradient are known: plasticity (eq. 41-43), the stress for the next
     /// scatter, particle collisions at the predicted position, advection.
     #[inline(always)]
-    fn finish(self, index: usize, velocity_gradient: Mat3, velocity: Vec3, context: &UpdateContext) -> GatherStats {
+    fn finish(
+        self,
+        index: usize,
+        velocity_gradient: Mat3,
+        velocity: Vec3,
+        context: &UpdateContext,
+    ) -> GatherStats {
         let constants = &context.materials[self.material as usize];
         let trial = (Mat3::IDENTITY + velocity_gradient * context.dt) * *self.elastic;
         let projection = PlasticProjection::new(trial, constants);
@@ -346,7 +366,10 @@ impl ParticleUpdate<'_> {
         *self.position += velocity * context.dt;
 
         let position = *self.position;
-        let finite = position.is_finite() && velocity.is_finite() && plastic_j.is_finite() && elastic.is_finite();
+        let finite = position.is_finite()
+            && velocity.is_finite()
+            && plastic_j.is_finite()
+            && elastic.is_finite();
         let inside = position.cmpge(context.lower).all() && position.cmple(context.upper).all();
         let problem = match (finite, inside) {
             (false, _) => Some(ProblemKind::NonFinite),
@@ -355,7 +378,8 @@ impl ParticleUpdate<'_> {
         };
         GatherStats {
             max_speed_squared: velocity.length_squared(),
-            max_wave_speed_squared: constants.wave_speed_squared * constants.hardening_factor(plastic_j),
+            max_wave_speed_squared: constants.wave_speed_squared
+                * constants.hardening_factor(plastic_j),
             problem: problem.map(|kind| ParticleProblem {
                 particle: index,
                 kind,
@@ -366,7 +390,12 @@ impl ParticleUpdate<'_> {
 }
 
 /// Steps 7-10 for PIC/FLIP with FLIP share `flip`.
-pub fn gather_pic_flip(grid: &Grid, particles: &mut Particles, flip: f32, context: &UpdateContext) -> GatherStats {
+pub fn gather_pic_flip(
+    grid: &Grid,
+    particles: &mut Particles,
+    flip: f32,
+    context: &UpdateContext,
+) -> GatherStats {
     let layout = grid.layout;
     let inverse_h = 1.0 / layout.cell_size;
     let nodes = &grid.nodes;
@@ -382,36 +411,38 @@ pub fn gather_pic_flip(grid: &Grid, particles: &mut Particles, flip: f32, contex
         .into_par_iter()
         .enumerate()
         .with_min_len(512)
-        .map(|(p, (position, velocity, elastic, plastic_j, stress, volume0, material))| {
-            let weights = cubic_weights(layout.to_grid(*position));
-            let index = stencil_indices::<4>(&layout, weights.base);
-            let mut pic = Vec3::ZERO;
-            let mut change = Vec3::ZERO;
-            let mut gradient = Mat3::ZERO;
-            for i in 0..4 {
-                for j in 0..4 {
-                    for k in 0..4 {
-                        let node = &nodes[index(i, j, k)];
-                        let w = weights.weight(i, j, k);
-                        let grad_w = weights.gradient(i, j, k) * inverse_h;
-                        pic += node.velocity_new * w;
-                        change += (node.velocity_new - node.velocity) * w;
-                        gradient += outer(node.velocity_new, grad_w);
+        .map(
+            |(p, (position, velocity, elastic, plastic_j, stress, volume0, material))| {
+                let weights = cubic_weights(layout.to_grid(*position));
+                let index = stencil_indices::<4>(&layout, weights.base);
+                let mut pic = Vec3::ZERO;
+                let mut change = Vec3::ZERO;
+                let mut gradient = Mat3::ZERO;
+                for i in 0..4 {
+                    for j in 0..4 {
+                        for k in 0..4 {
+                            let node = &nodes[index(i, j, k)];
+                            let w = weights.weight(i, j, k);
+                            let grad_w = weights.gradient(i, j, k) * inverse_h;
+                            pic += node.velocity_new * w;
+                            change += (node.velocity_new - node.velocity) * w;
+                            gradient += outer(node.velocity_new, grad_w);
+                        }
                     }
                 }
-            }
-            let blended = pic * (1.0 - flip) + (*velocity + change) * flip;
-            let update = ParticleUpdate {
-                position,
-                velocity,
-                elastic,
-                plastic_j,
-                stress,
-                volume0: *volume0,
-                material: *material,
-            };
-            update.finish(p, gradient, blended, context)
-        })
+                let blended = pic * (1.0 - flip) + (*velocity + change) * flip;
+                let update = ParticleUpdate {
+                    position,
+                    velocity,
+                    elastic,
+                    plastic_j,
+                    stress,
+                    volume0: *volume0,
+                    material: *material,
+                };
+                update.finish(p, gradient, blended, context)
+            },
+        )
         .reduce(GatherStats::default, GatherStats::merge)
 }
 
@@ -435,33 +466,35 @@ pub fn gather_apic(grid: &Grid, particles: &mut Particles, context: &UpdateConte
         .into_par_iter()
         .enumerate()
         .with_min_len(512)
-        .map(|(p, (position, velocity, elastic, plastic_j, stress, affine, volume0, material))| {
-            let weights = quadratic_weights(layout.to_grid(*position));
-            let index = stencil_indices::<3>(&layout, weights.base);
-            let mut new_velocity = Vec3::ZERO;
-            let mut new_affine = Mat3::ZERO;
-            for i in 0..3 {
-                for j in 0..3 {
-                    for k in 0..3 {
-                        let w = weights.weight(i, j, k);
-                        let node_velocity = nodes[index(i, j, k)].velocity_new * w;
-                        new_velocity += node_velocity;
-                        new_affine += outer(node_velocity, weights.node_offset(i, j, k));
+        .map(
+            |(p, (position, velocity, elastic, plastic_j, stress, affine, volume0, material))| {
+                let weights = quadratic_weights(layout.to_grid(*position));
+                let index = stencil_indices::<3>(&layout, weights.base);
+                let mut new_velocity = Vec3::ZERO;
+                let mut new_affine = Mat3::ZERO;
+                for i in 0..3 {
+                    for j in 0..3 {
+                        for k in 0..3 {
+                            let w = weights.weight(i, j, k);
+                            let node_velocity = nodes[index(i, j, k)].velocity_new * w;
+                            new_velocity += node_velocity;
+                            new_affine += outer(node_velocity, weights.node_offset(i, j, k));
+                        }
                     }
                 }
-            }
-            *affine = new_affine * affine_scale;
-            let update = ParticleUpdate {
-                position,
-                velocity,
-                elastic,
-                plastic_j,
-                stress,
-                volume0: *volume0,
-                material: *material,
-            };
-            update.finish(p, *affine, new_velocity, context)
-        })
+                *affine = new_affine * affine_scale;
+                let update = ParticleUpdate {
+                    position,
+                    velocity,
+                    elastic,
+                    plastic_j,
+                    stress,
+                    volume0: *volume0,
+                    material: *material,
+                };
+                update.finish(p, *affine, new_velocity, context)
+            },
+        )
         .reduce(GatherStats::default, GatherStats::merge)
 }
 

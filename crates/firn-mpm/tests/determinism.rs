@@ -7,10 +7,17 @@ use firn_mpm::{Particles, Simulation};
 use glam::Vec3;
 
 fn run_with_threads(threads: usize, transfer: firn_core::scene::Transfer) -> Particles {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
     pool.install(|| {
         // Thrown against the +x wall so that collisions and plasticity take part.
-        let scene = common::snowball(Vec3::new(0.75, 0.3, 0.5), Vec3::new(6.0, -2.0, 0.5), transfer);
+        let scene = common::snowball(
+            Vec3::new(0.75, 0.3, 0.5),
+            Vec3::new(6.0, -2.0, 0.5),
+            transfer,
+        );
         let mut simulation = Simulation::new(scene).unwrap();
         simulation.advance_to(0.08).unwrap();
         simulation.particles().clone()
@@ -19,9 +26,27 @@ fn run_with_threads(threads: usize, transfer: firn_core::scene::Transfer) -> Par
 
 fn bits(particles: &Particles) -> Vec<u32> {
     let mut all = Vec::new();
-    all.extend(particles.position.iter().flat_map(|v| v.to_array()).map(f32::to_bits));
-    all.extend(particles.velocity.iter().flat_map(|v| v.to_array()).map(f32::to_bits));
-    all.extend(particles.elastic.iter().flat_map(|m| m.to_cols_array()).map(f32::to_bits));
+    all.extend(
+        particles
+            .position
+            .iter()
+            .flat_map(|v| v.to_array())
+            .map(f32::to_bits),
+    );
+    all.extend(
+        particles
+            .velocity
+            .iter()
+            .flat_map(|v| v.to_array())
+            .map(f32::to_bits),
+    );
+    all.extend(
+        particles
+            .elastic
+            .iter()
+            .flat_map(|m| m.to_cols_array())
+            .map(f32::to_bits),
+    );
     all.extend(particles.plastic_j.iter().map(|j| j.to_bits()));
     all
 }
@@ -36,17 +61,27 @@ fn results_are_bit_identical_across_thread_counts() {
         );
         for threads in [2, 8] {
             let other = run_with_threads(threads, transfer);
-            assert!(bits(&reference) == bits(&other), "{transfer:?}: {threads} threads differ from 1");
+            assert!(
+                bits(&reference) == bits(&other),
+                "{transfer:?}: {threads} threads differ from 1"
+            );
         }
         let again = run_with_threads(2, transfer);
-        assert!(bits(&reference) == bits(&again), "{transfer:?}: two runs differ");
+        assert!(
+            bits(&reference) == bits(&again),
+            "{transfer:?}: two runs differ"
+        );
     }
 }
 
 #[test]
 fn resuming_from_a_snapshot_gives_the_same_bits() {
     for transfer in common::TRANSFERS {
-        let scene = common::snowball(Vec3::new(0.75, 0.3, 0.5), Vec3::new(6.0, -2.0, 0.5), transfer);
+        let scene = common::snowball(
+            Vec3::new(0.75, 0.3, 0.5),
+            Vec3::new(6.0, -2.0, 0.5),
+            transfer,
+        );
         // Both runs stop at the same frame times; one is restored in between.
         let mut straight = Simulation::new(scene.clone()).unwrap();
         straight.advance_to(0.027).unwrap();
@@ -57,6 +92,9 @@ fn resuming_from_a_snapshot_gives_the_same_bits() {
         let mut resumed = Simulation::from_snapshot(scene, first.snapshot()).unwrap();
         resumed.advance_to(0.06).unwrap();
         assert_eq!(straight.steps(), resumed.steps());
-        assert!(bits(straight.particles()) == bits(resumed.particles()), "{transfer:?}: resumed run differs");
+        assert!(
+            bits(straight.particles()) == bits(resumed.particles()),
+            "{transfer:?}: resumed run differs"
+        );
     }
 }

@@ -25,10 +25,18 @@ fn free_fall_matches_the_analytic_trajectory() {
         ];
         for axis in 0..3 {
             let error = (end[axis] - expected[axis]).abs();
-            assert!(error < 2e-4, "{transfer:?} axis {axis}: {} vs {} (error {error})", end[axis], expected[axis]);
+            assert!(
+                error < 2e-4,
+                "{transfer:?} axis {axis}: {} vs {} (error {error})",
+                end[axis],
+                expected[axis]
+            );
         }
         // No deformation in free fall: J_P stays 1 and the body keeps its shape.
         let plastic = &simulation.particles().plastic_j;
-        assert!(plastic.iter().all(|j| (j - 1.0).abs() < 1e-4), "{transfer:?} deformed in free fall");
+        assert!(
+            plastic.iter().all(|j| (j - 1.0).abs() < 1e-4),
+            "{transfer:?} deformed in free fall"
+        );
     }
 }

@@ -8,7 +8,11 @@ use glam::Vec3;
 
 #[test]
 fn a_too_large_fixed_step_stops_with_a_suggested_dt() {
-    let mut scene = common::snowball(Vec3::new(0.5, 0.3, 0.5), Vec3::new(0.0, -3.0, 0.0), firn_core::scene::Transfer::PicFlip);
+    let mut scene = common::snowball(
+        Vec3::new(0.5, 0.3, 0.5),
+        Vec3::new(0.0, -3.0, 0.0),
+        firn_core::scene::Transfer::PicFlip,
+    );
     scene.materials[0].youngs_modulus = 1e8;
     scene.time.step = TimeStep::Fixed { dt: 1e-2 };
     let mut simulation = Simulation::new(scene).unwrap();

@@ -22,9 +22,12 @@ fn particles(count: usize, apic: bool) -> Particles {
         x ^= x >> 12;
         (x as f32 / u32::MAX as f32) - 0.5
     };
-    let vector = |i: usize, salt: u32| Vec3::new(hash(i, salt), hash(i, salt + 1), hash(i, salt + 2));
+    let vector =
+        |i: usize, salt: u32| Vec3::new(hash(i, salt), hash(i, salt + 1), hash(i, salt + 2));
     Particles {
-        position: (0..count).map(|i| Vec3::splat(0.5) + vector(i, 1) * 0.4).collect(),
+        position: (0..count)
+            .map(|i| Vec3::splat(0.5) + vector(i, 1) * 0.4)
+            .collect(),
         velocity: (0..count).map(|i| vector(i, 10) * 4.0).collect(),
         mass: (0..count).map(|i| 0.01 + 0.005 * hash(i, 20)).collect(),
         volume0: vec![1e-5; count],
@@ -80,18 +83,34 @@ fn round_trip(transfer_scheme: Transfer) {
         Transfer::PicFlip => transfer::scatter_pic_flip(&mut grid, &bins, &particles),
         Transfer::Apic => transfer::scatter_apic(&mut grid, &bins, &particles, 0.0),
     }
-    let forces = if apic { GridForces::InMomentum } else { GridForces::Separate };
+    let forces = if apic {
+        GridForces::InMomentum
+    } else {
+        GridForces::Separate
+    };
     transfer::update_grid(&mut grid, &bins, forces, 0.0, Vec3::ZERO, &[]);
     let (grid_mass, grid_momentum, grid_angular) = grid_totals(&grid);
     let momentum = DVec3::from_array(before.momentum);
     let angular = DVec3::from_array(before.angular_momentum);
-    assert!((grid_mass - before.mass).abs() < 1e-5 * before.mass, "P2G mass {grid_mass} vs {}", before.mass);
-    assert!(close(grid_momentum, momentum, momentum.length()), "P2G momentum {grid_momentum} vs {momentum}");
+    assert!(
+        (grid_mass - before.mass).abs() < 1e-5 * before.mass,
+        "P2G mass {grid_mass} vs {}",
+        before.mass
+    );
+    assert!(
+        close(grid_momentum, momentum, momentum.length()),
+        "P2G momentum {grid_momentum} vs {momentum}"
+    );
     if apic {
-        assert!(close(grid_angular, angular, angular.length()), "P2G angular momentum {grid_angular} vs {angular}");
+        assert!(
+            close(grid_angular, angular, angular.length()),
+            "P2G angular momentum {grid_angular} vs {angular}"
+        );
     }
 
-    let constants = [MaterialConstants::new(&firn_core::Material::preset("snow").unwrap())];
+    let constants = [MaterialConstants::new(
+        &firn_core::Material::preset("snow").unwrap(),
+    )];
     let context = UpdateContext {
         dt: 0.0,
         materials: &constants,
@@ -108,10 +127,16 @@ fn round_trip(transfer_scheme: Transfer) {
     let after = diagnostics(&particles, H, transfer_scheme);
     let momentum_after = DVec3::from_array(after.momentum);
     assert!(after.mass == before.mass, "particle mass must not change");
-    assert!(close(momentum_after, grid_momentum, grid_momentum.length()), "G2P momentum {momentum_after} vs {grid_momentum}");
+    assert!(
+        close(momentum_after, grid_momentum, grid_momentum.length()),
+        "G2P momentum {momentum_after} vs {grid_momentum}"
+    );
     if apic {
         let angular_after = DVec3::from_array(after.angular_momentum);
-        assert!(close(angular_after, grid_angular, grid_angular.length()), "G2P angular momentum {angular_after} vs {grid_angular}");
+        assert!(
+            close(angular_after, grid_angular, grid_angular.length()),
+            "G2P angular momentum {angular_after} vs {grid_angular}"
+        );
     }
 }
 
@@ -133,7 +158,9 @@ fn density_estimate_recovers_the_rest_density() {
     for x in 0..16 {
         for y in 0..16 {
             for z in 0..16 {
-                positions.push(Vec3::splat(0.3) + (Vec3::new(x as f32, y as f32, z as f32) + 0.5) * spacing);
+                positions.push(
+                    Vec3::splat(0.3) + (Vec3::new(x as f32, y as f32, z as f32) + 0.5) * spacing,
+                );
             }
         }
     }
@@ -158,6 +185,9 @@ fn density_estimate_recovers_the_rest_density() {
         }
         let centre = count / 2 + 8 * 16 + 8;
         let density = particles.mass[centre] / particles.volume0[centre];
-        assert!((density - rho0).abs() < 0.01 * rho0, "{transfer_scheme:?}: interior density {density}");
+        assert!(
+            (density - rho0).abs() < 0.01 * rho0,
+            "{transfer_scheme:?}: interior density {density}"
+        );
     }
 }

@@ -114,7 +114,11 @@ pub fn cubic_weights(x: Vec3) -> StencilWeights<4> {
         let d = offset - Vec3::splat(k as f32);
         *value = Vec3::new(cubic(d.x), cubic(d.y), cubic(d.z));
         // d = x − x_i; dN(x − x_i)/dx = N'(d).
-        *slope = Vec3::new(cubic_derivative(d.x), cubic_derivative(d.y), cubic_derivative(d.z));
+        *slope = Vec3::new(
+            cubic_derivative(d.x),
+            cubic_derivative(d.y),
+            cubic_derivative(d.z),
+        );
     }
     StencilWeights {
         base: base_node.as_ivec3(),
@@ -174,9 +178,15 @@ mod tests {
         }
         assert!((sum - 1.0).abs() < 1e-5, "weights sum to {sum}");
         for axis in 0..3 {
-            assert!(gradient_sum[axis].abs() < 1e-5, "gradients sum to {gradient_sum:?}");
+            assert!(
+                gradient_sum[axis].abs() < 1e-5,
+                "gradients sum to {gradient_sum:?}"
+            );
             // Linear precision: Σ w_i (x_i − x_p) = 0.
-            assert!(first_moment[axis].abs() < 1e-5, "first moment {first_moment:?}");
+            assert!(
+                first_moment[axis].abs() < 1e-5,
+                "first moment {first_moment:?}"
+            );
         }
     }
 

@@ -165,7 +165,9 @@ impl Shape {
     /// Whether a point is inside the shape.
     pub fn contains(&self, point: Vec3) -> bool {
         match *self {
-            Shape::Sphere { center, radius } => (point - center).length_squared() <= radius * radius,
+            Shape::Sphere { center, radius } => {
+                (point - center).length_squared() <= radius * radius
+            }
             Shape::Box { center, size } => ((point - center).abs() * 2.0).cmple(size).all(),
             Shape::Cylinder {
                 center,
@@ -366,7 +368,9 @@ impl ColliderGeometry {
     pub fn reference_point(&self) -> Vec3 {
         match *self {
             ColliderGeometry::HalfPlane { point, .. } => point,
-            ColliderGeometry::Sphere { center, .. } | ColliderGeometry::Box { center, .. } => center,
+            ColliderGeometry::Sphere { center, .. } | ColliderGeometry::Box { center, .. } => {
+                center
+            }
         }
     }
 
@@ -385,14 +389,23 @@ impl ColliderGeometry {
     /// Signed distance (negative inside the solid) and outward unit normal at `point`.
     pub fn signed_distance(&self, point: Vec3) -> (f32, Vec3) {
         match *self {
-            ColliderGeometry::HalfPlane { point: origin, normal } => ((point - origin).dot(normal), normal),
+            ColliderGeometry::HalfPlane {
+                point: origin,
+                normal,
+            } => ((point - origin).dot(normal), normal),
             ColliderGeometry::Sphere { center, radius } => {
                 let offset = point - center;
                 let length = offset.length();
-                let normal = if length > 0.0 { offset / length } else { Vec3::Y };
+                let normal = if length > 0.0 {
+                    offset / length
+                } else {
+                    Vec3::Y
+                };
                 (length - radius, normal)
             }
-            ColliderGeometry::Box { center, size } => box_signed_distance(point - center, 0.5 * size),
+            ColliderGeometry::Box { center, size } => {
+                box_signed_distance(point - center, 0.5 * size)
+            }
         }
     }
 }
@@ -406,7 +419,13 @@ fn box_signed_distance(p: Vec3, half: Vec3) -> (f32, Vec3) {
         (length, (outside * p.signum()) / length)
     } else {
         // Inside: the nearest face is the one with the largest (least negative) q.
-        let axis = if q.x >= q.y && q.x >= q.z { 0 } else if q.y >= q.z { 1 } else { 2 };
+        let axis = if q.x >= q.y && q.x >= q.z {
+            0
+        } else if q.y >= q.z {
+            1
+        } else {
+            2
+        };
         let mut normal = Vec3::ZERO;
         normal[axis] = p[axis].signum();
         (q[axis], normal)

@@ -6,8 +6,8 @@ use std::path::PathBuf;
 
 use firn_core::Material;
 use firn_core::scene::{
-    Body, CacheFormat, Collider, Contact, ContactMode, Domain, OutputSettings, Scene, Shape, SolverSettings,
-    TimeSettings, TimeStep, Transfer,
+    Body, CacheFormat, Collider, Contact, ContactMode, Domain, OutputSettings, Scene, Shape,
+    SolverSettings, TimeSettings, TimeStep, Transfer,
 };
 use glam::Vec3;
 
@@ -54,7 +54,15 @@ pub fn scene_with(body: Shape, velocity: Vec3, transfer: Transfer, cell_size: f3
 
 /// A snowball of radius 0.1 at `center`.
 pub fn snowball(center: Vec3, velocity: Vec3, transfer: Transfer) -> Scene {
-    scene_with(Shape::Sphere { center, radius: 0.1 }, velocity, transfer, 0.04)
+    scene_with(
+        Shape::Sphere {
+            center,
+            radius: 0.1,
+        },
+        velocity,
+        transfer,
+        0.04,
+    )
 }
 
 /// Both transfer schemes.

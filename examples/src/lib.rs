@@ -1,0 +1,1 @@
+//! Examples of firn used as a library; see the `[[example]]` targets.
