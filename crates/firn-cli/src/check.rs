@@ -14,11 +14,19 @@ use crate::scene_source::load_scene;
 pub struct CheckArgs {
     /// Scene file (TOML); without one, the bundled default scene is checked.
     pub scene: Option<PathBuf>,
+    /// Print the fully resolved scene (presets expanded, defaults filled in) as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Validates the scene and prints particle count, grid, memory and first Δt.
 pub fn check(args: CheckArgs) -> Result<(), Failure> {
     let (scene, _) = load_scene(args.scene.as_deref())?;
+    if args.json {
+        let json = serde_json::to_string_pretty(&scene).map_err(|error| Failure::Failed(error.to_string()))?;
+        println!("{json}");
+        return Ok(());
+    }
     let simulation = Simulation::new(scene.clone())
         .map_err(|error| Failure::BadInput(format!("error: {error}")))?;
     let cells = scene.domain.cells();

@@ -283,6 +283,19 @@ fn check_reports_particles_grid_and_first_step() {
 }
 
 #[test]
+fn check_json_prints_the_resolved_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write_scene(dir.path(), "small.toml", SMALL_SCENE);
+    let output = firn(&["check", scene.to_str().unwrap(), "--json"]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let resolved: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    // Defaults filled in: the snow preset and the adaptive step.
+    assert_eq!(resolved["materials"][0]["name"], "snow");
+    assert_eq!(resolved["time"]["step"]["kind"], "adaptive");
+    assert_eq!(resolved["domain"]["cell_size"], 0.05f32 as f64);
+}
+
+#[test]
 fn the_bundled_default_scene_checks() {
     let output = firn(&["check"]);
     assert!(output.status.success(), "{}", text(&output.stderr));

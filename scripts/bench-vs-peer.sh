@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# Runs `firn bench` and the peer Taichi script side by side on this machine,
+# at the same particle count and grid, and prints both figures and the ratio.
+#
+#   scripts/bench-vs-peer.sh [PARTICLES] [GRID] [STEPS]
+#
+# Needs the peer script (../shared/peers/taichi_mpm3d.py, or PEER=path) and a
+# Python with taichi (PYTHON=path; e.g. python3 -m venv venv && venv/bin/pip install taichi).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+particles=${1:-262144}
+grid=${2:-128}
+steps=${3:-200}
+peer=${PEER:-../shared/peers/taichi_mpm3d.py}
+python=${PYTHON:-python3}
+
+cargo build --release --quiet
+./target/release/firn bench --particles "$particles" --grid "$grid" --steps "$steps" --warmup 10 \
+    --json target/bench-firn.json | tee target/bench-firn.txt
+"$python" "$peer" --particles "$particles" --grid "$grid" --steps "$steps" --shape ball | tee target/bench-peer.txt
+
+peer_ns=$(grep -o 'ns_per_particle_step=[0-9.]*' target/bench-peer.txt | tail -1 | cut -d= -f2)
+grep '^firn ' target/bench-firn.txt | while read -r line; do
+    transfer=$(grep -o 'transfer=[a-z-]*' <<<"$line" | cut -d= -f2)
+    ns=$(grep -o 'ns_per_particle_step=[0-9.]*' <<<"$line" | cut -d= -f2)
+    awk -v t="$transfer" -v f="$ns" -v p="$peer_ns" \
+        'BEGIN { printf "%-9s firn %7.1f ns  peer %7.1f ns  peer/firn = %.2fx\n", t, f, p, p / f }'
+done
