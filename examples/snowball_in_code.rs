@@ -8,8 +8,8 @@ use std::path::PathBuf;
 
 use firn_core::Material;
 use firn_core::scene::{
-    Body, CacheFormat, Collider, ColliderGeometry, Contact, ContactMode, Domain, Motion, OutputSettings, Scene, Shape,
-    SolverSettings, TimeSettings, TimeStep, Transfer,
+    Body, CacheFormat, Collider, ColliderGeometry, Contact, ContactMode, Domain, Motion,
+    OutputSettings, Scene, Shape, SolverSettings, TimeSettings, TimeStep, Transfer,
 };
 use firn_mpm::Simulation;
 use glam::Vec3;

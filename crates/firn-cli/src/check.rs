@@ -23,7 +23,8 @@ pub struct CheckArgs {
 pub fn check(args: CheckArgs) -> Result<(), Failure> {
     let (scene, _) = load_scene(args.scene.as_deref())?;
     if args.json {
-        let json = serde_json::to_string_pretty(&scene).map_err(|error| Failure::Failed(error.to_string()))?;
+        let json = serde_json::to_string_pretty(&scene)
+            .map_err(|error| Failure::Failed(error.to_string()))?;
         println!("{json}");
         return Ok(());
     }

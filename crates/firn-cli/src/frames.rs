@@ -116,7 +116,7 @@ pub fn write_checkpoint(
     checkpoint.push_array("elastic", &p.elastic);
     checkpoint.push_array("plastic_j", &p.plastic_j);
     checkpoint.push_array("stress", &p.stress);
-    checkpoint.push_array("affine", &p.affine);
+    checkpoint.push_array("velocity_gradient", &p.velocity_gradient);
     checkpoint.push_array("material", &p.material);
     checkpoint.write(path)
 }
@@ -148,7 +148,9 @@ pub fn read_checkpoint(path: &Path) -> Result<RestoredCheckpoint, String> {
         elastic: checkpoint.array("elastic").map_err(|e| e.to_string())?,
         plastic_j: checkpoint.array("plastic_j").map_err(|e| e.to_string())?,
         stress: checkpoint.array("stress").map_err(|e| e.to_string())?,
-        affine: checkpoint.array("affine").map_err(|e| e.to_string())?,
+        velocity_gradient: checkpoint
+            .array("velocity_gradient")
+            .map_err(|e| e.to_string())?,
         material: checkpoint.array("material").map_err(|e| e.to_string())?,
     };
     Ok(RestoredCheckpoint {

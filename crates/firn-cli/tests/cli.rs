@@ -292,7 +292,7 @@ fn check_json_prints_the_resolved_scene() {
     // Defaults filled in: the snow preset and the adaptive step.
     assert_eq!(resolved["materials"][0]["name"], "snow");
     assert_eq!(resolved["time"]["step"]["kind"], "adaptive");
-    assert_eq!(resolved["domain"]["cell_size"], 0.05f32 as f64);
+    assert_eq!(resolved["domain"]["cell_size"], 0.05);
 }
 
 #[test]

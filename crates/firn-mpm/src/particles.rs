@@ -21,8 +21,9 @@ pub struct Particles {
     /// V_p^0 τ_p: initial volume times the Kirchhoff stress of the current F_E,
     /// kept from the end of the last step so the next scatter needs no SVD.
     pub stress: Vec<Mat3>,
-    /// APIC affine velocity matrices C_p (empty with PIC/FLIP).
-    pub affine: Vec<Mat3>,
+    /// Velocity gradients ∇v_p from the last gather; with APIC these are the
+    /// affine matrices C_p that the next scatter carries to the grid.
+    pub velocity_gradient: Vec<Mat3>,
     /// Material index per particle, into the scene's materials.
     pub material: Vec<u16>,
 }
@@ -45,10 +46,10 @@ impl Particles {
     }
 
     /// Bytes held per particle (for memory estimates).
-    pub fn bytes_per_particle(with_affine: bool) -> usize {
+    pub fn bytes_per_particle() -> usize {
         let vectors = 2 * std::mem::size_of::<Vec3>();
         let scalars = 3 * std::mem::size_of::<f32>() + std::mem::size_of::<u16>();
-        let matrices = (2 + usize::from(with_affine)) * std::mem::size_of::<Mat3>();
+        let matrices = 3 * std::mem::size_of::<Mat3>();
         // Plus the u32 bin order entry.
         vectors + scalars + matrices + std::mem::size_of::<u32>()
     }
@@ -56,9 +57,6 @@ impl Particles {
     /// Reorders every attribute so that new index `i` holds old particle `order[i]`.
     pub fn permute(&mut self, order: &[u32]) {
         fn gather<T: Copy>(values: &mut Vec<T>, order: &[u32]) {
-            if values.is_empty() {
-                return;
-            }
             *values = order.iter().map(|&p| values[p as usize]).collect();
         }
         gather(&mut self.position, order);
@@ -68,7 +66,7 @@ impl Particles {
         gather(&mut self.elastic, order);
         gather(&mut self.plastic_j, order);
         gather(&mut self.stress, order);
-        gather(&mut self.affine, order);
+        gather(&mut self.velocity_gradient, order);
         gather(&mut self.material, order);
     }
 }

@@ -116,10 +116,7 @@ impl Simulation {
             elastic: vec![Mat3::IDENTITY; count],
             plastic_j: vec![1.0; count],
             stress: vec![Mat3::ZERO; count],
-            affine: match scene.solver.transfer {
-                Transfer::PicFlip => Vec::new(),
-                Transfer::Apic => vec![Mat3::ZERO; count],
-            },
+            velocity_gradient: vec![Mat3::ZERO; count],
             material: seeds.materials,
         };
         let mut simulation = Simulation::with_particles(scene, particles, 0.0, 0);
@@ -132,7 +129,6 @@ impl Simulation {
     pub fn from_snapshot(scene: Scene, snapshot: Snapshot) -> Result<Simulation, SimulationError> {
         let particles = snapshot.particles;
         let count = particles.len();
-        let apic = scene.solver.transfer == Transfer::Apic;
         let lengths_match = [
             particles.velocity.len(),
             particles.mass.len(),
@@ -140,11 +136,11 @@ impl Simulation {
             particles.elastic.len(),
             particles.plastic_j.len(),
             particles.stress.len(),
+            particles.velocity_gradient.len(),
             particles.material.len(),
         ]
         .iter()
-        .all(|&len| len == count)
-            && particles.affine.len() == if apic { count } else { 0 };
+        .all(|&len| len == count);
         if count == 0 || !lengths_match {
             return Err(SimulationError::SnapshotMismatch(
                 "particle arrays are empty or of different lengths".into(),
@@ -401,8 +397,7 @@ impl Simulation {
 
     /// Bytes held by the grid and the particles.
     pub fn memory_bytes(&self) -> usize {
-        let apic = self.scene.solver.transfer == Transfer::Apic;
-        self.grid.memory_bytes() + self.particles.len() * Particles::bytes_per_particle(apic)
+        self.grid.memory_bytes() + self.particles.len() * Particles::bytes_per_particle()
     }
 
     /// Current density of every particle (kg/m³).
@@ -443,7 +438,7 @@ pub fn diagnostics(particles: &Particles, cell_size: f32, transfer: Transfer) ->
         let v = particles.velocity[p].as_dvec3();
         let mut angular = x.cross(v) * m;
         if transfer == Transfer::Apic {
-            let c = particles.affine[p].as_dmat3();
+            let c = particles.velocity_gradient[p].as_dmat3();
             // ε_abc C_cb: (C_zy − C_yz, C_xz − C_zx, C_yx − C_xy), C_rc = column c, row r.
             let curl = glam::DVec3::new(
                 c.y_axis.z - c.z_axis.y,

@@ -149,8 +149,9 @@ pub fn scatter_apic(grid: &mut Grid, bins: &Bins, particles: &Particles, dt: f32
             let mass = particles.mass[p];
             let momentum = particles.velocity[p] * mass;
             // Maps a node offset in cells to momentum: (m C − Δt M⁻¹ V0 τ) h.
-            let affine =
-                (particles.affine[p] * mass - particles.stress[p] * (dt * inverse_inertia)) * h;
+            let affine = (particles.velocity_gradient[p] * mass
+                - particles.stress[p] * (dt * inverse_inertia))
+                * h;
             let index = stencil_indices::<3>(&layout, weights.base);
             for i in 0..3 {
                 for j in 0..3 {
@@ -335,6 +336,7 @@ struct ParticleUpdate<'a> {
     elastic: &'a mut Mat3,
     plastic_j: &'a mut f32,
     stress: &'a mut Mat3,
+    velocity_gradient: &'a mut Mat3,
     volume0: f32,
     material: u16,
 }
@@ -359,6 +361,7 @@ impl ParticleUpdate<'_> {
         *self.stress = scaled_stress(&projection, elastic, plastic_j, self.volume0, constants);
         *self.elastic = elastic;
         *self.plastic_j = plastic_j;
+        *self.velocity_gradient = velocity_gradient;
 
         let predicted = *self.position + velocity * context.dt;
         let velocity = collide_all(context.colliders, predicted, velocity);
@@ -389,7 +392,60 @@ impl ParticleUpdate<'_> {
     }
 }
 
-/// Steps 7-10 for PIC/FLIP with FLIP share `flip`.
+/// Steps 7-10 for every particle in parallel: `interpolate` reads the grid at a
+/// particle (position, old velocity) and returns its new velocity and ∇v_p.
+fn gather_with(
+    particles: &mut Particles,
+    context: &UpdateContext,
+    interpolate: impl Fn(Vec3, Vec3) -> (Vec3, Mat3) + Sync,
+) -> GatherStats {
+    (
+        particles.position.par_iter_mut(),
+        particles.velocity.par_iter_mut(),
+        particles.elastic.par_iter_mut(),
+        particles.plastic_j.par_iter_mut(),
+        particles.stress.par_iter_mut(),
+        particles.velocity_gradient.par_iter_mut(),
+        particles.volume0.par_iter(),
+        particles.material.par_iter(),
+    )
+        .into_par_iter()
+        .enumerate()
+        .with_min_len(512)
+        .map(
+            |(
+                p,
+                (
+                    position,
+                    velocity,
+                    elastic,
+                    plastic_j,
+                    stress,
+                    velocity_gradient,
+                    volume0,
+                    material,
+                ),
+            )| {
+                let (new_velocity, gradient) = interpolate(*position, *velocity);
+                let update = ParticleUpdate {
+                    position,
+                    velocity,
+                    elastic,
+                    plastic_j,
+                    stress,
+                    velocity_gradient,
+                    volume0: *volume0,
+                    material: *material,
+                };
+                update.finish(p, gradient, new_velocity, context)
+            },
+        )
+        .reduce(GatherStats::default, GatherStats::merge)
+}
+
+/// Steps 7-10 for PIC/FLIP with FLIP share `flip`:
+/// v_p = (1 − α) Σ w_ip v_i^{n+1} + α (v_p + Σ w_ip (v_i^{n+1} − v_i)) and
+/// ∇v_p = Σ v_i^{n+1} (∇w_ip)ᵀ.
 pub fn gather_pic_flip(
     grid: &Grid,
     particles: &mut Particles,
@@ -399,51 +455,26 @@ pub fn gather_pic_flip(
     let layout = grid.layout;
     let inverse_h = 1.0 / layout.cell_size;
     let nodes = &grid.nodes;
-    (
-        particles.position.par_iter_mut(),
-        particles.velocity.par_iter_mut(),
-        particles.elastic.par_iter_mut(),
-        particles.plastic_j.par_iter_mut(),
-        particles.stress.par_iter_mut(),
-        particles.volume0.par_iter(),
-        particles.material.par_iter(),
-    )
-        .into_par_iter()
-        .enumerate()
-        .with_min_len(512)
-        .map(
-            |(p, (position, velocity, elastic, plastic_j, stress, volume0, material))| {
-                let weights = cubic_weights(layout.to_grid(*position));
-                let index = stencil_indices::<4>(&layout, weights.base);
-                let mut pic = Vec3::ZERO;
-                let mut change = Vec3::ZERO;
-                let mut gradient = Mat3::ZERO;
-                for i in 0..4 {
-                    for j in 0..4 {
-                        for k in 0..4 {
-                            let node = &nodes[index(i, j, k)];
-                            let w = weights.weight(i, j, k);
-                            let grad_w = weights.gradient(i, j, k) * inverse_h;
-                            pic += node.velocity_new * w;
-                            change += (node.velocity_new - node.velocity) * w;
-                            gradient += outer(node.velocity_new, grad_w);
-                        }
-                    }
+    gather_with(particles, context, |position, velocity| {
+        let weights = cubic_weights(layout.to_grid(position));
+        let index = stencil_indices::<4>(&layout, weights.base);
+        let mut pic = Vec3::ZERO;
+        let mut change = Vec3::ZERO;
+        let mut gradient = Mat3::ZERO;
+        for i in 0..4 {
+            for j in 0..4 {
+                for k in 0..4 {
+                    let node = &nodes[index(i, j, k)];
+                    let w = weights.weight(i, j, k);
+                    let grad_w = weights.gradient(i, j, k) * inverse_h;
+                    pic += node.velocity_new * w;
+                    change += (node.velocity_new - node.velocity) * w;
+                    gradient += outer(node.velocity_new, grad_w);
                 }
-                let blended = pic * (1.0 - flip) + (*velocity + change) * flip;
-                let update = ParticleUpdate {
-                    position,
-                    velocity,
-                    elastic,
-                    plastic_j,
-                    stress,
-                    volume0: *volume0,
-                    material: *material,
-                };
-                update.finish(p, gradient, blended, context)
-            },
-        )
-        .reduce(GatherStats::default, GatherStats::merge)
+            }
+        }
+        (pic * (1.0 - flip) + (velocity + change) * flip, gradient)
+    })
 }
 
 /// Steps 7-10 for APIC: v_p = Σ w_ip v_i, C_p = (4/h²) Σ w_ip v_i (x_i − x_p)ᵀ,
@@ -453,49 +484,23 @@ pub fn gather_apic(grid: &Grid, particles: &mut Particles, context: &UpdateConte
     // (4/h²) times the offset in world units (cells · h).
     let affine_scale = 4.0 / layout.cell_size;
     let nodes = &grid.nodes;
-    (
-        particles.position.par_iter_mut(),
-        particles.velocity.par_iter_mut(),
-        particles.elastic.par_iter_mut(),
-        particles.plastic_j.par_iter_mut(),
-        particles.stress.par_iter_mut(),
-        particles.affine.par_iter_mut(),
-        particles.volume0.par_iter(),
-        particles.material.par_iter(),
-    )
-        .into_par_iter()
-        .enumerate()
-        .with_min_len(512)
-        .map(
-            |(p, (position, velocity, elastic, plastic_j, stress, affine, volume0, material))| {
-                let weights = quadratic_weights(layout.to_grid(*position));
-                let index = stencil_indices::<3>(&layout, weights.base);
-                let mut new_velocity = Vec3::ZERO;
-                let mut new_affine = Mat3::ZERO;
-                for i in 0..3 {
-                    for j in 0..3 {
-                        for k in 0..3 {
-                            let w = weights.weight(i, j, k);
-                            let node_velocity = nodes[index(i, j, k)].velocity_new * w;
-                            new_velocity += node_velocity;
-                            new_affine += outer(node_velocity, weights.node_offset(i, j, k));
-                        }
-                    }
+    gather_with(particles, context, |position, _| {
+        let weights = quadratic_weights(layout.to_grid(position));
+        let index = stencil_indices::<3>(&layout, weights.base);
+        let mut velocity = Vec3::ZERO;
+        let mut affine = Mat3::ZERO;
+        for i in 0..3 {
+            for j in 0..3 {
+                for k in 0..3 {
+                    let node_velocity =
+                        nodes[index(i, j, k)].velocity_new * weights.weight(i, j, k);
+                    velocity += node_velocity;
+                    affine += outer(node_velocity, weights.node_offset(i, j, k));
                 }
-                *affine = new_affine * affine_scale;
-                let update = ParticleUpdate {
-                    position,
-                    velocity,
-                    elastic,
-                    plastic_j,
-                    stress,
-                    volume0: *volume0,
-                    material: *material,
-                };
-                update.finish(p, *affine, new_velocity, context)
-            },
-        )
-        .reduce(GatherStats::default, GatherStats::merge)
+            }
+        }
+        (velocity, affine * affine_scale)
+    })
 }
 
 /// The outer product a bᵀ.

@@ -34,13 +34,15 @@ fn particles(count: usize, apic: bool) -> Particles {
         elastic: vec![Mat3::IDENTITY; count],
         plastic_j: vec![1.0; count],
         stress: vec![Mat3::ZERO; count],
-        affine: if apic {
-            (0..count)
-                .map(|i| Mat3::from_cols(vector(i, 30), vector(i, 40), vector(i, 50)) * 10.0)
-                .collect()
-        } else {
-            Vec::new()
-        },
+        velocity_gradient: (0..count)
+            .map(|i| {
+                if apic {
+                    Mat3::from_cols(vector(i, 30), vector(i, 40), vector(i, 50)) * 10.0
+                } else {
+                    Mat3::ZERO
+                }
+            })
+            .collect(),
         material: vec![0; count],
     }
 }

@@ -1712,20 +1712,10 @@ fn check_body(scene: &Scene, index: usize, body: &Body) -> Check {
     finite_vec(body.velocity, path.key("velocity"))?;
     match body.shape {
         Shape::Sphere { center, radius } => {
-            finite_vec(center, path.key("center"))?;
-            positive(
-                radius,
-                path.key("radius"),
-                "set the radius in metres, e.g. radius = 0.1".to_string(),
-            )?;
+            check_ball(&path, center, radius)?;
         }
         Shape::Box { center, size } => {
-            finite_vec(center, path.key("center"))?;
-            positive_vec(
-                size,
-                path.key("size"),
-                "set the edge lengths in metres, e.g. size = [0.2, 0.2, 0.2]".to_string(),
-            )?;
+            check_box(&path, center, size)?;
         }
         Shape::Cylinder {
             center,
@@ -1787,6 +1777,28 @@ fn check_body(scene: &Scene, index: usize, body: &Body) -> Check {
     Ok(())
 }
 
+/// Centre and radius of a ball-shaped body or collider.
+fn check_ball(path: &KeyPath, center: Vec3, radius: f32) -> Check {
+    finite_vec(center, path.key("center"))?;
+    positive(
+        radius,
+        path.key("radius"),
+        "set the radius in metres, e.g. radius = 0.1".to_string(),
+    )?;
+    Ok(())
+}
+
+/// Centre and edge lengths of a box-shaped body or collider.
+fn check_box(path: &KeyPath, center: Vec3, size: Vec3) -> Check {
+    finite_vec(center, path.key("center"))?;
+    positive_vec(
+        size,
+        path.key("size"),
+        "set the edge lengths in metres, e.g. size = [0.2, 0.2, 0.2]".to_string(),
+    )?;
+    Ok(())
+}
+
 fn check_collider(path: &KeyPath, collider: &Collider) -> Check {
     match collider.geometry {
         ColliderGeometry::HalfPlane { point, normal } => {
@@ -1794,20 +1806,10 @@ fn check_collider(path: &KeyPath, collider: &Collider) -> Check {
             unit_vec(normal, path.key("normal"))?;
         }
         ColliderGeometry::Sphere { center, radius } => {
-            finite_vec(center, path.key("center"))?;
-            positive(
-                radius,
-                path.key("radius"),
-                "set the radius in metres, e.g. radius = 0.1".to_string(),
-            )?;
+            check_ball(path, center, radius)?;
         }
         ColliderGeometry::Box { center, size } => {
-            finite_vec(center, path.key("center"))?;
-            positive_vec(
-                size,
-                path.key("size"),
-                "set the edge lengths in metres, e.g. size = [0.2, 0.2, 0.2]".to_string(),
-            )?;
+            check_box(path, center, size)?;
         }
     }
     check_contact(path, &collider.contact)?;
