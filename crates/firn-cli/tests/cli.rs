@@ -139,6 +139,35 @@ fn a_resumed_run_matches_an_uninterrupted_one() {
     assert_eq!(manifest["frames"].as_array().unwrap().len(), 5);
 }
 
+#[test]
+fn a_blow_up_stops_with_an_explanation_and_no_bad_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let unstable = SMALL_SCENE.replace("fps = 40", "fps = 10\nstep = \"fixed\"\ndt = 0.01")
+        + "material = \"stiff\"\n\n[materials.stiff]\nyoungs_modulus = 1e9\n";
+    let scene = write_scene(dir.path(), "unstable.toml", &unstable);
+    let out = dir.path().join("out");
+    let output = firn(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    let stderr = text(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("in frame 1") && stderr.contains("set dt = "),
+        "{stderr}"
+    );
+    assert!(
+        !out.join("ply/frame_00001.ply").exists(),
+        "a frame was written after the blow-up"
+    );
+    let manifest: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(manifest["status"]["state"], "failed");
+}
+
 /// Runs `firn run` on a bad scene; asserts exit code 2, the located message
 /// and that no output directory was created.
 fn assert_rejected(scene_text: &str, location: &str, fragments: &[&str]) {

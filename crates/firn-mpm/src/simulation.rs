@@ -313,6 +313,7 @@ impl Simulation {
         let material_index = self.particles.material[problem.particle] as usize;
         let material = &self.scene.materials[material_index];
         let h = self.scene.domain.cell_size;
+        // The hardened wave speed of the last good substep, at least the material's own.
         let wave_speed = self
             .stats
             .max_wave_speed_squared

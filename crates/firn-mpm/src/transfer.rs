@@ -369,10 +369,12 @@ impl ParticleUpdate<'_> {
         *self.position += velocity * context.dt;
 
         let position = *self.position;
+        let wave_speed_squared =
+            constants.wave_speed_squared * constants.hardening_factor(plastic_j);
         let finite = position.is_finite()
             && velocity.is_finite()
-            && plastic_j.is_finite()
-            && elastic.is_finite();
+            && elastic.is_finite()
+            && wave_speed_squared.is_finite();
         let inside = position.cmpge(context.lower).all() && position.cmple(context.upper).all();
         let problem = match (finite, inside) {
             (false, _) => Some(ProblemKind::NonFinite),
@@ -381,8 +383,7 @@ impl ParticleUpdate<'_> {
         };
         GatherStats {
             max_speed_squared: velocity.length_squared(),
-            max_wave_speed_squared: constants.wave_speed_squared
-                * constants.hardening_factor(plastic_j),
+            max_wave_speed_squared: wave_speed_squared,
             problem: problem.map(|kind| ParticleProblem {
                 particle: index,
                 kind,
