@@ -40,6 +40,22 @@ fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()
 }
 
+/// `firn run SCENE --out OUT --quiet`.
+fn run_into(scene: &Path, out: &Path) -> Output {
+    firn(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ])
+}
+
+/// The run manifest in `out`, as JSON.
+fn manifest(out: &Path) -> serde_json::Value {
+    serde_json::from_str(&fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap()
+}
+
 fn run_small(dir: &Path, out: &str, extra: &[&str]) -> Output {
     let scene = write_scene(dir, "small.toml", SMALL_SCENE);
     let out = dir.join(out);
@@ -70,8 +86,7 @@ fn a_run_writes_caches_manifest_and_collection() {
             "VTP of frame {frame}"
         );
     }
-    let manifest: serde_json::Value =
-        serde_json::from_str(&fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    let manifest = manifest(&out);
     assert_eq!(manifest["frames"].as_array().unwrap().len(), 5);
     assert_eq!(manifest["status"]["state"], "finished");
     assert!(
@@ -146,13 +161,7 @@ fn a_blow_up_stops_with_an_explanation_and_no_bad_frame() {
         + "material = \"stiff\"\n\n[materials.stiff]\nyoungs_modulus = 1e9\n";
     let scene = write_scene(dir.path(), "unstable.toml", &unstable);
     let out = dir.path().join("out");
-    let output = firn(&[
-        "run",
-        scene.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--quiet",
-    ]);
+    let output = run_into(&scene, &out);
     let stderr = text(&output.stderr);
     assert_eq!(output.status.code(), Some(1), "{stderr}");
     assert!(
@@ -163,8 +172,7 @@ fn a_blow_up_stops_with_an_explanation_and_no_bad_frame() {
         !out.join("ply/frame_00001.ply").exists(),
         "a frame was written after the blow-up"
     );
-    let manifest: serde_json::Value =
-        serde_json::from_str(&fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    let manifest = manifest(&out);
     assert_eq!(manifest["status"]["state"], "failed");
 }
 
@@ -174,13 +182,7 @@ fn assert_rejected(scene_text: &str, location: &str, fragments: &[&str]) {
     let dir = tempfile::tempdir().unwrap();
     let scene = write_scene(dir.path(), "bad.toml", scene_text);
     let out = dir.path().join("out");
-    let output = firn(&[
-        "run",
-        scene.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--quiet",
-    ]);
+    let output = run_into(&scene, &out);
     let stderr = text(&output.stderr);
     assert_eq!(output.status.code(), Some(2), "{stderr}");
     assert!(
@@ -274,13 +276,7 @@ fn an_unwritable_output_directory_is_rejected() {
     let blocker = dir.path().join("blocker");
     fs::write(&blocker, "a file, not a directory").unwrap();
     let out = blocker.join("out");
-    let output = firn(&[
-        "run",
-        scene.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--quiet",
-    ]);
+    let output = run_into(&scene, &out);
     assert_eq!(output.status.code(), Some(2));
     let stderr = text(&output.stderr);
     assert!(
