@@ -1,6 +1,8 @@
 //! `firn run`: simulate a scene frame by frame, writing caches, the manifest
-//! and checkpoints, with progress on the terminal.
+//! and checkpoints, with progress on the terminal (a bar) or in logs (a line
+//! per frame).
 
+use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -187,6 +189,9 @@ impl RunState {
     fn run_frames(&mut self, last_frame: u32, quiet: bool) -> Result<(), Failure> {
         let fps = self.simulation.scene().time.fps;
         let progress = progress_bar(last_frame, self.frame, quiet);
+        // Logs (render farms, CI, nohup) get a plain line per frame instead of a bar.
+        let log_lines = !quiet && !std::io::stderr().is_terminal();
+        let first_frame = self.frame;
         let started = Instant::now();
         let mut substeps_total = 0u64;
         while self.frame < last_frame {
@@ -203,11 +208,14 @@ impl RunState {
             self.record_frame(frame, substeps, frame_started.elapsed())?;
             substeps_total += substeps as u64;
             let rate = substeps_total as f64 / started.elapsed().as_secs_f64().max(1e-9);
+            let status = format!("t = {:.3} s, {rate:.0} substeps/s", self.simulation.time());
+            if log_lines {
+                let elapsed = started.elapsed().as_secs_f64();
+                let eta = elapsed / (frame - first_frame) as f64 * (last_frame - frame) as f64;
+                eprintln!("frame {frame}/{last_frame}  {status}  ETA {eta:.0} s");
+            }
             progress.set_position(self.frame as u64);
-            progress.set_message(format!(
-                "t = {:.3} s, {rate:.0} substeps/s",
-                self.simulation.time()
-            ));
+            progress.set_message(status);
         }
         progress.finish_and_clear();
         self.write_checkpoint()?;

@@ -115,6 +115,31 @@ fn a_run_writes_caches_manifest_and_collection() {
 }
 
 #[test]
+fn progress_goes_to_logs_as_a_line_per_frame_unless_quiet() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write_scene(dir.path(), "small.toml", SMALL_SCENE);
+    let out = dir.path().join("out");
+    let output = firn(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(output.status.success());
+    let stderr = text(&output.stderr);
+    assert!(
+        stderr.contains("frame 1/4") && stderr.contains("frame 4/4"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("substeps/s") && stderr.contains("ETA"),
+        "{stderr}"
+    );
+    let quiet = run_into(&scene, &dir.path().join("quiet"));
+    assert!(text(&quiet.stderr).is_empty(), "{}", text(&quiet.stderr));
+}
+
+#[test]
 fn thread_count_does_not_change_the_bits() {
     let dir = tempfile::tempdir().unwrap();
     assert!(
