@@ -8,8 +8,8 @@ use std::path::PathBuf;
 
 use firn_core::Material;
 use firn_core::scene::{
-    Body, CacheFormat, Collider, ColliderGeometry, Contact, ContactMode, Domain, Motion,
-    OutputSettings, Scene, Shape, SolverSettings, TimeSettings, TimeStep, Transfer,
+    Body, CacheFormat, Camera, Collider, ColliderGeometry, Contact, ContactMode, Domain, Motion,
+    OutputSettings, RenderSettings, Scene, Shape, SolverSettings, TimeSettings, TimeStep, Transfer,
 };
 use firn_mpm::Simulation;
 use glam::Vec3;
@@ -72,6 +72,8 @@ fn main() -> Result<(), Box<dyn Error>> {
             attributes: Vec::new(),
             checkpoint_every: 0,
         },
+        camera: Camera::default(),
+        render: RenderSettings::default(),
     };
     // The same checks a scene file gets.
     scene.validate()?;

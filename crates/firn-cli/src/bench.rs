@@ -9,8 +9,8 @@ use std::time::Instant;
 use clap::{Args, ValueEnum};
 use firn_core::Material;
 use firn_core::scene::{
-    Body, CacheFormat, Contact, ContactMode, Domain, OutputSettings, Scene, Shape, SolverSettings,
-    TimeSettings, TimeStep, Transfer,
+    Body, CacheFormat, Camera, Contact, ContactMode, Domain, OutputSettings, RenderSettings, Scene,
+    Shape, SolverSettings, TimeSettings, TimeStep, Transfer,
 };
 use firn_mpm::Simulation;
 use glam::Vec3;
@@ -200,5 +200,7 @@ fn snowball_drop(particles: u32, grid: u32, transfer: Transfer) -> Scene {
             attributes: Vec::new(),
             checkpoint_every: 0,
         },
+        camera: Camera::default(),
+        render: RenderSettings::default(),
     }
 }

@@ -33,6 +33,7 @@ use super::model::{
     Keyframe, Motion, OutputSettings, Scene, Shape, SolverSettings, TimeSettings, TimeStep,
     Transfer,
 };
+use super::render::{Camera, CameraKey, ColorBy, Orbit, RenderSettings, RenderStyle};
 use super::sampling;
 
 /// The only scene format version this build reads.
@@ -618,6 +619,17 @@ fn example(leaf: &str) -> Option<&'static str> {
         "formats" => "formats = [\"ply\", \"vtk\"]",
         "attributes" => "attributes = [\"velocity\", \"plastic-j\", \"density\"]",
         "checkpoint_every" => "checkpoint_every = 10",
+        "look_at" => "look_at = [1.0, 0.3, 1.0]",
+        "fov" => "fov = 40.0",
+        "orbit" => "orbit = 30.0",
+        "path" => "path = [{ time = 0.0, position = [3.0, 1.0, 3.0], look_at = [1.0, 0.3, 1.0] }]",
+        "enabled" => "enabled = true",
+        "styles" => "styles = [\"points\", \"volume\"]",
+        "color_by" => "color_by = \"density\"",
+        "legend" => "legend = true",
+        "point_radius" => "point_radius = 0.005",
+        "trail_length" => "trail_length = 16",
+        "smooth_trails" => "smooth_trails = true",
         _ => return None,
     })
 }
@@ -665,6 +677,8 @@ struct RawScene {
     bodies: Option<Vec<RawBody>>,
     colliders: Option<Vec<RawCollider>>,
     output: Option<RawOutput>,
+    camera: Option<RawCamera>,
+    render: Option<RawRender>,
 }
 
 #[derive(Deserialize)]
@@ -795,6 +809,37 @@ struct RawOutput {
     formats: Option<Vec<RawFormat>>,
     attributes: Option<Vec<RawAttribute>>,
     checkpoint_every: Option<u32>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCamera {
+    position: Option<[f32; 3]>,
+    look_at: Option<[f32; 3]>,
+    fov: Option<f32>,
+    orbit: Option<f32>,
+    path: Option<Vec<RawCameraKey>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCameraKey {
+    time: Option<f64>,
+    position: Option<[f32; 3]>,
+    look_at: Option<[f32; 3]>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawRender {
+    enabled: Option<bool>,
+    styles: Option<Vec<RenderStyle>>,
+    size: Option<[u32; 2]>,
+    color_by: Option<ColorBy>,
+    legend: Option<bool>,
+    point_radius: Option<f32>,
+    trail_length: Option<u32>,
+    smooth_trails: Option<bool>,
 }
 
 #[derive(Clone, Copy, Deserialize)]
@@ -997,6 +1042,8 @@ fn resolve(raw: RawScene, origin: &str) -> Result<Scene, Issue> {
     }
 
     let output = resolve_output(raw.output, &name);
+    let camera = resolve_camera(raw.camera)?;
+    let render = resolve_render(raw.render);
     Ok(Scene {
         name,
         domain,
@@ -1006,6 +1053,8 @@ fn resolve(raw: RawScene, origin: &str) -> Result<Scene, Issue> {
         bodies,
         colliders,
         output,
+        camera,
+        render,
     })
 }
 
@@ -1328,6 +1377,56 @@ fn resolve_output(raw: Option<RawOutput>, name: &str) -> OutputSettings {
     }
 }
 
+fn resolve_camera(raw: Option<RawCamera>) -> Result<Camera, Issue> {
+    let Some(raw) = raw else {
+        return Ok(Camera::default());
+    };
+    let defaults = Camera::default();
+    let mut path = Vec::new();
+    for (index, key) in raw.path.unwrap_or_default().into_iter().enumerate() {
+        let at = KeyPath::of("camera").key("path").index(index);
+        path.push(CameraKey {
+            time: require(key.time, at.key("time"), "the simulated time of this view")?,
+            position: vec3(require(
+                key.position,
+                at.key("position"),
+                "the eye position",
+            )?),
+            look_at: vec3(require(
+                key.look_at,
+                at.key("look_at"),
+                "the point looked at",
+            )?),
+        });
+    }
+    Ok(Camera {
+        position: raw.position.map(vec3),
+        look_at: raw.look_at.map(vec3),
+        fov_degrees: raw.fov.unwrap_or(defaults.fov_degrees),
+        orbit: raw
+            .orbit
+            .map(|degrees_per_second| Orbit { degrees_per_second }),
+        path,
+    })
+}
+
+fn resolve_render(raw: Option<RawRender>) -> RenderSettings {
+    let defaults = RenderSettings::default();
+    let Some(raw) = raw else {
+        return defaults;
+    };
+    RenderSettings {
+        enabled: raw.enabled.unwrap_or(defaults.enabled),
+        styles: raw.styles.unwrap_or(defaults.styles),
+        size: raw.size.unwrap_or(defaults.size),
+        color_by: raw.color_by.unwrap_or(defaults.color_by),
+        legend: raw.legend.unwrap_or(defaults.legend),
+        point_radius: raw.point_radius,
+        trail_length: raw.trail_length.unwrap_or(defaults.trail_length),
+        smooth_trails: raw.smooth_trails.unwrap_or(defaults.smooth_trails),
+    }
+}
+
 // ---------------------------------------------------------------------------
 // Checks on the model
 // ---------------------------------------------------------------------------
@@ -1362,7 +1461,9 @@ fn check_scene(scene: &Scene) -> Check {
     for (index, collider) in scene.colliders.iter().enumerate() {
         check_collider(&KeyPath::of("colliders").index(index), collider)?;
     }
-    check_output(&scene.output)
+    check_output(&scene.output)?;
+    check_camera(&scene.camera)?;
+    check_render(&scene.render)
 }
 
 /// `value` must satisfy `ok`; else "`path` must be `rule` (got value)".
@@ -1881,6 +1982,97 @@ fn check_output(output: &OutputSettings) -> Check {
         ));
     }
     Ok(())
+}
+
+fn check_camera(camera: &Camera) -> Check {
+    let path = KeyPath::of("camera");
+    if let Some(position) = camera.position {
+        finite_vec(position, path.key("position"))?;
+    }
+    if let Some(look_at) = camera.look_at {
+        finite_vec(look_at, path.key("look_at"))?;
+    }
+    if let (Some(position), Some(look_at)) = (camera.position, camera.look_at) {
+        ensure(
+            position.distance(look_at) > 0.0,
+            path.key("look_at"),
+            "away from camera.position",
+            format_vec(look_at),
+            "look at a point in front of the camera, e.g. the centre of the snow".to_string(),
+        )?;
+    }
+    ensure(
+        camera.fov_degrees > 1.0 && camera.fov_degrees < 170.0,
+        path.key("fov"),
+        "between 1 and 170 degrees",
+        Num::from(camera.fov_degrees),
+        "use a vertical field of view such as fov = 40".to_string(),
+    )?;
+    if let Some(orbit) = camera.orbit {
+        ensure(
+            orbit.degrees_per_second.is_finite(),
+            path.key("orbit"),
+            "a finite number of degrees per second",
+            Num::from(orbit.degrees_per_second),
+            "e.g. orbit = 30.0".to_string(),
+        )?;
+    }
+    for (index, key) in camera.path.iter().enumerate() {
+        let at = path.key("path").index(index);
+        finite_vec(key.position, at.key("position"))?;
+        finite_vec(key.look_at, at.key("look_at"))?;
+        ensure(
+            key.position.distance(key.look_at) > 0.0,
+            at.key("look_at"),
+            "away from the eye position",
+            format_vec(key.look_at),
+            "look at a point in front of the camera".to_string(),
+        )?;
+        if index > 0 {
+            ensure(
+                key.time > camera.path[index - 1].time,
+                at.key("time"),
+                "later than the previous key's time",
+                Num::from(key.time),
+                "list the camera path keys in increasing time".to_string(),
+            )?;
+        }
+    }
+    Ok(())
+}
+
+fn check_render(render: &RenderSettings) -> Check {
+    let path = KeyPath::of("render");
+    let [width, height] = render.size;
+    ensure(
+        (16..=8192).contains(&width) && (16..=8192).contains(&height),
+        path.key("size"),
+        "between 16 and 8192 pixels on each side",
+        format!("[{width}, {height}]"),
+        "e.g. size = [960, 540]".to_string(),
+    )?;
+    if let Some(index) = first_duplicate(&render.styles) {
+        let at = path.key("styles").index(index);
+        return Err(Issue::new(
+            at.clone(),
+            format!("{at} lists a style twice"),
+            "list each style once, e.g. styles = [\"points\", \"volume\"]",
+        ));
+    }
+    if let Some(radius) = render.point_radius {
+        positive(
+            radius,
+            path.key("point_radius"),
+            "give the sprite radius in metres, e.g. point_radius = 0.005".to_string(),
+        )?;
+    }
+    ensure(
+        (2..=256).contains(&render.trail_length),
+        path.key("trail_length"),
+        "between 2 and 256 positions",
+        render.trail_length,
+        "e.g. trail_length = 16".to_string(),
+    )
 }
 
 /// Index of the first element equal to an earlier one.

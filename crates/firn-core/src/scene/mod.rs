@@ -3,13 +3,15 @@
 //! [`model`] holds the plain data types a program can build in code;
 //! [`mod@format`] reads them from TOML scene files (`format = 1`) and reports bad
 //! input with file, line, column and a fix; [`sampling`] turns bodies of snow
-//! into particles.
+//! into particles; [`render`] holds the camera and the picture settings.
 
 pub mod format;
 pub mod material;
 pub mod model;
+pub mod render;
 pub mod sampling;
 
 pub use format::SceneError;
 pub use material::Material;
 pub use model::*;
+pub use render::*;

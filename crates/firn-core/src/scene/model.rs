@@ -9,6 +9,7 @@ use glam::Vec3;
 use serde::Serialize;
 
 use super::material::Material;
+use super::render::{Camera, RenderSettings};
 
 /// A complete snow scene, resolved: presets expanded, defaults filled in.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -29,6 +30,10 @@ pub struct Scene {
     pub colliders: Vec<Collider>,
     /// Where and what to write.
     pub output: OutputSettings,
+    /// Where the pictures are taken from.
+    pub camera: Camera,
+    /// What pictures are made.
+    pub render: RenderSettings,
 }
 
 /// The axis-aligned simulation box, its grid spacing and its walls.

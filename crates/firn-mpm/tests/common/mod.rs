@@ -6,8 +6,8 @@ use std::path::PathBuf;
 
 use firn_core::Material;
 use firn_core::scene::{
-    Body, CacheFormat, Collider, Contact, ContactMode, Domain, OutputSettings, Scene, Shape,
-    SolverSettings, TimeSettings, TimeStep, Transfer,
+    Body, CacheFormat, Camera, Collider, Contact, ContactMode, Domain, OutputSettings,
+    RenderSettings, Scene, Shape, SolverSettings, TimeSettings, TimeStep, Transfer,
 };
 use glam::Vec3;
 
@@ -49,6 +49,8 @@ pub fn scene_with(body: Shape, velocity: Vec3, transfer: Transfer, cell_size: f3
             attributes: Vec::new(),
             checkpoint_every: 0,
         },
+        camera: Camera::default(),
+        render: RenderSettings::default(),
     }
 }
 
