@@ -8,8 +8,9 @@ use std::path::PathBuf;
 
 use firn_core::Material;
 use firn_core::scene::{
-    Body, CacheFormat, Camera, Collider, ColliderGeometry, Contact, ContactMode, Domain, Motion,
-    OutputSettings, RenderSettings, Scene, Shape, SolverSettings, TimeSettings, TimeStep, Transfer,
+    Body, CacheFormat, Camera, Collider, ColliderGeometry, Contact, ContactMode, Domain,
+    Integrator, Motion, OutputSettings, RenderSettings, Scene, SceneKind, Shape, SolverSettings,
+    TimeSettings, TimeStep, Transfer,
 };
 use firn_mpm::Simulation;
 use glam::Vec3;
@@ -42,6 +43,7 @@ fn main() -> Result<(), Box<dyn Error>> {
             flip_blend: 0.95,
             gravity: Vec3::new(0.0, -9.81, 0.0),
             seed: 1,
+            integrator: Integrator::Explicit,
         },
         materials: vec![wet],
         bodies: vec![Body {
@@ -74,6 +76,7 @@ fn main() -> Result<(), Box<dyn Error>> {
         },
         camera: Camera::default(),
         render: RenderSettings::default(),
+        kind: SceneKind::Snow,
     };
     // The same checks a scene file gets.
     scene.validate()?;

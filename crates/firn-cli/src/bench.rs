@@ -2,6 +2,10 @@
 //! dropped on the ground (§6.2), sized to match the peer benchmark
 //! (`taichi_mpm3d.py --shape ball`): a ball of 0.3 m diameter at
 //! (0.5, 0.6, 0.5) in the unit box, Stomakhin's snow, Δt = 0.0128 h.
+//!
+//! With `--scene FILE` it runs a scene file instead, for a stretch of simulated
+//! time, and reports wall-clock seconds per simulated second: the measure that
+//! compares integrators, whose substeps differ in length and cost.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -9,14 +13,16 @@ use std::time::Instant;
 use clap::{Args, ValueEnum};
 use firn_core::Material;
 use firn_core::scene::{
-    Body, CacheFormat, Camera, Contact, ContactMode, Domain, OutputSettings, RenderSettings, Scene,
-    Shape, SolverSettings, TimeSettings, TimeStep, Transfer,
+    Body, CacheFormat, Camera, Contact, ContactMode, Domain, ImplicitSettings, Integrator,
+    OutputSettings, RenderSettings, Scene, SceneKind, Shape, SolverSettings, TimeSettings,
+    TimeStep, Transfer,
 };
 use firn_mpm::Simulation;
 use glam::Vec3;
 use serde::Serialize;
 
 use crate::Failure;
+use crate::bench_render::bench_render;
 
 /// Arguments of `firn bench`.
 #[derive(Args, Debug)]
@@ -42,6 +48,49 @@ pub struct BenchArgs {
     /// Where to write the JSON record.
     #[arg(long, default_value = "bench.json")]
     pub json: PathBuf,
+    /// Run this scene file instead and report wall-clock seconds per
+    /// simulated second (--particles, --grid, --transfer, --steps and
+    /// --warmup do not apply).
+    #[arg(long)]
+    pub scene: Option<PathBuf>,
+    /// With --scene: simulated seconds to run (default: the scene's duration).
+    #[arg(long, requires = "scene")]
+    pub duration: Option<f64>,
+    /// With --scene: the time integrator (default: the scene's).
+    #[arg(long, value_enum, requires = "scene")]
+    pub integrator: Option<IntegratorChoice>,
+    /// With --scene: a fixed substep Δt in seconds (default: the scene's step).
+    #[arg(long, requires = "scene")]
+    pub dt: Option<f32>,
+    /// Measure the renderer instead: `points` on the snowball of the first
+    /// --particles count, `volume` on the bundled default scene.
+    #[arg(long)]
+    pub render: bool,
+    /// With --render: picture size in pixels, WIDTH,HEIGHT.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "1920,1080",
+        requires = "render"
+    )]
+    pub size: Vec<u32>,
+    /// With --render: timed pictures per style.
+    #[arg(long, default_value_t = 3, requires = "render")]
+    pub repeats: u32,
+    /// Measure the curl-noise particle flow instead (seed 002): --particles,
+    /// --steps and --warmup apply; see bench_flow.rs.
+    #[arg(long)]
+    pub flow: bool,
+}
+
+/// Time integrators for `--scene`.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum IntegratorChoice {
+    /// Forward Euler on the grid velocities.
+    Explicit,
+    /// Stomakhin's semi-implicit update (the scene's β and solver settings,
+    /// else the defaults).
+    SemiImplicit,
 }
 
 /// Which transfer schemes to benchmark.
@@ -71,6 +120,27 @@ struct BenchRecord {
     center_of_mass_y: f64,
 }
 
+/// One `--scene` run.
+#[derive(Debug, Serialize)]
+struct SceneRecord {
+    scene: String,
+    integrator: &'static str,
+    transfer: Transfer,
+    time_step: TimeStep,
+    particles: usize,
+    simulated_seconds: f64,
+    substeps: u64,
+    wall_seconds: f64,
+    wall_seconds_per_simulated_second: f64,
+    ns_per_particle_substep: f64,
+    mean_substep_dt: f64,
+    mean_solver_iterations: Option<f64>,
+    max_solver_iterations: Option<u32>,
+    unconverged_solves: Option<u64>,
+    worst_solver_residual: Option<f32>,
+    threads: usize,
+}
+
 /// Runs every configuration and writes the JSON record.
 pub fn bench(args: BenchArgs) -> Result<(), Failure> {
     if let Some(count) = args.threads {
@@ -80,6 +150,23 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
             .map_err(|error| {
                 Failure::Failed(format!("error: cannot start {count} threads: {error}"))
             })?;
+    }
+    if args.render {
+        let particles = args.particles.first().copied().unwrap_or(262_144);
+        let size = <[u32; 2]>::try_from(args.size.as_slice()).map_err(|_| {
+            Failure::BadInput(
+                "error: --size takes two numbers\n  fix: pass WIDTH,HEIGHT, e.g. --size 1920,1080"
+                    .into(),
+            )
+        })?;
+        return bench_render(particles, size, args.repeats, &args.json);
+    }
+    if args.flow {
+        return crate::bench_flow::bench_flow(&args);
+    }
+    if let Some(path) = &args.scene {
+        let record = measure_scene(path, &args)?;
+        return write_json(&args.json, &[record]);
     }
     let transfers: &[Transfer] = match args.transfer {
         TransferChoice::PicFlip => &[Transfer::PicFlip],
@@ -107,12 +194,101 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
             }
         }
     }
-    let json = serde_json::to_string_pretty(&records)
+    write_json(&args.json, &records)
+}
+
+pub fn write_json(path: &std::path::Path, records: &[impl Serialize]) -> Result<(), Failure> {
+    let json = serde_json::to_string_pretty(records)
         .map_err(|error| Failure::Failed(error.to_string()))?;
-    firn_io::write_atomically(&args.json, |out| out.write_all(json.as_bytes()))
+    firn_io::write_atomically(path, |out| out.write_all(json.as_bytes()))
         .map_err(|error| Failure::BadInput(format!("error: {error}")))?;
-    println!("wrote {}", args.json.display());
+    println!("wrote {}", path.display());
     Ok(())
+}
+
+/// The scene file with the command line's overrides, validated.
+fn bench_scene(path: &std::path::Path, args: &BenchArgs) -> Result<Scene, Failure> {
+    let mut scene = Scene::load(path).map_err(|error| Failure::BadInput(error.to_string()))?;
+    if let Some(duration) = args.duration {
+        scene.time.duration = duration;
+    }
+    if let Some(dt) = args.dt {
+        scene.time.step = TimeStep::Fixed { dt };
+    }
+    scene.solver.integrator = match (args.integrator, scene.solver.integrator) {
+        (None, integrator) => integrator,
+        (Some(IntegratorChoice::Explicit), _) => Integrator::Explicit,
+        (Some(IntegratorChoice::SemiImplicit), Integrator::SemiImplicit(settings)) => {
+            Integrator::SemiImplicit(settings)
+        }
+        (Some(IntegratorChoice::SemiImplicit), Integrator::Explicit) => {
+            Integrator::SemiImplicit(ImplicitSettings::DEFAULT)
+        }
+    };
+    scene
+        .validate()
+        .map_err(|error| Failure::BadInput(format!("{}: {error}", path.display())))?;
+    Ok(scene)
+}
+
+/// Runs a scene file for its duration and times it.
+fn measure_scene(path: &std::path::Path, args: &BenchArgs) -> Result<SceneRecord, Failure> {
+    let scene = bench_scene(path, args)?;
+    let (duration, time_step) = (scene.time.duration, scene.time.step.clone());
+    let (transfer, integrator) = (scene.solver.transfer, scene.solver.integrator);
+    let mut simulation =
+        Simulation::new(scene).map_err(|error| Failure::Failed(format!("error: {error}")))?;
+    let started = Instant::now();
+    simulation
+        .advance_to(duration)
+        .map_err(|error| Failure::Failed(format!("error: {error}")))?;
+    let wall_seconds = started.elapsed().as_secs_f64();
+    let substeps = simulation.steps();
+    let particles = simulation.particles().len();
+    let solver = simulation.solver_stats();
+    let record = SceneRecord {
+        scene: path.display().to_string(),
+        integrator: match integrator {
+            Integrator::Explicit => "explicit",
+            Integrator::SemiImplicit(_) => "semi-implicit",
+        },
+        transfer,
+        time_step,
+        particles,
+        simulated_seconds: duration,
+        substeps,
+        wall_seconds,
+        wall_seconds_per_simulated_second: wall_seconds / duration,
+        ns_per_particle_substep: wall_seconds * 1e9 / (substeps.max(1) as f64 * particles as f64),
+        mean_substep_dt: duration / substeps.max(1) as f64,
+        mean_solver_iterations: solver.map(|stats| stats.mean_iterations()),
+        max_solver_iterations: solver.map(|stats| stats.max_iterations),
+        unconverged_solves: solver.map(|stats| stats.unconverged_steps),
+        worst_solver_residual: solver.map(|stats| stats.worst_residual),
+        threads: rayon::current_num_threads(),
+    };
+    let iterations = match (record.mean_solver_iterations, record.max_solver_iterations) {
+        (Some(mean), Some(max)) => format!(
+            " mean_iterations={mean:.1} max_iterations={max} unconverged={}",
+            record.unconverged_solves.unwrap_or(0)
+        ),
+        _ => String::new(),
+    };
+    println!(
+        "firn scene={} integrator={} transfer={} particles={} simulated_s={} substeps={} mean_dt={:.3e} wall_s={:.3} wall_s_per_simulated_s={:.2} ns_per_particle_step={:.1}{iterations} threads={}",
+        record.scene,
+        record.integrator,
+        transfer_name(transfer),
+        particles,
+        duration,
+        substeps,
+        record.mean_substep_dt,
+        wall_seconds,
+        record.wall_seconds_per_simulated_second,
+        record.ns_per_particle_substep,
+        record.threads
+    );
+    Ok(record)
 }
 
 fn transfer_name(transfer: Transfer) -> &'static str {
@@ -156,7 +332,7 @@ fn measure(scene: Scene, grid: u32, args: &BenchArgs) -> Result<BenchRecord, Fai
 }
 
 /// The benchmark scene with about `particles` particles on a `grid`³ grid.
-fn snowball_drop(particles: u32, grid: u32, transfer: Transfer) -> Scene {
+pub fn snowball_drop(particles: u32, grid: u32, transfer: Transfer) -> Scene {
     let h = 1.0 / grid as f32;
     let radius = 0.15;
     let ball_cells = 4.0 / 3.0 * std::f32::consts::PI * radius * radius * radius / (h * h * h);
@@ -182,6 +358,7 @@ fn snowball_drop(particles: u32, grid: u32, transfer: Transfer) -> Scene {
             flip_blend: 0.95,
             gravity: Vec3::new(0.0, -9.8, 0.0),
             seed: 1,
+            integrator: Integrator::Explicit,
         },
         materials: vec![Material::preset("snow").expect("the snow preset exists")],
         bodies: vec![Body {
@@ -202,5 +379,6 @@ fn snowball_drop(particles: u32, grid: u32, transfer: Transfer) -> Scene {
         },
         camera: Camera::default(),
         render: RenderSettings::default(),
+        kind: SceneKind::Snow,
     }
 }

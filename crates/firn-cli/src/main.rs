@@ -1,9 +1,13 @@
 //! The `firn` command: run, check and benchmark snow simulations.
 
 mod bench;
+mod bench_flow;
+mod bench_render;
 mod check;
 mod frames;
+mod pictures;
 mod presets;
+mod render;
 mod run;
 mod scene_source;
 
@@ -34,6 +38,8 @@ enum Command {
     Presets,
     /// Measure solver speed on a snowball-drop scene.
     Bench(bench::BenchArgs),
+    /// Re-render a run's frames from its caches (other styles, camera or size).
+    Render(render::RenderArgs),
 }
 
 /// A failure, classified for the exit code.
@@ -55,6 +61,7 @@ fn main() -> ExitCode {
             Ok(())
         }
         Command::Bench(args) => bench::bench(args),
+        Command::Render(args) => render::render(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -10,12 +10,14 @@ use clap::Args;
 use firn_core::Scene;
 use firn_io::{FrameRecord, Manifest, PvdCollection, RunStatus, ensure_writable_dir};
 use firn_mpm::Simulation;
+use firn_render::scene_view::FrameParticles;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use crate::Failure;
 use crate::frames::{
-    prepare_cache_dirs, read_checkpoint, scene_json, write_checkpoint, write_frame,
+    color_values, prepare_cache_dirs, read_checkpoint, scene_json, write_checkpoint, write_frame,
 };
+use crate::pictures::{prepare_image_dirs, render_frame, write_animations};
 use crate::scene_source::load_scene;
 
 /// Arguments of `firn run`.
@@ -38,18 +40,24 @@ pub struct RunArgs {
     /// Print nothing but errors and the final summary line.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Write caches only: no pictures and no animation.
+    #[arg(long)]
+    pub no_render: bool,
 }
 
 /// File name of the checkpoint inside the output directory.
 const CHECKPOINT_FILE: &str = "checkpoint.firnckpt";
 /// File name of the manifest inside the output directory.
-const MANIFEST_FILE: &str = "manifest.json";
+pub const MANIFEST_FILE: &str = "manifest.json";
 
 /// Runs the simulation described by `args`.
 pub fn run(args: RunArgs) -> Result<(), Failure> {
     let (mut scene, scene_file) = load_scene(args.scene.as_deref())?;
     if let Some(out) = &args.out {
         scene.output.directory = out.clone();
+    }
+    if args.no_render {
+        scene.render.enabled = false;
     }
     let threads = configure_threads(args.threads)?;
     let directory = scene.output.directory.clone();
@@ -60,6 +68,9 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
             "error: {error}\n  fix: choose a writable directory with --out DIR or [output] directory"
         ))
     })?;
+    if scene.render.enabled {
+        prepare_image_dirs(&scene, &directory)?;
+    }
     let last_frame = scene
         .time
         .frame_count()
@@ -123,6 +134,7 @@ impl RunState {
             grid_cells: cells,
             frames: Vec::new(),
             status: RunStatus::Running,
+            animations: Vec::new(),
         };
         let mut state = RunState {
             simulation,
@@ -218,6 +230,7 @@ impl RunState {
             progress.set_message(status);
         }
         progress.finish_and_clear();
+        self.write_animations(quiet)?;
         self.write_checkpoint()?;
         if last_frame >= self.simulation.scene().time.frame_count() {
             self.manifest.status = RunStatus::Finished;
@@ -238,6 +251,7 @@ impl RunState {
     fn record_frame(&mut self, index: u32, substeps: u32, wall: Duration) -> Result<(), Failure> {
         let files = write_frame(&self.simulation, index, &self.directory, &mut self.pvd)
             .map_err(|error| self.fail(format!("error: {error}")))?;
+        let images = self.render_frame(index)?;
         let particles = self.simulation.particles().len().max(1) as f64;
         let wall_seconds = wall.as_secs_f64();
         self.manifest.record_frame(FrameRecord {
@@ -251,6 +265,7 @@ impl RunState {
                 0.0
             },
             files,
+            images,
         });
         self.frame = index;
         let every = self.simulation.scene().output.checkpoint_every;
@@ -258,6 +273,36 @@ impl RunState {
             self.write_checkpoint()?;
         }
         self.write_manifest()
+    }
+
+    /// Renders the current state in every style of the scene, if rendering is on.
+    fn render_frame(&mut self, index: u32) -> Result<Vec<String>, Failure> {
+        let scene = self.simulation.scene();
+        if !scene.render.enabled {
+            return Ok(Vec::new());
+        }
+        let particles = self.simulation.particles();
+        let values = color_values(&self.simulation, scene.render.color_by);
+        let frame = FrameParticles {
+            positions: &particles.position,
+            masses: Some(&particles.mass),
+            values: values.as_deref(),
+            trails: None,
+        };
+        render_frame(scene, &self.directory, index, self.simulation.time(), frame)
+            .map_err(|error| self.fail(format!("error: {error}")))
+    }
+
+    /// Writes the animations of all frames rendered so far.
+    fn write_animations(&mut self, quiet: bool) -> Result<(), Failure> {
+        let scene = self.simulation.scene();
+        if !scene.render.enabled {
+            return Ok(());
+        }
+        let frames: Vec<u32> = self.manifest.frames.iter().map(|f| f.index).collect();
+        self.manifest.animations = write_animations(scene, &self.directory, &frames, quiet)
+            .map_err(|error| self.fail(format!("error: {error}")))?;
+        Ok(())
     }
 
     fn write_checkpoint(&mut self) -> Result<(), Failure> {
@@ -301,7 +346,7 @@ impl RunState {
 }
 
 /// A progress bar showing frame, simulated time, substeps/s and ETA.
-fn progress_bar(last_frame: u32, first_frame: u32, quiet: bool) -> ProgressBar {
+pub fn progress_bar(last_frame: u32, first_frame: u32, quiet: bool) -> ProgressBar {
     let bar = ProgressBar::with_draw_target(
         Some(last_frame as u64),
         if quiet {

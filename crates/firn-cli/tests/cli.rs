@@ -351,3 +351,37 @@ fn the_bundled_default_scene_checks() {
     assert!(output.status.success(), "{}", text(&output.stderr));
     assert!(text(&output.stdout).contains("snowball-wall"));
 }
+
+#[test]
+fn bench_times_a_scene_file_with_either_integrator() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write_scene(dir.path(), "small.toml", SMALL_SCENE);
+    let json = dir.path().join("bench.json");
+    let output = firn(&[
+        "bench",
+        "--scene",
+        scene.to_str().unwrap(),
+        "--duration",
+        "0.02",
+        "--integrator",
+        "semi-implicit",
+        "--dt",
+        "2e-3",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    assert!(text(&output.stdout).contains("mean_iterations="));
+    let records: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(&json).unwrap()).unwrap();
+    let record = &records[0];
+    assert_eq!(record["integrator"], "semi-implicit");
+    assert_eq!(record["substeps"], 10);
+    assert!(record["mean_solver_iterations"].as_f64().is_some());
+    assert!(
+        record["wall_seconds_per_simulated_second"]
+            .as_f64()
+            .unwrap()
+            > 0.0
+    );
+}

@@ -599,3 +599,46 @@ fn unreadable_file() {
     );
     assert!(shown.ends_with("\n  fix: check the path"), "{shown}");
 }
+
+#[test]
+fn implicit_solver_keys_need_the_semi_implicit_integrator() {
+    let err = error(&format!(
+        "{HEAD}{SPHERE}\n[solver]\nsolver_tolerance = 1e-4\n"
+    ));
+    check(
+        &err,
+        15,
+        20,
+        Some("solver.solver_tolerance"),
+        "integrator = \"semi-implicit\"",
+    );
+}
+
+#[test]
+fn implicit_beta_range() {
+    let err = error(&format!(
+        "{HEAD}{SPHERE}\n[solver]\nintegrator = \"semi-implicit\"\nimplicit_beta = 1.5\n"
+    ));
+    check(
+        &err,
+        16,
+        17,
+        Some("solver.implicit_beta"),
+        "implicit_beta = 0.5",
+    );
+    assert!(err.message.contains("in [0, 1] (got 1.5)"), "{err}");
+}
+
+#[test]
+fn misspelled_integrator() {
+    let err = error(&format!(
+        "{HEAD}{SPHERE}\n[solver]\nintegrator = \"semi_implicit\"\n"
+    ));
+    check(
+        &err,
+        15,
+        14,
+        Some("solver.integrator"),
+        "did you mean \"semi-implicit\"?",
+    );
+}

@@ -445,3 +445,28 @@ bodies = [
     );
     assert_eq!(scene.bodies.len(), 1);
 }
+
+#[test]
+fn the_integrator_is_explicit_unless_asked() {
+    use firn_core::scene::{ImplicitSettings, Integrator};
+    assert_eq!(load(MINIMAL).solver.integrator, Integrator::Explicit);
+    let defaults = load(&format!(
+        "{MINIMAL}\n[solver]\nintegrator = \"semi-implicit\"\n"
+    ));
+    assert_eq!(
+        defaults.solver.integrator,
+        Integrator::SemiImplicit(ImplicitSettings::DEFAULT)
+    );
+    let chosen = load(&format!(
+        "{MINIMAL}\n[solver]\nintegrator = \"semi-implicit\"\nimplicit_beta = 1.0\n\
+         solver_tolerance = 1e-4\nsolver_max_iterations = 250\n"
+    ));
+    assert_eq!(
+        chosen.solver.integrator,
+        Integrator::SemiImplicit(ImplicitSettings {
+            beta: 1.0,
+            tolerance: 1e-4,
+            max_iterations: 250
+        })
+    );
+}

@@ -31,6 +31,9 @@ pub struct Manifest {
     pub frames: Vec<FrameRecord>,
     /// Whether the run is still going, finished or failed.
     pub status: RunStatus,
+    /// Animated previews of the whole run (GIF, MP4), relative to the manifest.
+    #[serde(default)]
+    pub animations: Vec<String>,
 }
 
 /// What one output frame took and produced.
@@ -49,8 +52,11 @@ pub struct FrameRecord {
     /// Cost per particle per substep in nanoseconds, the throughput figure.
     #[serde(deserialize_with = "null_as_nan")]
     pub ns_per_particle_substep: f64,
-    /// This frame's outputs (caches, images), relative to the manifest.
+    /// This frame's caches, relative to the manifest.
     pub files: Vec<String>,
+    /// This frame's pictures, one per render style, relative to the manifest.
+    #[serde(default)]
+    pub images: Vec<String>,
 }
 
 /// The state of a run, as recorded in its manifest.
@@ -115,6 +121,7 @@ mod tests {
             wall_seconds: 1.25,
             ns_per_particle_substep: 85.5,
             files: vec![format!("frames/frame_{index:04}.ply")],
+            images: vec![format!("images/points/frame_{index:05}.png")],
         }
     }
 
@@ -131,6 +138,7 @@ mod tests {
             status: RunStatus::Failed {
                 message: "out of memory".into(),
             },
+            animations: vec!["images/points.gif".into()],
         }
     }
 

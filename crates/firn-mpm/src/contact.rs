@@ -20,29 +20,101 @@ pub fn apply_contact(
     normal: Vec3,
     contact: Contact,
 ) -> Vec3 {
+    contact_response(velocity, collider_velocity, normal, contact).0
+}
+
+/// [`apply_contact`], plus which velocity components the contact fixed: the
+/// semi-implicit solve keeps those fixed ([`crate::implicit`]).
+#[inline(always)]
+pub fn contact_response(
+    velocity: Vec3,
+    collider_velocity: Vec3,
+    normal: Vec3,
+    contact: Contact,
+) -> (Vec3, Constraint) {
     let relative = velocity - collider_velocity;
     let normal_speed = relative.dot(normal);
     let tangential = relative - normal * normal_speed;
     match contact.mode {
-        ContactMode::Sticky => collider_velocity,
-        ContactMode::Separate if normal_speed >= 0.0 => velocity,
-        ContactMode::Slip if normal_speed >= 0.0 => collider_velocity + tangential,
+        ContactMode::Sticky => (collider_velocity, Constraint::Fixed),
+        ContactMode::Separate if normal_speed >= 0.0 => (velocity, Constraint::Free),
+        ContactMode::Slip if normal_speed >= 0.0 => {
+            (collider_velocity + tangential, Constraint::Normal(normal))
+        }
         ContactMode::Separate | ContactMode::Slip => {
-            collider_velocity + with_friction(tangential, normal_speed, contact.friction)
+            match with_friction(tangential, normal_speed, contact.friction) {
+                Some(sliding) => (collider_velocity + sliding, Constraint::Normal(normal)),
+                None => (collider_velocity, Constraint::Fixed),
+            }
         }
     }
 }
 
 /// Coulomb friction on the tangential velocity for an approach speed
-/// `normal_speed` < 0.
+/// `normal_speed` < 0: the reduced tangential velocity, or `None` when
+/// friction makes the snow stick.
 #[inline(always)]
-fn with_friction(tangential: Vec3, normal_speed: f32, friction: f32) -> Vec3 {
+fn with_friction(tangential: Vec3, normal_speed: f32, friction: f32) -> Option<Vec3> {
     let length = tangential.length();
     let limit = -friction * normal_speed;
-    if length <= limit {
-        Vec3::ZERO
-    } else {
-        tangential * (1.0 - limit / length)
+    (length > limit).then(|| tangential * (1.0 - limit / length))
+}
+
+/// The velocity components of a grid node that contacts fix; the rest are
+/// free. Applied as an orthogonal projection P_i (Baraff and Witkin's filter),
+/// so that the semi-implicit solve works on the free subspace only.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Constraint {
+    /// No contact: every component is free.
+    #[default]
+    Free,
+    /// The component along this unit normal is fixed.
+    Normal(Vec3),
+    /// Only the component along this unit direction is free (two contacts).
+    Line(Vec3),
+    /// Every component is fixed (sticky, sticking by friction, or no mass).
+    Fixed,
+}
+
+impl Constraint {
+    /// The constraint after a further contact fixes `other` as well.
+    #[inline(always)]
+    pub fn and(self, other: Constraint) -> Constraint {
+        // Directions closer than this (|sin| of the angle) count as the same.
+        const PARALLEL: f32 = 1e-3;
+        match (self, other) {
+            (Constraint::Free, c) | (c, Constraint::Free) => c,
+            (Constraint::Fixed, _) | (_, Constraint::Fixed) => Constraint::Fixed,
+            (Constraint::Normal(a), Constraint::Normal(b)) => {
+                let free = a.cross(b);
+                let length = free.length();
+                if length < PARALLEL {
+                    Constraint::Normal(a)
+                } else {
+                    Constraint::Line(free / length)
+                }
+            }
+            (Constraint::Line(d), Constraint::Normal(n))
+            | (Constraint::Normal(n), Constraint::Line(d)) => {
+                if d.dot(n).abs() < PARALLEL {
+                    Constraint::Line(d)
+                } else {
+                    Constraint::Fixed
+                }
+            }
+            (Constraint::Line(_), Constraint::Line(_)) => Constraint::Fixed,
+        }
+    }
+
+    /// P_i v: `velocity` with its fixed components removed.
+    #[inline(always)]
+    pub fn project(self, velocity: Vec3) -> Vec3 {
+        match self {
+            Constraint::Free => velocity,
+            Constraint::Normal(n) => velocity - n * n.dot(velocity),
+            Constraint::Line(d) => d * d.dot(velocity),
+            Constraint::Fixed => Vec3::ZERO,
+        }
     }
 }
 
@@ -61,11 +133,17 @@ impl PlacedCollider {
     /// Applies the contact law if `point` is inside (or on) the collider.
     #[inline(always)]
     pub fn collide(&self, point: Vec3, velocity: Vec3) -> Vec3 {
+        self.collide_constrained(point, velocity).0
+    }
+
+    /// [`PlacedCollider::collide`], plus the components the contact fixed.
+    #[inline(always)]
+    pub fn collide_constrained(&self, point: Vec3, velocity: Vec3) -> (Vec3, Constraint) {
         let (distance, normal) = self.geometry.signed_distance(point);
         if distance <= 0.0 {
-            apply_contact(velocity, self.velocity, normal, self.contact)
+            contact_response(velocity, self.velocity, normal, self.contact)
         } else {
-            velocity
+            (velocity, Constraint::Free)
         }
     }
 }
@@ -119,6 +197,22 @@ pub fn collide_all(colliders: &[PlacedCollider], point: Vec3, mut velocity: Vec3
         velocity = collider.collide(point, velocity);
     }
     velocity
+}
+
+/// [`collide_all`], plus every component that some contact fixed.
+#[inline(always)]
+pub fn collide_all_constrained(
+    colliders: &[PlacedCollider],
+    point: Vec3,
+    mut velocity: Vec3,
+) -> (Vec3, Constraint) {
+    let mut constraint = Constraint::Free;
+    for collider in colliders {
+        let (collided, fixed) = collider.collide_constrained(point, velocity);
+        velocity = collided;
+        constraint = constraint.and(fixed);
+    }
+    (velocity, constraint)
 }
 
 #[cfg(test)]
@@ -231,5 +325,54 @@ mod tests {
             ball.collide(Vec3::new(0.9, 0.0, 0.0), towards_centre),
             Vec3::ZERO
         ));
+    }
+
+    #[test]
+    fn contacts_report_the_components_they_fix() {
+        let response = |velocity: Vec3, mode, friction| {
+            contact_response(velocity, Vec3::ZERO, UP, contact(mode, friction)).1
+        };
+        let sliding = Vec3::new(3.0, -1.0, 0.0);
+        let stuck = Vec3::new(0.1, -1.0, 0.0);
+        let leaving = Vec3::new(1.0, 1.0, 0.0);
+        assert_eq!(
+            response(sliding, ContactMode::Sticky, 0.5),
+            Constraint::Fixed
+        );
+        assert_eq!(
+            response(sliding, ContactMode::Separate, 0.5),
+            Constraint::Normal(UP)
+        );
+        assert_eq!(
+            response(stuck, ContactMode::Separate, 0.5),
+            Constraint::Fixed
+        );
+        assert_eq!(
+            response(leaving, ContactMode::Separate, 0.5),
+            Constraint::Free
+        );
+        assert_eq!(
+            response(leaving, ContactMode::Slip, 0.5),
+            Constraint::Normal(UP)
+        );
+    }
+
+    #[test]
+    fn constraints_combine_into_the_remaining_free_directions() {
+        let floor = Constraint::Normal(Vec3::Y);
+        let wall = Constraint::Normal(Vec3::X);
+        let v = Vec3::new(1.0, 2.0, 3.0);
+        assert_eq!(floor.project(v), Vec3::new(1.0, 0.0, 3.0));
+        // A floor and a wall leave the line along their edge.
+        let corner = floor.and(wall);
+        assert!(
+            close(corner.project(v), Vec3::new(0.0, 0.0, 3.0)),
+            "{corner:?}"
+        );
+        // The same plane twice fixes nothing more; a third plane fixes all.
+        assert_eq!(floor.and(Constraint::Normal(Vec3::Y)), floor);
+        assert_eq!(corner.and(Constraint::Normal(Vec3::Z)), Constraint::Fixed);
+        assert_eq!(Constraint::Free.and(floor), floor);
+        assert_eq!(floor.and(Constraint::Fixed).project(v), Vec3::ZERO);
     }
 }

@@ -23,9 +23,11 @@ pub mod binning;
 pub mod constitutive;
 pub mod contact;
 pub mod grid;
+pub mod implicit;
 pub mod particles;
 pub mod simulation;
 pub mod transfer;
 
+pub use implicit::SolverStats;
 pub use particles::Particles;
 pub use simulation::{Diagnostics, Simulation, SimulationError, Snapshot};

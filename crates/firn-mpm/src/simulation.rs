@@ -3,13 +3,14 @@
 
 use firn_core::math::bspline::{cubic_weights, quadratic_weights};
 use firn_core::scene::sampling::sample_bodies;
-use firn_core::scene::{Scene, TimeStep, Transfer};
+use firn_core::scene::{Integrator, Scene, TimeStep, Transfer};
 use glam::{Mat3, Vec3};
 
 use crate::binning::Bins;
 use crate::constitutive::MaterialConstants;
 use crate::contact::ColliderSet;
 use crate::grid::{Grid, GridLayout};
+use crate::implicit::{ImplicitSolver, ImplicitStep, SolverStats};
 use crate::particles::Particles;
 use crate::transfer::{
     self, GatherStats, GridForces, ParticleProblem, ProblemKind, UpdateContext, gather_apic,
@@ -97,6 +98,8 @@ pub struct Simulation {
     time: f64,
     steps: u64,
     stats: GatherStats,
+    /// The step-6 solver, with the semi-implicit integrator only.
+    implicit: Option<ImplicitSolver>,
 }
 
 impl Simulation {
@@ -176,6 +179,10 @@ impl Simulation {
             time,
             steps,
             stats: GatherStats::default(),
+            implicit: match scene.solver.integrator {
+                Integrator::Explicit => None,
+                Integrator::SemiImplicit(_) => Some(ImplicitSolver::default()),
+            },
             scene,
         }
     }
@@ -224,13 +231,18 @@ impl Simulation {
 
     /// The Δt the next substep will take (before clipping to a frame end):
     /// fixed, or Δt = CFL · h / (max |v_p| + max c_p) capped at the maximum,
-    /// with c_p the elastic wave speed including hardening.
+    /// with c_p the elastic wave speed including hardening. The semi-implicit
+    /// update is stable beyond the elastic wave limit, so with it only the
+    /// particle speed bounds Δt: Δt = CFL · h / max |v_p|.
     pub fn next_dt(&self) -> f32 {
         match self.scene.time.step {
             TimeStep::Fixed { dt } => dt,
             TimeStep::Adaptive { cfl, max_dt } => {
-                let speed =
-                    self.stats.max_speed_squared.sqrt() + self.stats.max_wave_speed_squared.sqrt();
+                let wave_speed = match self.scene.solver.integrator {
+                    Integrator::Explicit => self.stats.max_wave_speed_squared.sqrt(),
+                    Integrator::SemiImplicit(_) => 0.0,
+                };
+                let speed = self.stats.max_speed_squared.sqrt() + wave_speed;
                 if speed > 0.0 {
                     (cfl * self.scene.domain.cell_size / speed).min(max_dt)
                 } else {
@@ -263,14 +275,32 @@ impl Simulation {
             Transfer::PicFlip => GridForces::Separate,
             Transfer::Apic => GridForces::InMomentum,
         };
+        // The semi-implicit solve applies the grid collisions itself, to learn
+        // which velocity components they fix.
+        let grid_colliders = match self.implicit {
+            Some(_) => &[][..],
+            None => &colliders[..],
+        };
         transfer::update_grid(
             &mut self.grid,
             &self.bins,
             forces,
             dt,
             self.scene.solver.gravity,
-            &colliders,
+            grid_colliders,
         );
+        if let (Integrator::SemiImplicit(settings), Some(solver)) =
+            (self.scene.solver.integrator, self.implicit.as_mut())
+        {
+            let step = ImplicitStep {
+                dt,
+                settings,
+                transfer: transfer_scheme,
+                materials: &self.materials,
+                colliders: &colliders,
+            };
+            solver.solve(&mut self.grid, &self.bins, &self.particles, &step);
+        }
         let tolerance = Vec3::splat(LEAVE_TOLERANCE_CELLS * layout.cell_size);
         let context = UpdateContext {
             dt,
@@ -337,9 +367,24 @@ impl Simulation {
             }
         };
         let (what, hint) = match problem.kind {
+            ProblemKind::NonFinite if self.implicit.is_some() => (
+                "became non-finite (NaN or infinity)",
+                format!(
+                    "the semi-implicit step Δt = {dt:.2e} s is too large: {}",
+                    self.implicit_fix()
+                ),
+            ),
             ProblemKind::NonFinite => (
                 "became non-finite (NaN or infinity)",
                 format!("the time step Δt = {dt:.2e} s is too large: {waves}; {step_fix}"),
+            ),
+            ProblemKind::LeftDomain if self.implicit.is_some() => (
+                "left the domain",
+                format!(
+                    "snow moved too far in one semi-implicit step (Δt = {dt:.2e} s) or was pushed \
+                     through a wall: {}, and check that moving colliders stay inside [domain]",
+                    self.implicit_fix()
+                ),
             ),
             ProblemKind::LeftDomain => (
                 "left the domain",
@@ -360,6 +405,34 @@ impl Simulation {
         }
     }
 
+    /// What to change when a semi-implicit step blew up: the linear solve's
+    /// limit if it stopped short, else the step.
+    fn implicit_fix(&self) -> String {
+        let step_fix = match self.scene.time.step {
+            TimeStep::Fixed { dt } => {
+                format!("in [time] set dt = {:.1e} (now {dt:.1e})", dt * 0.25)
+            }
+            TimeStep::Adaptive { cfl, max_dt } => format!(
+                "in [time] set cfl = {:.2} (now {cfl}) or dt = {:.1e} (now {max_dt:.1e})",
+                cfl * 0.5,
+                max_dt * 0.5
+            ),
+        };
+        let stats = self.solver_stats().unwrap_or_default();
+        match self.scene.solver.integrator {
+            Integrator::SemiImplicit(settings) if stats.unconverged_steps > 0 => format!(
+                "{} of {} linear solves stopped at solver_max_iterations = {} (last residual \
+                 {:.1e}, tolerance {:.0e}); in [solver] raise solver_max_iterations, or {step_fix}",
+                stats.unconverged_steps,
+                stats.steps,
+                settings.max_iterations,
+                stats.last_residual,
+                settings.tolerance
+            ),
+            _ => step_fix,
+        }
+    }
+
     /// Everything needed to continue this run bit for bit.
     pub fn snapshot(&self) -> Snapshot {
         Snapshot {
@@ -369,6 +442,12 @@ impl Simulation {
             max_wave_speed_squared: self.stats.max_wave_speed_squared,
             particles: self.particles.clone(),
         }
+    }
+
+    /// Statistics of the semi-implicit solves since this simulation was
+    /// created or restored; `None` with the explicit integrator.
+    pub fn solver_stats(&self) -> Option<SolverStats> {
+        self.implicit.as_ref().map(ImplicitSolver::stats)
     }
 
     /// The scene being simulated.

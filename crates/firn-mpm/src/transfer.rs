@@ -24,23 +24,26 @@ use crate::contact::{PlacedCollider, collide_all};
 use crate::grid::{BLOCK_NODES, Grid, GridLayout, Node};
 use crate::particles::Particles;
 
-/// Writes into grid nodes from several threads at once.
+/// Writes into grid nodes from several threads at once. The nodes are stored
+/// block-major, [`BLOCK_NODES`] per block: the grid's [`Node`]s, or the
+/// implicit solver's per-node vectors.
 ///
 /// Sound only because [`scatter_by_colour`] and [`for_each_active_block`] hand
 /// each thread a set of nodes no other thread touches at the same time (see
 /// [`crate::binning`] for why same-coloured blocks never share a node).
-struct NodeWriter<'a> {
-    nodes: *mut Node,
+pub(crate) struct NodeWriter<'a, T> {
+    nodes: *mut T,
     len: usize,
-    _grid: PhantomData<&'a mut [Node]>,
+    _grid: PhantomData<&'a mut [T]>,
 }
 
 // SAFETY: the writer is only shared across threads by the two drivers below,
-// whose callers never touch the same node from two threads.
-unsafe impl Sync for NodeWriter<'_> {}
+// whose callers never touch the same node from two threads; the nodes
+// themselves may move between threads (`T: Send`).
+unsafe impl<T: Send> Sync for NodeWriter<'_, T> {}
 
-impl<'a> NodeWriter<'a> {
-    fn new(nodes: &'a mut [Node]) -> NodeWriter<'a> {
+impl<'a, T> NodeWriter<'a, T> {
+    fn new(nodes: &'a mut [T]) -> NodeWriter<'a, T> {
         NodeWriter {
             nodes: nodes.as_mut_ptr(),
             len: nodes.len(),
@@ -50,7 +53,7 @@ impl<'a> NodeWriter<'a> {
 
     /// Applies `change` to node `index`.
     #[inline(always)]
-    fn update(&self, index: usize, change: impl FnOnce(&mut Node)) {
+    pub(crate) fn update(&self, index: usize, change: impl FnOnce(&mut T)) {
         assert!(index < self.len, "node {index} outside the grid");
         // SAFETY: in bounds (checked above); no other thread writes this node
         // now (the drivers' disjointness), and no reference outlives the call.
@@ -59,7 +62,7 @@ impl<'a> NodeWriter<'a> {
 
     /// Applies `visit` to the 64 nodes of block `block`.
     #[inline(always)]
-    fn update_block(&self, block: usize, visit: impl FnOnce(&mut [Node])) {
+    fn update_block(&self, block: usize, visit: impl FnOnce(&mut [T])) {
         let first = block * BLOCK_NODES;
         assert!(
             first + BLOCK_NODES <= self.len,
@@ -72,9 +75,14 @@ impl<'a> NodeWriter<'a> {
 }
 
 /// Runs `scatter` on every occupied block, colour by colour; blocks of one
-/// colour run in parallel.
-fn scatter_by_colour(grid: &mut Grid, bins: &Bins, scatter: impl Fn(&[u32], &NodeWriter) + Sync) {
-    let writer = NodeWriter::new(&mut grid.nodes);
+/// colour run in parallel, so each node sums its contributions in the same
+/// order whatever the thread count.
+pub(crate) fn scatter_by_colour<T: Send>(
+    nodes: &mut [T],
+    bins: &Bins,
+    scatter: impl Fn(&[u32], &NodeWriter<T>) + Sync,
+) {
+    let writer = NodeWriter::new(nodes);
     for colour in &bins.colours {
         colour
             .par_iter()
@@ -83,7 +91,11 @@ fn scatter_by_colour(grid: &mut Grid, bins: &Bins, scatter: impl Fn(&[u32], &Nod
 }
 
 /// Runs `visit` on the 64 nodes of every active block, blocks in parallel.
-fn for_each_active_block(grid: &mut Grid, bins: &Bins, visit: impl Fn(IVec3, &mut [Node]) + Sync) {
+pub(crate) fn for_each_active_block(
+    grid: &mut Grid,
+    bins: &Bins,
+    visit: impl Fn(IVec3, &mut [Node]) + Sync,
+) {
     let layout = grid.layout;
     let writer = NodeWriter::new(&mut grid.nodes);
     bins.active_blocks
@@ -100,7 +112,7 @@ fn for_each_active_block(grid: &mut Grid, bins: &Bins, visit: impl Fn(IVec3, &mu
 /// Linear node indices of a particle's stencil, node (i, j, k) at
 /// `[(i * N + j) * N + k]`.
 #[inline(always)]
-fn stencil_indices<const N: usize>(
+pub(crate) fn stencil_indices<const N: usize>(
     layout: &GridLayout,
     base: IVec3,
 ) -> impl Fn(usize, usize, usize) -> usize {
@@ -112,7 +124,7 @@ fn stencil_indices<const N: usize>(
 pub fn scatter_pic_flip(grid: &mut Grid, bins: &Bins, particles: &Particles) {
     let layout = grid.layout;
     let inverse_h = 1.0 / layout.cell_size;
-    scatter_by_colour(grid, bins, |block, writer| {
+    scatter_by_colour(&mut grid.nodes, bins, |block, writer| {
         for &p in block {
             let p = p as usize;
             let weights = cubic_weights(layout.to_grid(particles.position[p]));
@@ -142,7 +154,7 @@ pub fn scatter_apic(grid: &mut Grid, bins: &Bins, particles: &Particles, dt: f32
     let layout = grid.layout;
     let h = layout.cell_size;
     let inverse_inertia = 4.0 / (h * h);
-    scatter_by_colour(grid, bins, |block, writer| {
+    scatter_by_colour(&mut grid.nodes, bins, |block, writer| {
         for &p in block {
             let p = p as usize;
             let weights = quadratic_weights(layout.to_grid(particles.position[p]));
@@ -177,7 +189,7 @@ pub fn scatter_mass<const N: usize>(
     weights_at: fn(Vec3) -> StencilWeights<N>,
 ) {
     let layout = grid.layout;
-    scatter_by_colour(grid, bins, |block, writer| {
+    scatter_by_colour(&mut grid.nodes, bins, |block, writer| {
         for &p in block {
             let p = p as usize;
             let weights = weights_at(layout.to_grid(particles.position[p]));

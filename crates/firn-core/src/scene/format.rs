@@ -27,14 +27,19 @@ use serde::Deserialize;
 use toml::Spanned;
 use toml::de::{DeTable, DeValue};
 
+use super::flow::SceneKind;
 use super::material::{Material, PRESET_NAMES};
 use super::model::{
     Attribute, Body, CacheFormat, Collider, ColliderGeometry, Contact, ContactMode, Domain,
-    Keyframe, Motion, OutputSettings, Scene, Shape, SolverSettings, TimeSettings, TimeStep,
-    Transfer,
+    ImplicitSettings, Integrator, Keyframe, Motion, OutputSettings, Scene, Shape, SolverSettings,
+    TimeSettings, TimeStep, Transfer,
 };
 use super::render::{Camera, CameraKey, ColorBy, Orbit, RenderSettings, RenderStyle};
 use super::sampling;
+
+mod flow;
+
+pub use flow::MAX_FLOW_PARTICLES;
 
 /// The only scene format version this build reads.
 pub const FORMAT_VERSION: i64 = 1;
@@ -410,7 +415,10 @@ fn describe_deserialize_error(message: &str, path: &KeyPath) -> (String, String)
         };
         let mut hint = String::new();
         if !parent.is_root()
-            && (unknown == "format" || unknown == "name" || TABLES.contains(&unknown.as_str()))
+            && (unknown == "format"
+                || unknown == "name"
+                || unknown == "kind"
+                || TABLES.contains(&unknown.as_str()))
         {
             // The header the key was written under: [name] or [[name]].
             let header = match (parent.0.first(), parent.0.get(1)) {
@@ -533,7 +541,7 @@ fn describe_expected(expected: &str, path: &KeyPath) -> String {
 }
 
 /// Top-level tables of the format.
-const TABLES: [&str; 7] = [
+const TABLES: [&str; 8] = [
     "domain",
     "time",
     "solver",
@@ -541,6 +549,7 @@ const TABLES: [&str; 7] = [
     "bodies",
     "colliders",
     "output",
+    "flow",
 ];
 
 /// "write it as ..., e.g. key = value".
@@ -591,6 +600,10 @@ fn example(leaf: &str) -> Option<&'static str> {
         "flip" => "flip = 0.95",
         "gravity" => "gravity = [0.0, -9.81, 0.0]",
         "seed" => "seed = 1",
+        "integrator" => "integrator = \"semi-implicit\"",
+        "implicit_beta" => "implicit_beta = 0.5",
+        "solver_tolerance" => "solver_tolerance = 1e-3",
+        "solver_max_iterations" => "solver_max_iterations = 100",
         "preset" => "preset = \"snow\"",
         "youngs_modulus" => "youngs_modulus = 1.4e5",
         "poisson_ratio" => "poisson_ratio = 0.2",
@@ -630,6 +643,25 @@ fn example(leaf: &str) -> Option<&'static str> {
         "point_radius" => "point_radius = 0.005",
         "trail_length" => "trail_length = 16",
         "smooth_trails" => "smooth_trails = true",
+        "kind" => "kind = \"flow\"",
+        "noise_share" => "noise_share = 0.5",
+        "noise_strength" => "noise_strength = 5.0",
+        "length_scale" => "length_scale = 20.0",
+        "background_direction" => "background_direction = [1.0, 0.0, 0.0]",
+        "background_strength" => "background_strength = 1.0",
+        "speed_scale" => "speed_scale = 1.0",
+        "offsets" => "offsets = [[0.0, 0.0, 0.0], [517.0, -233.0, 71.0], [-89.0, 401.0, -350.0]]",
+        "evolution_rate" => "evolution_rate = 0.05",
+        "curl" => "curl = \"analytic\"",
+        "curl_step" => "curl_step = 0.02",
+        "integration" => "integration = \"rk2\"",
+        "substeps" => "substeps = 2",
+        "influence" => "influence = 10.0",
+        "rate" => "rate = 1000.0",
+        "count" => "count = 10000",
+        "lifetime" => "lifetime = 8.0",
+        "lifetime_spread" => "lifetime_spread = 0.25",
+        "velocity_decay" => "velocity_decay = 1.0",
         _ => return None,
     })
 }
@@ -679,6 +711,8 @@ struct RawScene {
     output: Option<RawOutput>,
     camera: Option<RawCamera>,
     render: Option<RawRender>,
+    kind: Option<flow::RawKind>,
+    flow: Option<flow::RawFlow>,
 }
 
 #[derive(Deserialize)]
@@ -729,6 +763,17 @@ struct RawSolver {
     flip: Option<f32>,
     gravity: Option<[f32; 3]>,
     seed: Option<u64>,
+    integrator: Option<RawIntegrator>,
+    implicit_beta: Option<f32>,
+    solver_tolerance: Option<f32>,
+    solver_max_iterations: Option<u32>,
+}
+
+#[derive(Clone, Copy, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+enum RawIntegrator {
+    Explicit,
+    SemiImplicit,
 }
 
 #[derive(Clone, Copy, Deserialize)]
@@ -982,6 +1027,9 @@ fn default_name(origin: &str) -> String {
 fn resolve(raw: RawScene, origin: &str) -> Result<Scene, Issue> {
     // `format` was checked on the spanned tree already.
     let _ = raw.format;
+    if flow::is_flow_scene(&raw)? {
+        return flow::resolve_flow_scene(raw, origin);
+    }
     let name = raw.name.unwrap_or_else(|| default_name(origin));
 
     let domain_path = KeyPath::of("domain");
@@ -1009,7 +1057,7 @@ fn resolve(raw: RawScene, origin: &str) -> Result<Scene, Issue> {
     };
 
     let time = resolve_time(raw.time)?;
-    let solver = resolve_solver(raw.solver);
+    let solver = resolve_solver(raw.solver)?;
     let declared = resolve_materials(raw.materials.unwrap_or_default())?;
 
     let mut materials: Vec<Material> = Vec::new();
@@ -1055,6 +1103,7 @@ fn resolve(raw: RawScene, origin: &str) -> Result<Scene, Issue> {
         output,
         camera,
         render,
+        kind: SceneKind::Snow,
     })
 }
 
@@ -1111,14 +1160,19 @@ fn resolve_time(raw: Option<RawTime>) -> Result<TimeSettings, Issue> {
     })
 }
 
-fn resolve_solver(raw: Option<RawSolver>) -> SolverSettings {
+fn resolve_solver(raw: Option<RawSolver>) -> Result<SolverSettings, Issue> {
     let raw = raw.unwrap_or(RawSolver {
         transfer: None,
         flip: None,
         gravity: None,
         seed: None,
+        integrator: None,
+        implicit_beta: None,
+        solver_tolerance: None,
+        solver_max_iterations: None,
     });
-    SolverSettings {
+    let integrator = resolve_integrator(&raw)?;
+    Ok(SolverSettings {
         transfer: match raw.transfer {
             Some(RawTransfer::Apic) => Transfer::Apic,
             Some(RawTransfer::PicFlip) | None => Transfer::PicFlip,
@@ -1126,6 +1180,37 @@ fn resolve_solver(raw: Option<RawSolver>) -> SolverSettings {
         flip_blend: raw.flip.unwrap_or(0.95),
         gravity: vec3(raw.gravity.unwrap_or([0.0, -9.81, 0.0])),
         seed: raw.seed.unwrap_or(1),
+        integrator,
+    })
+}
+
+/// The time integrator; the semi-implicit solver's keys are an error with
+/// the explicit one, like `cfl` with a fixed step.
+fn resolve_integrator(raw: &RawSolver) -> Result<Integrator, Issue> {
+    match raw.integrator.unwrap_or(RawIntegrator::Explicit) {
+        RawIntegrator::SemiImplicit => {
+            let defaults = ImplicitSettings::DEFAULT;
+            Ok(Integrator::SemiImplicit(ImplicitSettings {
+                beta: raw.implicit_beta.unwrap_or(defaults.beta),
+                tolerance: raw.solver_tolerance.unwrap_or(defaults.tolerance),
+                max_iterations: raw.solver_max_iterations.unwrap_or(defaults.max_iterations),
+            }))
+        }
+        RawIntegrator::Explicit => {
+            let implicit_keys = [
+                ("implicit_beta", raw.implicit_beta.is_some()),
+                ("solver_tolerance", raw.solver_tolerance.is_some()),
+                ("solver_max_iterations", raw.solver_max_iterations.is_some()),
+            ];
+            match implicit_keys.iter().find(|(_, given)| *given) {
+                Some((key, _)) => Err(Issue::new(
+                    KeyPath::of("solver").key(key),
+                    format!("solver.{key} only applies when integrator = \"semi-implicit\""),
+                    format!("remove {key}, or set integrator = \"semi-implicit\""),
+                )),
+                None => Ok(Integrator::Explicit),
+            }
+        }
     }
 }
 
@@ -1441,6 +1526,9 @@ fn check_scene(scene: &Scene) -> Check {
             "name the scene, e.g. name = \"snowball\", or remove the key to use the file name",
         ));
     }
+    if let SceneKind::Flow(settings) = &scene.kind {
+        return flow::check_flow_scene(scene, settings);
+    }
     check_domain(&scene.domain)?;
     check_time(&scene.time)?;
     check_solver(&scene.solver)?;
@@ -1722,7 +1810,39 @@ fn check_solver(solver: &SolverSettings) -> Check {
         Num::from(solver.flip_blend),
         "set the FLIP share of the PIC/FLIP blend, e.g. flip = 0.95 (0: pure PIC)".to_string(),
     )?;
-    finite_vec(solver.gravity, path.key("gravity"))
+    finite_vec(solver.gravity, path.key("gravity"))?;
+    check_integrator(&path, &solver.integrator)
+}
+
+fn check_integrator(path: &KeyPath, integrator: &Integrator) -> Check {
+    let Integrator::SemiImplicit(settings) = integrator else {
+        return Ok(());
+    };
+    ensure(
+        (0.0..=1.0).contains(&settings.beta),
+        path.key("implicit_beta"),
+        "in [0, 1]",
+        Num::from(settings.beta),
+        "set how implicit the update is, e.g. implicit_beta = 0.5 (0: explicit, 1: backward \
+         Euler)"
+            .to_string(),
+    )?;
+    ensure(
+        settings.tolerance > 0.0 && settings.tolerance < 1.0,
+        path.key("solver_tolerance"),
+        "in (0, 1)",
+        Num::from(settings.tolerance),
+        "set the relative residual at which the solve stops, e.g. solver_tolerance = 1e-3 \
+         (below 1e-5, f32 rounding may keep it from converging)"
+            .to_string(),
+    )?;
+    ensure(
+        settings.max_iterations >= 1,
+        path.key("solver_max_iterations"),
+        "at least 1",
+        settings.max_iterations,
+        "allow the solver some iterations, e.g. solver_max_iterations = 100".to_string(),
+    )
 }
 
 /// The constitutive parameter ranges (Stomakhin et al. 2013).

@@ -1,10 +1,10 @@
 //! Snow materials: the constitutive parameters of Stomakhin et al. 2013 and the
 //! named presets a scene can start from.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Parameters of the elasto-plastic snow model (thesis eq. 34-36, 41-43).
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Material {
     /// Name the scene refers to this material by.
     pub name: String,

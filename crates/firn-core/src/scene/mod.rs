@@ -3,14 +3,17 @@
 //! [`model`] holds the plain data types a program can build in code;
 //! [`mod@format`] reads them from TOML scene files (`format = 1`) and reports bad
 //! input with file, line, column and a fix; [`sampling`] turns bodies of snow
-//! into particles; [`render`] holds the camera and the picture settings.
+//! into particles; [`render`] holds the camera and the picture settings;
+//! [`flow`] holds the settings of curl-noise particle flows (`kind = "flow"`).
 
+pub mod flow;
 pub mod format;
 pub mod material;
 pub mod model;
 pub mod render;
 pub mod sampling;
 
+pub use flow::*;
 pub use format::SceneError;
 pub use material::Material;
 pub use model::*;

@@ -6,13 +6,14 @@
 use std::path::PathBuf;
 
 use glam::Vec3;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
+use super::flow::SceneKind;
 use super::material::Material;
 use super::render::{Camera, RenderSettings};
 
 /// A complete snow scene, resolved: presets expanded, defaults filled in.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Scene {
     /// Short name, used for the default output directory.
     pub name: String,
@@ -34,10 +35,12 @@ pub struct Scene {
     pub camera: Camera,
     /// What pictures are made.
     pub render: RenderSettings,
+    /// Snow, or a curl-noise particle flow with its settings.
+    pub kind: SceneKind,
 }
 
 /// The axis-aligned simulation box, its grid spacing and its walls.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Domain {
     /// Lower corner.
     pub min: Vec3,
@@ -63,7 +66,7 @@ impl Domain {
 }
 
 /// Simulated duration, output frame rate and the time-step policy.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TimeSettings {
     /// Simulated seconds.
     pub duration: f64,
@@ -81,7 +84,7 @@ impl TimeSettings {
 }
 
 /// The time-step policy.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "kebab-case")]
 pub enum TimeStep {
     /// A fixed Δt (the thesis steps a fixed 1 ms).
@@ -100,7 +103,7 @@ pub enum TimeStep {
 }
 
 /// How particle and grid momentum are exchanged.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Transfer {
     /// PIC/FLIP blend with cubic B-splines, as in Stomakhin et al. 2013 and the thesis.
@@ -110,7 +113,7 @@ pub enum Transfer {
 }
 
 /// Solver settings.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SolverSettings {
     /// Transfer scheme.
     pub transfer: Transfer,
@@ -120,10 +123,45 @@ pub struct SolverSettings {
     pub gravity: Vec3,
     /// Seed for particle jitter; the same seed gives the same particles.
     pub seed: u64,
+    /// How the grid velocities are advanced (Stomakhin et al. 2013, step 6).
+    pub integrator: Integrator,
+}
+
+/// How the grid velocities v_i^{n+1} are computed from the grid forces.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case")]
+pub enum Integrator {
+    /// Forward (symplectic) Euler: v_i^{n+1} = v_i* (the thesis; step 6 skipped).
+    /// Δt must resolve the elastic waves.
+    Explicit,
+    /// Stomakhin et al. 2013, eq. 9: solve (I + β Δt² M⁻¹ H) v^{n+1} = v* on the
+    /// grid, with H the Hessian of the elastic energy, by preconditioned
+    /// conjugate residuals. Δt is then limited by particle motion only.
+    SemiImplicit(ImplicitSettings),
+}
+
+/// Parameters of the semi-implicit update.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ImplicitSettings {
+    /// Implicitness β: 0 is explicit, 1 backward Euler.
+    pub beta: f32,
+    /// Relative residual at which the linear solve stops.
+    pub tolerance: f32,
+    /// Most solver iterations per substep.
+    pub max_iterations: u32,
+}
+
+impl ImplicitSettings {
+    /// The defaults of the scene format: β = 0.5, tolerance 1e-3, 100 iterations.
+    pub const DEFAULT: ImplicitSettings = ImplicitSettings {
+        beta: 0.5,
+        tolerance: 1e-3,
+        max_iterations: 100,
+    };
 }
 
 /// A body of snow: a shape filled with particles of one material.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Body {
     /// The filled region.
     pub shape: Shape,
@@ -136,7 +174,7 @@ pub struct Body {
 }
 
 /// A solid primitive that bodies fill.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "shape", rename_all = "kebab-case")]
 pub enum Shape {
     /// A ball.
@@ -209,7 +247,7 @@ impl Shape {
 }
 
 /// How a collider (or wall) treats snow that touches it.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Contact {
     /// Sticky, slip or separate.
     pub mode: ContactMode,
@@ -218,7 +256,7 @@ pub struct Contact {
 }
 
 /// Boundary condition applied to velocities relative to the collider.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum ContactMode {
     /// Snow in contact moves with the collider.
@@ -232,7 +270,7 @@ pub enum ContactMode {
 }
 
 /// A rigid obstacle.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Collider {
     /// Geometry at time zero.
     pub geometry: ColliderGeometry,
@@ -243,7 +281,7 @@ pub struct Collider {
 }
 
 /// Collider geometry; snow is kept outside of it.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "shape", rename_all = "kebab-case")]
 pub enum ColliderGeometry {
     /// Everything on the side opposite the normal is solid.
@@ -270,7 +308,7 @@ pub enum ColliderGeometry {
 }
 
 /// How a collider moves; its reference point is the plane point or centre.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "kebab-case")]
 pub enum Motion {
     /// Does not move.
@@ -289,7 +327,7 @@ pub enum Motion {
 }
 
 /// A keyframe of a moving collider.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Keyframe {
     /// Time in seconds.
     pub time: f64,
@@ -298,7 +336,7 @@ pub struct Keyframe {
 }
 
 /// Per-particle attributes that caches can carry besides position.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Attribute {
     /// Velocity vector (m/s).
@@ -316,7 +354,7 @@ pub enum Attribute {
 }
 
 /// Particle cache formats.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum CacheFormat {
     /// Binary little-endian PLY point clouds (Blender, Houdini, MeshLab, ParaView).
@@ -326,7 +364,7 @@ pub enum CacheFormat {
 }
 
 /// What to write, and where.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct OutputSettings {
     /// Output directory (relative paths are relative to the working directory).
     pub directory: PathBuf,

@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 
 /// The camera: a fixed view, an automatic framing, a turntable orbit or a
 /// keyed path with eased sweeps between views.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Camera {
     /// Eye position; `None` frames the domain automatically.
     pub position: Option<Vec3>,
@@ -36,14 +36,14 @@ impl Default for Camera {
 }
 
 /// A turntable orbit around the vertical axis through the look-at point.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Orbit {
     /// Rotation speed in degrees per simulated second (positive: counter-clockwise seen from above).
     pub degrees_per_second: f32,
 }
 
 /// One view on a camera path.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CameraKey {
     /// Simulated time at which the camera is exactly here.
     pub time: f64,
@@ -85,7 +85,7 @@ pub enum ColorBy {
 }
 
 /// Pictures made while a scene runs (and by `firn render` afterwards).
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RenderSettings {
     /// Render a picture per frame during `firn run`.
     pub enabled: bool,

@@ -6,8 +6,8 @@ use std::path::PathBuf;
 
 use firn_core::Material;
 use firn_core::scene::{
-    Body, CacheFormat, Camera, Collider, Contact, ContactMode, Domain, OutputSettings,
-    RenderSettings, Scene, Shape, SolverSettings, TimeSettings, TimeStep, Transfer,
+    Body, CacheFormat, Camera, Collider, Contact, ContactMode, Domain, Integrator, OutputSettings,
+    RenderSettings, Scene, SceneKind, Shape, SolverSettings, TimeSettings, TimeStep, Transfer,
 };
 use glam::Vec3;
 
@@ -34,6 +34,7 @@ pub fn scene_with(body: Shape, velocity: Vec3, transfer: Transfer, cell_size: f3
             flip_blend: 0.95,
             gravity: Vec3::new(0.0, -9.81, 0.0),
             seed: 7,
+            integrator: Integrator::Explicit,
         },
         materials: vec![Material::preset("snow").unwrap()],
         bodies: vec![Body {
@@ -51,6 +52,7 @@ pub fn scene_with(body: Shape, velocity: Vec3, transfer: Transfer, cell_size: f3
         },
         camera: Camera::default(),
         render: RenderSettings::default(),
+        kind: SceneKind::Snow,
     }
 }
 

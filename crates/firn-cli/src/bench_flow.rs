@@ -1,0 +1,142 @@
+//! `firn bench --flow`: speed of the curl-noise particle flow (seed 002) on
+//! the demo's setting: a 100 m box, L = 20, one sphere obstacle of radius 15
+//! in the middle, half turbulence and half background, particles filling the
+//! box uniformly. Each configuration takes `--warmup` untimed steps, then
+//! `--steps` timed ones (one RK2 step each: two velocity evaluations per
+//! particle), with the analytic curl and, for comparison, central differences;
+//! the analytic curl is also timed on every other SIMD path the CPU offers.
+
+use std::time::Instant;
+
+use firn_core::Scene;
+use firn_flow::{FlowSimulation, Simd};
+use serde::Serialize;
+
+use crate::Failure;
+use crate::bench::BenchArgs;
+
+/// One measured configuration.
+#[derive(Debug, Serialize)]
+struct FlowRecord {
+    mode: &'static str,
+    curl: &'static str,
+    integrator: &'static str,
+    simd: &'static str,
+    particles: usize,
+    steps: u32,
+    seconds: f64,
+    ns_per_particle_step: f64,
+    steps_per_second: f64,
+    memory_mib: f64,
+    threads: usize,
+}
+
+/// The benchmark scene with `particles` particles and the given curl.
+fn scene(particles: u32, curl: &str) -> Result<Scene, Failure> {
+    let text = format!(
+        r#"format = 1
+name = "bench-curl-noise"
+kind = "flow"
+
+[domain]
+max = [100.0, 100.0, 100.0]
+
+[time]
+duration = 100.0
+fps = 60
+
+[flow]
+noise_share = 0.5
+noise_strength = 40.0
+length_scale = 20.0
+background_strength = 12.0
+evolution_rate = 0.04
+curl = "{curl}"
+integration = "rk2"
+substeps = 1
+
+[[flow.obstacles]]
+center = [50.0, 50.0, 50.0]
+radius = 15.0
+influence = 10.0
+
+[[flow.emitters]]
+shape = "box"
+center = [50.0, 50.0, 50.0]
+size = [100.0, 100.0, 100.0]
+count = {particles}
+"#
+    );
+    Scene::from_toml_str(&text, "bench-curl-noise.toml")
+        .map_err(|error| Failure::Failed(format!("{error}")))
+}
+
+/// Runs every configuration and writes the JSON record.
+pub fn bench_flow(args: &BenchArgs) -> Result<(), Failure> {
+    let detected = Simd::detect();
+    let mut records = Vec::new();
+    for &particles in &args.particles {
+        let mut runs = vec![("analytic", detected), ("finite-difference", detected)];
+        for simd in [Simd::Avx512, Simd::Avx2, Simd::Portable] {
+            if simd != detected && simd.is_available() {
+                runs.push(("analytic", simd));
+            }
+        }
+        for (curl, simd) in runs {
+            let record = measure(particles, curl, simd, args)?;
+            println!(
+                "firn flow curl={} simd={} particles={} steps={} seconds={:.3} ns_per_particle_step={:.2} steps_per_s={:.2} memory_mib={:.1} threads={}",
+                record.curl,
+                record.simd,
+                record.particles,
+                record.steps,
+                record.seconds,
+                record.ns_per_particle_step,
+                record.steps_per_second,
+                record.memory_mib,
+                record.threads
+            );
+            records.push(record);
+        }
+    }
+    let json = serde_json::to_string_pretty(&records)
+        .map_err(|error| Failure::Failed(error.to_string()))?;
+    firn_io::write_atomically(&args.json, |out| out.write_all(json.as_bytes()))
+        .map_err(|error| Failure::BadInput(format!("error: {error}")))?;
+    println!("wrote {}", args.json.display());
+    Ok(())
+}
+
+fn measure(
+    particles: u32,
+    curl: &'static str,
+    simd: Simd,
+    args: &BenchArgs,
+) -> Result<FlowRecord, Failure> {
+    let mut flow = FlowSimulation::new(scene(particles, curl)?)
+        .map_err(|error| Failure::Failed(format!("error: {error}")))?;
+    flow.set_simd(simd);
+    for _ in 0..args.warmup {
+        flow.step();
+    }
+    let started = Instant::now();
+    for _ in 0..args.steps {
+        flow.step();
+    }
+    let seconds = started.elapsed().as_secs_f64();
+    let count = flow.len();
+    let steps = args.steps.max(1);
+    Ok(FlowRecord {
+        mode: "flow",
+        curl,
+        integrator: "rk2",
+        simd: flow.simd().name(),
+        particles: count,
+        steps,
+        seconds,
+        ns_per_particle_step: seconds * 1e9 / (f64::from(steps) * count as f64),
+        steps_per_second: f64::from(steps) / seconds,
+        memory_mib: flow.memory_bytes() as f64 / (1024.0 * 1024.0),
+        threads: rayon::current_num_threads(),
+    })
+}

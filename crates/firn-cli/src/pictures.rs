@@ -1,0 +1,112 @@
+//! Pictures of a run, shared by `firn run` (after each frame) and
+//! `firn render` (from the caches): a PNG per frame and style under
+//! `images/STYLE/`, and per style an animated GIF and, when ffmpeg is on
+//! PATH, an MP4 of the whole run.
+
+use std::path::{Path, PathBuf};
+
+use firn_core::Scene;
+use firn_core::scene::RenderStyle;
+use firn_render::output::{find_ffmpeg, write_gif, write_mp4, write_png};
+use firn_render::scene_view::{FrameParticles, scene_picture};
+
+use crate::Failure;
+
+/// Folder of a style's images inside the run directory.
+fn style_folder(style: RenderStyle) -> String {
+    format!("images/{}", style_name(style))
+}
+
+/// The style's name as written in scene files.
+pub fn style_name(style: RenderStyle) -> &'static str {
+    match style {
+        RenderStyle::Points => "points",
+        RenderStyle::Volume => "volume",
+        RenderStyle::Billboards => "billboards",
+        RenderStyle::Trails => "trails",
+    }
+}
+
+/// Path of frame `index`'s image in `style`, relative to the run directory.
+pub fn image_name(style: RenderStyle, index: u32) -> String {
+    format!("{}/frame_{index:05}.png", style_folder(style))
+}
+
+/// Creates the image folders of the scene's styles.
+pub fn prepare_image_dirs(scene: &Scene, directory: &Path) -> Result<(), Failure> {
+    for &style in &scene.render.styles {
+        let folder = directory.join(style_folder(style));
+        firn_io::ensure_writable_dir(&folder).map_err(|error| {
+            Failure::BadInput(format!(
+                "error: {error}\n  fix: choose a writable output directory with --out DIR"
+            ))
+        })?;
+    }
+    Ok(())
+}
+
+/// Renders frame `index` at `time` in every style of the scene and writes the
+/// PNGs; returns their paths relative to `directory`.
+pub fn render_frame(
+    scene: &Scene,
+    directory: &Path,
+    index: u32,
+    time: f64,
+    particles: FrameParticles<'_>,
+) -> Result<Vec<String>, String> {
+    let mut written = Vec::new();
+    for &style in &scene.render.styles {
+        let picture = scene_picture(scene, time, style, particles, None);
+        let image = firn_render::render(&picture);
+        let name = image_name(style, index);
+        write_png(&directory.join(&name), &image).map_err(|error| error.to_string())?;
+        written.push(name);
+    }
+    Ok(written)
+}
+
+/// Writes each style's animation over `frames` (frame indices in order, all
+/// rendered); returns the written paths relative to `directory`. Says
+/// plainly on stderr when ffmpeg is missing and only GIFs are written.
+pub fn write_animations(
+    scene: &Scene,
+    directory: &Path,
+    frames: &[u32],
+    quiet: bool,
+) -> Result<Vec<String>, String> {
+    let (Some(&first), false) = (frames.first(), scene.render.styles.is_empty()) else {
+        return Ok(Vec::new());
+    };
+    let ffmpeg = find_ffmpeg();
+    let mut written = Vec::new();
+    for &style in &scene.render.styles {
+        let images: Vec<PathBuf> = frames
+            .iter()
+            .map(|&index| directory.join(image_name(style, index)))
+            .collect();
+        let gif = format!("images/{}.gif", style_name(style));
+        write_gif(&directory.join(&gif), &images, scene.time.fps)
+            .map_err(|error| error.to_string())?;
+        written.push(gif);
+        if let Some(ffmpeg) = &ffmpeg {
+            let mp4 = format!("images/{}.mp4", style_name(style));
+            let pattern = directory.join(style_folder(style)).join("frame_%05d.png");
+            write_mp4(
+                ffmpeg,
+                &pattern,
+                first,
+                scene.time.fps,
+                &directory.join(&mp4),
+            )
+            .map_err(|error| error.to_string())?;
+            written.push(mp4);
+        }
+    }
+    if ffmpeg.is_none() && !quiet {
+        eprintln!(
+            "note: ffmpeg is not on PATH, so no MP4 was written (the GIF preview was); \
+             install ffmpeg to get MP4 videos"
+        );
+    }
+    Ok(written)
+}

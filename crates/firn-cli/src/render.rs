@@ -1,0 +1,282 @@
+//! `firn render`: re-render a finished (or interrupted) run from its PLY
+//! caches, in other styles, from another camera or at another size, without
+//! simulating again.
+
+use std::path::{Path, PathBuf};
+
+use clap::{Args, ValueEnum};
+use firn_core::Scene;
+use firn_core::scene::{ColorBy, Orbit, RenderStyle};
+use firn_io::{FrameRecord, Manifest, PlyCloud, read_ply};
+use firn_render::scene_view::FrameParticles;
+use glam::Vec3;
+
+use crate::Failure;
+use crate::pictures::{prepare_image_dirs, render_frame, write_animations};
+use crate::run::{MANIFEST_FILE, progress_bar};
+
+/// Arguments of `firn render`.
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// Run directory written by `firn run` (holds manifest.json and ply/).
+    pub run_dir: PathBuf,
+    /// Styles to render, comma separated (default: the scene's).
+    #[arg(long, value_enum, value_delimiter = ',')]
+    pub style: Option<Vec<StyleArg>>,
+    /// Camera: `auto` (frame the domain), `X,Y,Z` (eye; looks at the scene's
+    /// target) or `X,Y,Z@X,Y,Z` (eye and target).
+    #[arg(long)]
+    pub camera: Option<String>,
+    /// Turntable: circle the target at this many degrees per simulated second.
+    #[arg(long)]
+    pub orbit: Option<f32>,
+    /// Image size as WIDTHxHEIGHT, e.g. 1920x1080.
+    #[arg(long)]
+    pub size: Option<String>,
+    /// Quantity on the colour ramp (default: the scene's).
+    #[arg(long, value_enum)]
+    pub color_by: Option<ColorByArg>,
+    /// Draw a legend of the colour ramp.
+    #[arg(long)]
+    pub legend: bool,
+    /// Print nothing but errors and the final line.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// Render styles on the command line.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum StyleArg {
+    /// Sphere-shaded sprites with the bluish ramp.
+    Points,
+    /// Ray-marched density with single scattering.
+    Volume,
+    /// Soft additive sprites (flow scenes).
+    Billboards,
+    /// Fading ribbons through recent positions (flow scenes).
+    Trails,
+}
+
+/// Colour quantities on the command line.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum ColorByArg {
+    /// Density (needs the `density` attribute in the caches).
+    Density,
+    /// Plastic J (needs `plastic-j`).
+    PlasticJ,
+    /// Speed (needs `velocity`).
+    Speed,
+    /// Position in the domain.
+    Position,
+    /// One colour.
+    Uniform,
+}
+
+/// Renders every frame of the run in `args.run_dir`.
+pub fn render(args: RenderArgs) -> Result<(), Failure> {
+    let directory = args.run_dir.clone();
+    let manifest_path = directory.join(MANIFEST_FILE);
+    let mut manifest = Manifest::read(&manifest_path).map_err(|error| {
+        Failure::BadInput(format!(
+            "error: {error}\n  fix: pass the directory of a run made by `firn run` (it holds {MANIFEST_FILE})"
+        ))
+    })?;
+    let mut scene: Scene = serde_json::from_value(manifest.scene.clone()).map_err(|error| {
+        Failure::BadInput(format!(
+            "error: {}: the scene in the manifest cannot be read: {error}\n  fix: re-run the scene with this version of firn",
+            manifest_path.display()
+        ))
+    })?;
+    apply_overrides(&mut scene, &args)?;
+    prepare_image_dirs(&scene, &directory)?;
+    let progress = progress_bar(manifest.frames.len() as u32, 0, args.quiet);
+    let mut rendered = Vec::with_capacity(manifest.frames.len());
+    for record in &manifest.frames {
+        let cloud = read_cache(&directory, record)?;
+        let images = render_cached_frame(&scene, &directory, record, &cloud)?;
+        rendered.push(images);
+        progress.inc(1);
+    }
+    progress.finish_and_clear();
+    let frames: Vec<u32> = manifest.frames.iter().map(|record| record.index).collect();
+    let animations = write_animations(&scene, &directory, &frames, args.quiet)
+        .map_err(|error| Failure::Failed(format!("error: {error}")))?;
+    for (record, images) in manifest.frames.iter_mut().zip(rendered) {
+        record.images = images;
+    }
+    manifest.animations = animations;
+    manifest
+        .write(&manifest_path)
+        .map_err(|error| Failure::Failed(format!("error: {error}")))?;
+    println!(
+        "firn: rendered {} frames in {} style(s); pictures in {}",
+        frames.len(),
+        scene.render.styles.len(),
+        directory.join("images").display()
+    );
+    Ok(())
+}
+
+/// Applies the command-line overrides to the scene's camera and render settings.
+fn apply_overrides(scene: &mut Scene, args: &RenderArgs) -> Result<(), Failure> {
+    scene.render.enabled = true;
+    if let Some(styles) = &args.style {
+        scene.render.styles = styles.iter().map(|&style| render_style(style)).collect();
+        scene.render.styles.dedup();
+    }
+    if let Some(camera) = &args.camera {
+        set_camera(scene, camera)?;
+    }
+    if let Some(degrees_per_second) = args.orbit {
+        scene.camera.orbit = Some(Orbit { degrees_per_second });
+    }
+    if let Some(size) = &args.size {
+        scene.render.size = parse_size(size)?;
+    }
+    if let Some(color_by) = args.color_by {
+        scene.render.color_by = match color_by {
+            ColorByArg::Density => ColorBy::Density,
+            ColorByArg::PlasticJ => ColorBy::PlasticJ,
+            ColorByArg::Speed => ColorBy::Speed,
+            ColorByArg::Position => ColorBy::Position,
+            ColorByArg::Uniform => ColorBy::Uniform,
+        };
+    }
+    scene.render.legend |= args.legend;
+    Ok(())
+}
+
+fn render_style(style: StyleArg) -> RenderStyle {
+    match style {
+        StyleArg::Points => RenderStyle::Points,
+        StyleArg::Volume => RenderStyle::Volume,
+        StyleArg::Billboards => RenderStyle::Billboards,
+        StyleArg::Trails => RenderStyle::Trails,
+    }
+}
+
+/// Parses `--camera`.
+fn set_camera(scene: &mut Scene, text: &str) -> Result<(), Failure> {
+    let camera = &mut scene.camera;
+    camera.path.clear();
+    if text.trim() == "auto" {
+        camera.position = None;
+        camera.look_at = None;
+        return Ok(());
+    }
+    let bad = || {
+        Failure::BadInput(format!(
+            "error: --camera {text:?} is not a camera\n  fix: pass auto, X,Y,Z (eye) or X,Y,Z@X,Y,Z (eye@target), e.g. --camera 2.5,1.2,3.0@1.0,0.3,1.0"
+        ))
+    };
+    let mut parts = text.split('@');
+    let eye = parts.next().and_then(parse_vec3).ok_or_else(bad)?;
+    let target = match parts.next() {
+        Some(part) => Some(parse_vec3(part).ok_or_else(bad)?),
+        None => None,
+    };
+    if parts.next().is_some() {
+        return Err(bad());
+    }
+    camera.position = Some(eye);
+    if target.is_some() {
+        camera.look_at = target;
+    }
+    Ok(())
+}
+
+fn parse_vec3(text: &str) -> Option<Vec3> {
+    let values: Vec<f32> = text
+        .split(',')
+        .map(|part| part.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .ok()?;
+    let vector = <[f32; 3]>::try_from(values).ok().map(Vec3::from_array)?;
+    vector.is_finite().then_some(vector)
+}
+
+/// Parses `--size WIDTHxHEIGHT`.
+fn parse_size(text: &str) -> Result<[u32; 2], Failure> {
+    let parsed = text
+        .split_once(['x', 'X'])
+        .and_then(|(w, h)| Some([w.trim().parse().ok()?, h.trim().parse().ok()?]));
+    match parsed {
+        Some([width, height]) if (16..=8192).contains(&width) && (16..=8192).contains(&height) => {
+            Ok([width, height])
+        }
+        _ => Err(Failure::BadInput(format!(
+            "error: --size {text:?} is not an image size between 16 and 8192 pixels a side\n  fix: pass WIDTHxHEIGHT, e.g. --size 1920x1080"
+        ))),
+    }
+}
+
+/// Reads the PLY cache of a frame, naming the file in any error.
+fn read_cache(directory: &Path, record: &FrameRecord) -> Result<PlyCloud, Failure> {
+    let name = record
+        .files
+        .iter()
+        .find(|file| file.ends_with(".ply"))
+        .ok_or_else(|| {
+            Failure::BadInput(format!(
+                "error: frame {} has no PLY cache in {}\n  fix: add \"ply\" to [output] formats and run the scene again",
+                record.index,
+                directory.display()
+            ))
+        })?;
+    read_ply(&directory.join(name)).map_err(|error| {
+        Failure::BadInput(format!(
+            "error: {error}\n  fix: re-run the scene (firn run --resume continues an interrupted run), or remove the damaged frame's record"
+        ))
+    })
+}
+
+/// Renders one frame from its cache; returns the written image paths.
+fn render_cached_frame(
+    scene: &Scene,
+    directory: &Path,
+    record: &FrameRecord,
+    cloud: &PlyCloud,
+) -> Result<Vec<String>, Failure> {
+    let cache_name = || {
+        record
+            .files
+            .iter()
+            .find(|file| file.ends_with(".ply"))
+            .cloned()
+            .unwrap_or_default()
+    };
+    let positions = cloud.positions().ok_or_else(|| {
+        Failure::BadInput(format!(
+            "error: {} has no x, y, z columns\n  fix: re-run the scene to rewrite its caches",
+            directory.join(cache_name()).display()
+        ))
+    })?;
+    let values = cached_values(cloud, scene.render.color_by).map_err(|column| {
+        Failure::BadInput(format!(
+            "error: {} has no `{column}` column to colour by\n  fix: pass --color-by with a cached quantity, or add it to [output] attributes and run again",
+            directory.join(cache_name()).display()
+        ))
+    })?;
+    let frame = FrameParticles {
+        positions: &positions,
+        masses: cloud.floats("mass"),
+        values: values.as_deref(),
+        trails: None,
+    };
+    render_frame(scene, directory, record.index, record.time, frame)
+        .map_err(|error| Failure::Failed(format!("error: {error}")))
+}
+
+/// Values of `color_by` from the cache columns; `Err(column)` when missing.
+fn cached_values(cloud: &PlyCloud, color_by: ColorBy) -> Result<Option<Vec<f32>>, &'static str> {
+    let column = |name: &'static str| cloud.floats(name).map(<[f32]>::to_vec).ok_or(name);
+    match color_by {
+        ColorBy::Density => column("density").map(Some),
+        ColorBy::PlasticJ => column("plastic_j").map(Some),
+        ColorBy::Speed => cloud
+            .vector("velocity")
+            .map(|velocity| Some(velocity.iter().map(|v| v.length()).collect()))
+            .ok_or("velocity"),
+        ColorBy::Position | ColorBy::Uniform => Ok(None),
+    }
+}

@@ -1,0 +1,206 @@
+//! Eight `f32` lanes in one AVX2 register: [`Real`] written with the x86
+//! intrinsics, so the noise and the curl compile to straight vector code.
+//!
+//! Every operation matches the portable [`F32s`](crate::lanes::F32s) lane
+//! by lane, bit for bit (the same IEEE operations; `min`/`max` with the
+//! `minps`/`maxps` rule; the clamped truncating floor), so the AVX2 path and
+//! the portable path give the same particles.
+//!
+//! Values of [`Avx8`] are only made after [`crate::Simd::detect`] found AVX2
+//! on the running CPU (the type is crate-private); that is what makes the
+//! intrinsic calls below sound.
+
+use std::arch::x86_64::*;
+use std::ops::{Add, Div, Mul, Neg, Sub};
+
+use crate::lanes::{FLOOR_LIMIT, Real, V3};
+
+/// Eight `f32` lanes in a 256-bit register.
+#[derive(Clone, Copy, Debug)]
+#[repr(transparent)]
+pub(crate) struct Avx8(__m256);
+
+/// Eight 32-bit integers (or masks: all bits set where true).
+#[derive(Clone, Copy, Debug)]
+#[repr(transparent)]
+pub(crate) struct Avx8i(__m256i);
+
+impl Avx8 {
+    /// The lanes from an array.
+    #[inline(always)]
+    pub(crate) fn from_array(lanes: [f32; 8]) -> Avx8 {
+        // SAFETY: Avx8 exists only where the CPU has AVX2 (module docs).
+        unsafe { Avx8(_mm256_loadu_ps(lanes.as_ptr())) }
+    }
+
+    /// The lanes as an array.
+    #[inline(always)]
+    pub(crate) fn to_array(self) -> [f32; 8] {
+        let mut lanes = [0.0; 8];
+        // SAFETY: as above; `lanes` holds 8 floats.
+        unsafe { _mm256_storeu_ps(lanes.as_mut_ptr(), self.0) };
+        lanes
+    }
+}
+
+/// [`crate::noise::simplex3`] compiled for AVX2, out of line.
+#[target_feature(enable = "avx2")]
+#[inline(never)]
+fn simplex_avx2(p: V3<Avx8>) -> (Avx8, V3<Avx8>) {
+    crate::noise::simplex3(p)
+}
+
+macro_rules! avx_op {
+    ($trait:ident, $method:ident, $intrinsic:ident) => {
+        impl $trait for Avx8 {
+            type Output = Avx8;
+            #[inline(always)]
+            fn $method(self, other: Avx8) -> Avx8 {
+                // SAFETY: Avx8 exists only where the CPU has AVX2.
+                unsafe { Avx8($intrinsic(self.0, other.0)) }
+            }
+        }
+    };
+}
+
+avx_op!(Add, add, _mm256_add_ps);
+avx_op!(Sub, sub, _mm256_sub_ps);
+avx_op!(Mul, mul, _mm256_mul_ps);
+avx_op!(Div, div, _mm256_div_ps);
+
+impl Neg for Avx8 {
+    type Output = Avx8;
+    #[inline(always)]
+    fn neg(self) -> Avx8 {
+        // SAFETY: Avx8 exists only where the CPU has AVX2. Flips the sign
+        // bit, as `-x` does.
+        unsafe { Avx8(_mm256_xor_ps(self.0, _mm256_set1_ps(-0.0))) }
+    }
+}
+
+// SAFETY (every method): Avx8 exists only where the CPU has AVX2.
+impl Real for Avx8 {
+    type Mask = Avx8i;
+    type Int = Avx8i;
+
+    #[inline(always)]
+    fn simplex(p: V3<Avx8>) -> (Avx8, V3<Avx8>) {
+        unsafe { simplex_avx2(p) }
+    }
+
+    #[inline(always)]
+    fn splat(value: f64) -> Avx8 {
+        unsafe { Avx8(_mm256_set1_ps(value as f32)) }
+    }
+    #[inline(always)]
+    fn floor_int(self) -> (Avx8, Avx8i) {
+        unsafe {
+            let limit = FLOOR_LIMIT as f32;
+            // maxps/minps return the second operand for NaN: NaN → −2³⁰.
+            let x = _mm256_min_ps(
+                _mm256_max_ps(self.0, _mm256_set1_ps(-limit)),
+                _mm256_set1_ps(limit),
+            );
+            let truncated = _mm256_cvttps_epi32(x);
+            let above = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(
+                _mm256_cvtepi32_ps(truncated),
+                x,
+            ));
+            // Adding the all-ones mask subtracts one.
+            let int = _mm256_add_epi32(truncated, above);
+            (Avx8(_mm256_cvtepi32_ps(int)), Avx8i(int))
+        }
+    }
+    #[inline(always)]
+    fn lt(self, other: Avx8) -> Avx8i {
+        unsafe {
+            Avx8i(_mm256_castps_si256(_mm256_cmp_ps::<_CMP_LT_OQ>(
+                self.0, other.0,
+            )))
+        }
+    }
+    #[inline(always)]
+    fn le(self, other: Avx8) -> Avx8i {
+        unsafe {
+            Avx8i(_mm256_castps_si256(_mm256_cmp_ps::<_CMP_LE_OQ>(
+                self.0, other.0,
+            )))
+        }
+    }
+    #[inline(always)]
+    fn select(mask: Avx8i, yes: Avx8, no: Avx8) -> Avx8 {
+        unsafe { Avx8(_mm256_blendv_ps(no.0, yes.0, _mm256_castsi256_ps(mask.0))) }
+    }
+    #[inline(always)]
+    fn min(self, other: Avx8) -> Avx8 {
+        unsafe { Avx8(_mm256_min_ps(self.0, other.0)) }
+    }
+    #[inline(always)]
+    fn max(self, other: Avx8) -> Avx8 {
+        unsafe { Avx8(_mm256_max_ps(self.0, other.0)) }
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Avx8 {
+        unsafe { Avx8(_mm256_sqrt_ps(self.0)) }
+    }
+    #[inline(always)]
+    fn and(a: Avx8i, b: Avx8i) -> Avx8i {
+        unsafe { Avx8i(_mm256_and_si256(a.0, b.0)) }
+    }
+    #[inline(always)]
+    fn or(a: Avx8i, b: Avx8i) -> Avx8i {
+        unsafe { Avx8i(_mm256_or_si256(a.0, b.0)) }
+    }
+    #[inline(always)]
+    fn not(a: Avx8i) -> Avx8i {
+        unsafe { Avx8i(_mm256_xor_si256(a.0, _mm256_set1_epi32(-1))) }
+    }
+    #[inline(always)]
+    fn any(a: Avx8i) -> bool {
+        unsafe { _mm256_testz_si256(a.0, a.0) == 0 }
+    }
+    #[inline(always)]
+    fn mask_bits(a: Avx8i) -> u32 {
+        unsafe { _mm256_movemask_ps(_mm256_castsi256_ps(a.0)) as u32 }
+    }
+    #[inline(always)]
+    fn mask_to_int(a: Avx8i) -> Avx8i {
+        unsafe { Avx8i(_mm256_srli_epi32::<31>(a.0)) }
+    }
+    #[inline(always)]
+    fn int_splat(value: u32) -> Avx8i {
+        unsafe { Avx8i(_mm256_set1_epi32(value as i32)) }
+    }
+    #[inline(always)]
+    fn int_add(a: Avx8i, b: Avx8i) -> Avx8i {
+        unsafe { Avx8i(_mm256_add_epi32(a.0, b.0)) }
+    }
+    #[inline(always)]
+    fn int_mul(a: Avx8i, b: u32) -> Avx8i {
+        unsafe { Avx8i(_mm256_mullo_epi32(a.0, _mm256_set1_epi32(b as i32))) }
+    }
+    #[inline(always)]
+    fn int_xor(a: Avx8i, b: Avx8i) -> Avx8i {
+        unsafe { Avx8i(_mm256_xor_si256(a.0, b.0)) }
+    }
+    #[inline(always)]
+    fn int_and(a: Avx8i, b: u32) -> Avx8i {
+        unsafe { Avx8i(_mm256_and_si256(a.0, _mm256_set1_epi32(b as i32))) }
+    }
+    #[inline(always)]
+    fn int_shr(a: Avx8i, bits: u32) -> Avx8i {
+        unsafe { Avx8i(_mm256_srl_epi32(a.0, _mm_cvtsi32_si128(bits as i32))) }
+    }
+    #[inline(always)]
+    fn int_shl(a: Avx8i, bits: u32) -> Avx8i {
+        unsafe { Avx8i(_mm256_sll_epi32(a.0, _mm_cvtsi32_si128(bits as i32))) }
+    }
+    #[inline(always)]
+    fn int_select(mask: Avx8i, yes: Avx8i, no: Avx8i) -> Avx8i {
+        unsafe { Avx8i(_mm256_blendv_epi8(no.0, yes.0, mask.0)) }
+    }
+    #[inline(always)]
+    fn int_eq(a: Avx8i, b: u32) -> Avx8i {
+        unsafe { Avx8i(_mm256_cmpeq_epi32(a.0, _mm256_set1_epi32(b as i32))) }
+    }
+}

@@ -1,0 +1,55 @@
+//! Flow particles, structure of arrays: one array per attribute, indexed by
+//! particle. A particle's index is its id: particles are appended as they
+//! are born and never reordered or removed; one that expires or leaves the
+//! domain is born again in place, with its generation counted up.
+
+use glam::Vec3;
+
+/// The state of all particles.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FlowParticles {
+    /// Positions, m.
+    pub positions: Vec<Vec3>,
+    /// Velocity of the last step: the step's displacement over Δt (for RK2 the
+    /// midpoint velocity), plus what is left of the birth velocity.
+    pub velocities: Vec<Vec3>,
+    /// Seconds since the particle's current life began.
+    pub ages: Vec<f32>,
+    /// Length of the current life, s (infinite: forever).
+    pub lifetimes: Vec<f32>,
+    /// Lives lived before the current one (0 for the first).
+    pub generations: Vec<u32>,
+    /// Index of the emitter the particle belongs to.
+    pub emitters: Vec<u32>,
+}
+
+impl FlowParticles {
+    /// Number of particles.
+    pub fn len(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.positions.is_empty()
+    }
+
+    /// Bytes per particle (without trails).
+    pub fn bytes_per_particle() -> usize {
+        2 * size_of::<Vec3>() + 2 * size_of::<f32>() + 2 * size_of::<u32>()
+    }
+
+    /// Whether all arrays have the same length.
+    pub fn is_consistent(&self) -> bool {
+        let n = self.positions.len();
+        [
+            self.velocities.len(),
+            self.ages.len(),
+            self.lifetimes.len(),
+            self.generations.len(),
+            self.emitters.len(),
+        ]
+        .iter()
+        .all(|len| *len == n)
+    }
+}

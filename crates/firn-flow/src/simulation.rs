@@ -1,0 +1,708 @@
+//! The time loop of a flow: one [`FlowSimulation`] owns the field, the
+//! particles and their trails, and advances them substep by substep.
+//!
+//! Each frame (1 / fps seconds of the scene's `[time]`) is `flow.substeps`
+//! equal substeps. A substep:
+//!
+//! 1. moves every particle through the field with RK2 or RK4
+//!    ([`crate::integrate`]), in parallel over fixed chunks of particles;
+//! 2. adds the fading birth velocity of its emitter, if any, as its exact
+//!    displacement over the substep;
+//! 3. ages it; a particle whose life is over, or that left the domain, is born
+//!    again at its emitter (generation + 1; its age counts from the moment
+//!    its last life ended, so lives keep their lengths);
+//! 4. pushes particles that entered a sphere obstacle out to its surface (the
+//!    flow never enters a sphere, but a finite step can cut a corner);
+//! 5. appends the particles that `rate` emitters make during the substep, in
+//!    emitter order, placed at their birth point at the end of the substep
+//!    with the age they have by then.
+//!
+//! At the end of a frame every particle records its position in its trail.
+//! All random numbers are keyed by (seed, particle id, generation) and chunks
+//! are fixed, so the same scene gives the same bits on any thread count.
+
+use std::fmt;
+
+use firn_core::scene::{FlowEmission, FlowSettings, Scene, SceneError};
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::emitters;
+use crate::field::{FlowField, Prepared};
+use crate::integrate::{self, Chunk, Limits, MAX_LANES, Simd, Stages};
+use crate::lanes::F32s;
+use crate::particles::FlowParticles;
+use crate::trails::Trails;
+
+/// Particles per parallel task (a multiple of the SIMD batch).
+const CHUNK: usize = 64 * MAX_LANES;
+
+/// How far outside a sphere a particle is put when pushed out, relative to
+/// the radius (so that `f32` rounding cannot leave it inside).
+const PUSH_OUT_MARGIN: f32 = 1e-5;
+
+/// Why a flow could not start or be restored.
+#[derive(Debug, Clone, PartialEq)]
+pub enum FlowError {
+    /// The scene is a snow scene.
+    NotAFlowScene,
+    /// The scene breaks a rule of the format.
+    Scene(Box<SceneError>),
+    /// A snapshot does not fit the scene it is restored into.
+    SnapshotMismatch(String),
+}
+
+impl fmt::Display for FlowError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            FlowError::NotAFlowScene => f.write_str(
+                "the scene is a snow scene; a curl-noise flow needs kind = \"flow\" and a [flow] \
+                 table",
+            ),
+            FlowError::Scene(error) => write!(f, "{error}"),
+            FlowError::SnapshotMismatch(what) => {
+                write!(f, "the checkpoint does not match the scene: {what}")
+            }
+        }
+    }
+}
+
+impl std::error::Error for FlowError {}
+
+/// The full state needed to continue a flow bit for bit: plain arrays, so a
+/// caller can store them (e.g. in a `firn_io::Checkpoint`, one array each).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FlowSnapshot {
+    /// Substeps taken since time 0.
+    pub substeps: u64,
+    /// Particles born so far by each emitter.
+    pub births: Vec<u64>,
+    /// Particle positions.
+    pub positions: Vec<Vec3>,
+    /// Particle velocities.
+    pub velocities: Vec<Vec3>,
+    /// Ages in the current life.
+    pub ages: Vec<f32>,
+    /// Lengths of the current lives.
+    pub lifetimes: Vec<f32>,
+    /// Generations.
+    pub generations: Vec<u32>,
+    /// Emitter of each particle.
+    pub emitters: Vec<u32>,
+    /// Positions kept per trail (0: trails off).
+    pub trail_capacity: u32,
+    /// Ring slot of the newest trail position.
+    pub trail_head: u32,
+    /// Trail rings, particle-major, `trail_capacity` each.
+    pub trail_points: Vec<Vec3>,
+    /// Valid positions per trail.
+    pub trail_lengths: Vec<u32>,
+    /// Generation of each particle when its trail last recorded.
+    pub trail_generations: Vec<u32>,
+}
+
+/// A running curl-noise particle flow on the CPU (seed 002).
+#[derive(Clone, Debug)]
+pub struct FlowSimulation {
+    scene: Scene,
+    settings: FlowSettings,
+    field: FlowField,
+    particles: FlowParticles,
+    trails: Option<Trails>,
+    /// Particle slots of each emitter over the whole run.
+    slots: Vec<u64>,
+    /// Particles born so far by each emitter.
+    births: Vec<u64>,
+    substeps: u64,
+    simd: Simd,
+}
+
+impl FlowSimulation {
+    /// Checks the scene, makes the particles of time 0 (every `count`
+    /// emitter's, and the first of each `rate` emitter) and, if the scene
+    /// renders trails, their first trail point.
+    pub fn new(scene: Scene) -> Result<FlowSimulation, FlowError> {
+        let mut simulation = FlowSimulation::empty(scene)?;
+        let settings = simulation.settings.clone();
+        for (index, emitter) in settings.emitters.iter().enumerate() {
+            let count = emitters::births_by(emitter, simulation.slots[index], 0.0);
+            simulation.births[index] = count;
+            simulation.reserve(count as usize);
+            for k in 0..count {
+                simulation.push_newborn(index, 0.0 - emitters::birth_time(emitter, k) as f32);
+            }
+        }
+        simulation.push_out_of_obstacles_all();
+        simulation.refresh_velocities();
+        if simulation
+            .scene
+            .render
+            .styles
+            .contains(&firn_core::scene::RenderStyle::Trails)
+        {
+            simulation.enable_trails(simulation.scene.render.trail_length as usize);
+        }
+        Ok(simulation)
+    }
+
+    /// Continues from a snapshot taken by [`FlowSimulation::snapshot`] of the
+    /// same scene.
+    pub fn from_snapshot(
+        scene: Scene,
+        snapshot: FlowSnapshot,
+    ) -> Result<FlowSimulation, FlowError> {
+        let mut simulation = FlowSimulation::empty(scene)?;
+        let mismatch = |what: String| Err(FlowError::SnapshotMismatch(what));
+        if snapshot.births.len() != simulation.slots.len() {
+            return mismatch(format!(
+                "it has {} emitters, the scene {}",
+                snapshot.births.len(),
+                simulation.slots.len()
+            ));
+        }
+        let particles = FlowParticles {
+            positions: snapshot.positions,
+            velocities: snapshot.velocities,
+            ages: snapshot.ages,
+            lifetimes: snapshot.lifetimes,
+            generations: snapshot.generations,
+            emitters: snapshot.emitters,
+        };
+        if !particles.is_consistent() {
+            return mismatch("its particle arrays differ in length".into());
+        }
+        let expected: u64 = snapshot.births.iter().sum();
+        if expected != particles.len() as u64 {
+            return mismatch(format!(
+                "it has {} particles but its emitters made {expected}",
+                particles.len()
+            ));
+        }
+        let emitter_count = simulation.slots.len() as u32;
+        if particles.emitters.iter().any(|e| *e >= emitter_count) {
+            return mismatch("a particle names an emitter the scene lacks".into());
+        }
+        simulation.particles = particles;
+        simulation.births = snapshot.births;
+        simulation.substeps = snapshot.substeps;
+        if snapshot.trail_capacity > 0 {
+            let trails = Trails::from_raw(
+                snapshot.trail_capacity as usize,
+                snapshot.trail_head as usize,
+                snapshot.trail_points,
+                snapshot.trail_lengths,
+                snapshot.trail_generations,
+            );
+            match trails {
+                Some(trails) => simulation.trails = Some(trails),
+                None => return mismatch("its trail arrays do not fit together".into()),
+            }
+        }
+        Ok(simulation)
+    }
+
+    /// A simulation of the scene with no particles yet.
+    fn empty(scene: Scene) -> Result<FlowSimulation, FlowError> {
+        let settings = scene.kind.flow().ok_or(FlowError::NotAFlowScene)?.clone();
+        scene
+            .validate()
+            .map_err(|error| FlowError::Scene(Box::new(error)))?;
+        let slots = settings
+            .emitters
+            .iter()
+            .map(|emitter| emitter.slots(scene.time.duration))
+            .collect();
+        Ok(FlowSimulation {
+            field: FlowField::new(&settings),
+            births: vec![0; settings.emitters.len()],
+            slots,
+            settings,
+            scene,
+            particles: FlowParticles::default(),
+            trails: None,
+            substeps: 0,
+            simd: Simd::detect(),
+        })
+    }
+
+    /// Keep the last `length` positions of every particle from now on (the
+    /// current positions are the first).
+    pub fn enable_trails(&mut self, length: usize) {
+        let mut trails = Trails::new(length);
+        trails.record(&self.particles.positions, &self.particles.generations);
+        self.trails = Some(trails);
+    }
+
+    /// Stop keeping trails and free their memory.
+    pub fn disable_trails(&mut self) {
+        self.trails = None;
+    }
+
+    /// Use another code path than the one detected for this CPU, if the CPU
+    /// can run it (all give the same bits; for tests and benchmarks).
+    pub fn set_simd(&mut self, simd: Simd) {
+        if simd.is_available() {
+            self.simd = simd;
+        }
+    }
+
+    /// The code path in use.
+    pub fn simd(&self) -> Simd {
+        self.simd
+    }
+
+    /// Δt of one substep: 1 / (fps × substeps).
+    pub fn dt(&self) -> f64 {
+        1.0 / self.steps_per_second()
+    }
+
+    fn steps_per_second(&self) -> f64 {
+        self.scene.time.fps * f64::from(self.settings.substeps)
+    }
+
+    /// Simulated time in seconds.
+    pub fn time(&self) -> f64 {
+        self.substeps as f64 / self.steps_per_second()
+    }
+
+    /// Substeps taken since time 0.
+    pub fn substeps(&self) -> u64 {
+        self.substeps
+    }
+
+    /// The frame the simulation is at (rounded down between frames).
+    pub fn frame(&self) -> u64 {
+        self.substeps / u64::from(self.settings.substeps)
+    }
+
+    /// Advance one substep.
+    pub fn step(&mut self) {
+        let t0 = self.time();
+        let t1 = (self.substeps + 1) as f64 / self.steps_per_second();
+        let dt32 = (t1 - t0) as f32;
+        let stages = Stages::new(self.simd, &self.field, t0, t1);
+        let end = self.field.prepare::<F32s<1>>(t1);
+        let integrator = self.settings.integrator;
+        let FlowParticles {
+            positions,
+            velocities,
+            ages,
+            lifetimes,
+            generations,
+            emitters: emitter_of,
+        } = &mut self.particles;
+        let kicks = self
+            .settings
+            .emitters
+            .iter()
+            .any(|emitter| emitter.velocity != Vec3::ZERO);
+        let limits = Limits {
+            min: self.scene.domain.min,
+            max: self.scene.domain.max,
+            obstacles: &self.settings.obstacles,
+            flag_all: kicks,
+        };
+        let context = StepContext {
+            settings: &self.settings,
+            domain: (self.scene.domain.min, self.scene.domain.max),
+            emitter_of,
+            end: &end,
+            dt: dt32,
+            kicks,
+        };
+        positions
+            .par_chunks_mut(CHUNK)
+            .zip(velocities.par_chunks_mut(CHUNK))
+            .zip(ages.par_chunks_mut(CHUNK))
+            .zip(lifetimes.par_chunks_mut(CHUNK))
+            .zip(generations.par_chunks_mut(CHUNK))
+            .enumerate()
+            .for_each(
+                |(chunk_index, ((((positions, velocities), ages), lifetimes), generations))| {
+                    let mut flagged = Vec::new();
+                    let chunk = Chunk {
+                        positions,
+                        velocities,
+                        ages,
+                        lifetimes,
+                    };
+                    integrate::advance(&stages, integrator, dt32, &limits, chunk, &mut flagged);
+                    context.finish(
+                        chunk_index * CHUNK,
+                        &flagged,
+                        positions,
+                        velocities,
+                        ages,
+                        lifetimes,
+                        generations,
+                    );
+                },
+            );
+        self.substeps += 1;
+        self.emit(t1, &end);
+        if self
+            .substeps
+            .is_multiple_of(u64::from(self.settings.substeps))
+            && let Some(trails) = &mut self.trails
+        {
+            trails.record(&self.particles.positions, &self.particles.generations);
+        }
+    }
+
+    /// Advance to the next frame; returns the substeps taken.
+    pub fn advance_frame(&mut self) -> u32 {
+        let per_frame = u64::from(self.settings.substeps);
+        let mut taken = 0;
+        loop {
+            self.step();
+            taken += 1;
+            if self.substeps.is_multiple_of(per_frame) {
+                return taken;
+            }
+        }
+    }
+
+    /// Advance by whole substeps up to time `until` (the last substep that
+    /// does not end after it); returns the substeps taken.
+    pub fn advance_to(&mut self, until: f64) -> u32 {
+        let mut taken = 0;
+        let tolerance = 1e-6 * self.dt();
+        while (self.substeps + 1) as f64 / self.steps_per_second() <= until + tolerance {
+            self.step();
+            taken += 1;
+        }
+        taken
+    }
+
+    /// Make the particles that `rate` emitters have born by time `t`.
+    fn emit(&mut self, t: f64, end: &Prepared<F32s<1>>) {
+        let start = self.particles.len();
+        for index in 0..self.settings.emitters.len() {
+            let emitter = self.settings.emitters[index];
+            if !matches!(emitter.emission, FlowEmission::Rate(_)) {
+                continue;
+            }
+            let target = emitters::births_by(&emitter, self.slots[index], t);
+            let first = self.births[index];
+            if target <= first {
+                continue;
+            }
+            self.reserve((target - first) as usize);
+            for k in first..target {
+                let age = (t - emitters::birth_time(&emitter, k)).max(0.0) as f32;
+                self.push_newborn(index, age);
+            }
+            self.births[index] = target;
+        }
+        if self.particles.len() > start {
+            let settings = &self.settings;
+            let particles = &mut self.particles;
+            for p in start..particles.len() {
+                particles.positions[p] = push_out(settings, particles.positions[p]);
+                let emitter = &settings.emitters[particles.emitters[p] as usize];
+                particles.velocities[p] = velocity_at(end, particles.positions[p])
+                    + emitters::kick_velocity(emitter, particles.ages[p]);
+            }
+        }
+    }
+
+    fn reserve(&mut self, additional: usize) {
+        let particles = &mut self.particles;
+        particles.positions.reserve(additional);
+        particles.velocities.reserve(additional);
+        particles.ages.reserve(additional);
+        particles.lifetimes.reserve(additional);
+        particles.generations.reserve(additional);
+        particles.emitters.reserve(additional);
+    }
+
+    /// Append the first life of a new particle of emitter `index`.
+    fn push_newborn(&mut self, index: usize, age: f32) {
+        let emitter = &self.settings.emitters[index];
+        let id = self.particles.len() as u64;
+        let seed = self.settings.seed;
+        let particles = &mut self.particles;
+        particles
+            .positions
+            .push(emitters::birth_position(emitter, seed, id, 0));
+        particles.velocities.push(Vec3::ZERO);
+        particles.ages.push(age.max(0.0));
+        particles
+            .lifetimes
+            .push(emitters::lifetime(emitter, seed, id, 0));
+        particles.generations.push(0);
+        particles.emitters.push(index as u32);
+    }
+
+    fn push_out_of_obstacles_all(&mut self) {
+        let settings = &self.settings;
+        self.particles.positions.par_iter_mut().for_each(|x| {
+            *x = push_out(settings, *x);
+        });
+    }
+
+    /// Velocities of all particles at the current time.
+    fn refresh_velocities(&mut self) {
+        let time = self.time();
+        let simd = self.simd;
+        let field = &self.field;
+        let settings = &self.settings;
+        let particles = &mut self.particles;
+        particles
+            .positions
+            .par_chunks(CHUNK)
+            .zip(particles.velocities.par_chunks_mut(CHUNK))
+            .zip(particles.ages.par_chunks(CHUNK))
+            .zip(particles.emitters.par_chunks(CHUNK))
+            .for_each(|(((positions, velocities), ages), owners)| {
+                integrate::evaluate(simd, field, time, positions, velocities);
+                for ((velocity, age), owner) in velocities.iter_mut().zip(ages).zip(owners) {
+                    let emitter = &settings.emitters[*owner as usize];
+                    *velocity += emitters::kick_velocity(emitter, *age);
+                }
+            });
+    }
+
+    /// Everything needed to continue this run bit for bit.
+    pub fn snapshot(&self) -> FlowSnapshot {
+        let particles = self.particles.clone();
+        let (trail_capacity, trail_head, trail_points, trail_lengths, trail_generations) =
+            match &self.trails {
+                Some(trails) => {
+                    let (capacity, head, points, lengths, generations) = trails.raw();
+                    (
+                        capacity as u32,
+                        head as u32,
+                        points.to_vec(),
+                        lengths.to_vec(),
+                        generations.to_vec(),
+                    )
+                }
+                None => (0, 0, Vec::new(), Vec::new(), Vec::new()),
+            };
+        FlowSnapshot {
+            substeps: self.substeps,
+            births: self.births.clone(),
+            positions: particles.positions,
+            velocities: particles.velocities,
+            ages: particles.ages,
+            lifetimes: particles.lifetimes,
+            generations: particles.generations,
+            emitters: particles.emitters,
+            trail_capacity,
+            trail_head,
+            trail_points,
+            trail_lengths,
+            trail_generations,
+        }
+    }
+
+    /// The scene being simulated.
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// The flow settings of the scene.
+    pub fn settings(&self) -> &FlowSettings {
+        &self.settings
+    }
+
+    /// The velocity field (for probing, tests and a future GPU port).
+    pub fn field(&self) -> &FlowField {
+        &self.field
+    }
+
+    /// All particle arrays.
+    pub fn particles(&self) -> &FlowParticles {
+        &self.particles
+    }
+
+    /// Number of particles born so far (all alive: a particle whose life ends
+    /// is born again at once).
+    pub fn len(&self) -> usize {
+        self.particles.len()
+    }
+
+    /// Whether no particle is born yet.
+    pub fn is_empty(&self) -> bool {
+        self.particles.is_empty()
+    }
+
+    /// Particle positions, m.
+    pub fn positions(&self) -> &[Vec3] {
+        &self.particles.positions
+    }
+
+    /// Particle velocities of the last substep, m/s.
+    pub fn velocities(&self) -> &[Vec3] {
+        &self.particles.velocities
+    }
+
+    /// Seconds since each particle's current life began.
+    pub fn ages(&self) -> &[f32] {
+        &self.particles.ages
+    }
+
+    /// Length of each particle's current life, s (infinite: forever).
+    pub fn lifetimes(&self) -> &[f32] {
+        &self.particles.lifetimes
+    }
+
+    /// Lives each particle lived before its current one.
+    pub fn generations(&self) -> &[u32] {
+        &self.particles.generations
+    }
+
+    /// Particle ids: a particle's id is its index, stable for the whole run
+    /// (particles are appended as they are born and never reordered).
+    pub fn ids(&self) -> std::ops::Range<u32> {
+        0..self.particles.len() as u32
+    }
+
+    /// The trails, if kept.
+    pub fn trails(&self) -> Option<&Trails> {
+        self.trails.as_ref()
+    }
+
+    /// The seed's colouring (§2.3): |x|, |y|, |z| about the centre of the
+    /// domain, each divided by the half extent, as red, green, blue in [0, 1].
+    pub fn colors_by_position(&self) -> Vec<[f32; 3]> {
+        let domain = &self.scene.domain;
+        self.particles
+            .positions
+            .iter()
+            .map(|x| position_color(domain.min, domain.max, *x))
+            .collect()
+    }
+
+    /// Bytes held by the particles and trails.
+    pub fn memory_bytes(&self) -> usize {
+        let trails = self.trails.as_ref().map_or(0, |trails| {
+            trails.particle_count() * (trails.capacity() * size_of::<Vec3>() + 8)
+        });
+        self.particles.len() * FlowParticles::bytes_per_particle() + trails
+    }
+}
+
+/// The seed's colour of a point (§2.3): |x − c| / (half extent) per axis,
+/// clamped to [0, 1], with c the centre of the box `min..max`.
+pub fn position_color(min: Vec3, max: Vec3, x: Vec3) -> [f32; 3] {
+    let center = 0.5 * (min + max);
+    let half = (0.5 * (max - min)).max(Vec3::splat(f32::MIN_POSITIVE));
+    ((x - center).abs() / half)
+        .clamp(Vec3::ZERO, Vec3::ONE)
+        .to_array()
+}
+
+/// The velocity at one point from the scalar prepared field.
+fn velocity_at(prepared: &Prepared<F32s<1>>, x: Vec3) -> Vec3 {
+    let v = crate::field::velocity_lanes(prepared, [F32s([x.x]), F32s([x.y]), F32s([x.z])]);
+    Vec3::new(v[0].0[0], v[1].0[0], v[2].0[0])
+}
+
+/// Move a point inside a sphere obstacle to just outside its surface, along
+/// the ray from the centre.
+fn push_out(settings: &FlowSettings, mut x: Vec3) -> Vec3 {
+    for obstacle in &settings.obstacles {
+        let rel = x - obstacle.center;
+        let distance_squared = rel.length_squared();
+        if distance_squared < obstacle.radius * obstacle.radius {
+            let distance = distance_squared.sqrt();
+            let normal = if distance > 0.0 {
+                rel / distance
+            } else {
+                Vec3::Y
+            };
+            x = obstacle.center + normal * (obstacle.radius * (1.0 + PUSH_OUT_MARGIN));
+        }
+    }
+    x
+}
+
+/// What the per-particle part of a substep needs.
+struct StepContext<'a> {
+    settings: &'a FlowSettings,
+    domain: (Vec3, Vec3),
+    emitter_of: &'a [u32],
+    /// The field at the end of the substep, for particles born again.
+    end: &'a Prepared<F32s<1>>,
+    dt: f32,
+    /// Whether any emitter has a birth velocity.
+    kicks: bool,
+}
+
+impl StepContext<'_> {
+    /// Steps 2-4 of a substep for the particles of a chunk starting at
+    /// `first`, after the flow moved them; only the `flagged` ones (indices
+    /// into the chunk) can need more than aging.
+    #[allow(clippy::too_many_arguments)]
+    fn finish(
+        &self,
+        first: usize,
+        flagged: &[u32],
+        positions: &mut [Vec3],
+        velocities: &mut [Vec3],
+        ages: &mut [f32],
+        lifetimes: &mut [f32],
+        generations: &mut [u32],
+    ) {
+        if self.kicks {
+            for &i in flagged {
+                let i = i as usize;
+                let emitter = &self.settings.emitters[self.emitter_of[first + i] as usize];
+                positions[i] += emitters::kick(emitter, ages[i], self.dt);
+                velocities[i] += emitters::kick_velocity(emitter, ages[i] + self.dt);
+            }
+        }
+        for age in ages.iter_mut() {
+            *age += self.dt;
+        }
+        let (min, max) = self.domain;
+        for &i in flagged {
+            let i = i as usize;
+            let x = positions[i];
+            let outside = !(x.cmpge(min).all() && x.cmple(max).all());
+            let expired = ages[i] >= lifetimes[i];
+            if outside || expired {
+                self.rebirth(
+                    first + i,
+                    outside,
+                    &mut positions[i],
+                    &mut velocities[i],
+                    &mut ages[i],
+                    &mut lifetimes[i],
+                    &mut generations[i],
+                );
+            } else {
+                positions[i] = push_out(self.settings, x);
+            }
+        }
+    }
+
+    /// A new life for particle `id` at its emitter, after it expired or left
+    /// the domain.
+    #[allow(clippy::too_many_arguments)]
+    fn rebirth(
+        &self,
+        id: usize,
+        outside: bool,
+        position: &mut Vec3,
+        velocity: &mut Vec3,
+        age: &mut f32,
+        lifetime: &mut f32,
+        generation: &mut u32,
+    ) {
+        let emitter = &self.settings.emitters[self.emitter_of[id] as usize];
+        let seed = self.settings.seed;
+        let overshoot = if outside { 0.0 } else { *age - *lifetime };
+        *generation += 1;
+        let life = u64::from(*generation);
+        *lifetime = emitters::lifetime(emitter, seed, id as u64, life);
+        *age = overshoot.min(*lifetime);
+        *position = push_out(
+            self.settings,
+            emitters::birth_position(emitter, seed, id as u64, life),
+        );
+        *velocity = velocity_at(self.end, *position) + emitters::kick_velocity(emitter, *age);
+    }
+}

@@ -1,0 +1,180 @@
+//! Trails: each particle's last k positions, one per frame, in a ring buffer
+//! (seed 002, §2.3: the buffer C of the trail glyphs; firn keeps one ring per
+//! particle and one shared write position, since all particles record at the
+//! same frames).
+//!
+//! A particle that is born again starts a new trail: when it records, the
+//! ring notices that the particle's generation changed and forgets the old
+//! positions.
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// The recent positions of every particle.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Trails {
+    /// Positions kept per particle (k).
+    capacity: usize,
+    /// Ring slot of the newest position.
+    head: usize,
+    /// Particle-major rings: particle p's slot s is `points[p * capacity + s]`.
+    points: Vec<Vec3>,
+    /// Valid positions per particle (at most `capacity`).
+    lengths: Vec<u32>,
+    /// The generation of each particle when it last recorded.
+    generations: Vec<u32>,
+}
+
+/// Particles per parallel task when recording.
+const RECORD_CHUNK: usize = 4096;
+
+impl Trails {
+    /// Empty trails of `capacity` positions each (at least 1).
+    pub fn new(capacity: usize) -> Trails {
+        Trails {
+            capacity: capacity.max(1),
+            head: 0,
+            points: Vec::new(),
+            lengths: Vec::new(),
+            generations: Vec::new(),
+        }
+    }
+
+    /// Positions kept per particle.
+    pub fn capacity(&self) -> usize {
+        self.capacity
+    }
+
+    /// Particles with a ring.
+    pub fn particle_count(&self) -> usize {
+        self.lengths.len()
+    }
+
+    /// Number of positions particle `p` has recorded in its current life (at
+    /// most [`Trails::capacity`]).
+    pub fn len(&self, p: usize) -> usize {
+        self.lengths[p] as usize
+    }
+
+    /// Whether particle `p` has no positions yet.
+    pub fn is_empty(&self, p: usize) -> bool {
+        self.lengths[p] == 0
+    }
+
+    /// Particle `p`'s positions from the oldest to the newest (the current
+    /// position, at the last recorded frame); `.rev()` gives newest first.
+    pub fn iter(&self, p: usize) -> impl DoubleEndedIterator<Item = Vec3> + ExactSizeIterator + '_ {
+        let length = self.lengths[p] as usize;
+        let capacity = self.capacity;
+        // The oldest kept position sits length − 1 slots behind the head.
+        let oldest = self.head + capacity - (length.max(1) - 1);
+        let ring = &self.points[p * capacity..(p + 1) * capacity];
+        (0..length).map(move |i| ring[(oldest + i) % capacity])
+    }
+
+    /// Record the current positions as the newest trail points.
+    pub fn record(&mut self, positions: &[Vec3], generations: &[u32]) {
+        let count = positions.len();
+        if self.lengths.len() < count {
+            self.points.resize(count * self.capacity, Vec3::ZERO);
+            self.lengths.resize(count, 0);
+            self.generations.resize(count, u32::MAX);
+        }
+        let capacity = self.capacity;
+        let head = (self.head + 1) % capacity;
+        self.head = head;
+        let limit = capacity as u32;
+        self.points
+            .par_chunks_mut(RECORD_CHUNK * capacity)
+            .zip(self.lengths.par_chunks_mut(RECORD_CHUNK))
+            .zip(self.generations.par_chunks_mut(RECORD_CHUNK))
+            .enumerate()
+            .for_each(|(chunk, ((points, lengths), recorded))| {
+                let start = chunk * RECORD_CHUNK;
+                for (i, (length, recorded)) in lengths.iter_mut().zip(recorded).enumerate() {
+                    let p = start + i;
+                    if *recorded != generations[p] {
+                        *recorded = generations[p];
+                        *length = 0;
+                    }
+                    points[i * capacity + head] = positions[p];
+                    *length = (*length + 1).min(limit);
+                }
+            });
+    }
+
+    /// The raw state, for checkpoints: capacity, head slot, rings, lengths and
+    /// recorded generations.
+    pub fn raw(&self) -> (usize, usize, &[Vec3], &[u32], &[u32]) {
+        (
+            self.capacity,
+            self.head,
+            &self.points,
+            &self.lengths,
+            &self.generations,
+        )
+    }
+
+    /// Trails from the raw state of [`Trails::raw`]; `None` if the arrays do
+    /// not fit together.
+    pub fn from_raw(
+        capacity: usize,
+        head: usize,
+        points: Vec<Vec3>,
+        lengths: Vec<u32>,
+        generations: Vec<u32>,
+    ) -> Option<Trails> {
+        let fits = capacity >= 1
+            && head < capacity
+            && points.len() == lengths.len() * capacity
+            && generations.len() == lengths.len()
+            && lengths.iter().all(|length| *length as usize <= capacity);
+        fits.then_some(Trails {
+            capacity,
+            head,
+            points,
+            lengths,
+            generations,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rings_keep_the_last_k_in_age_order_and_restart_on_rebirth() {
+        let mut trails = Trails::new(3);
+        let mut generations = vec![0u32, 0];
+        for frame in 0..5 {
+            let f = frame as f32;
+            trails.record(&[Vec3::splat(f), Vec3::splat(10.0 + f)], &generations);
+        }
+        let kept: Vec<f32> = trails.iter(0).map(|x| x.x).collect();
+        assert_eq!(kept, vec![2.0, 3.0, 4.0]);
+        let newest_first: Vec<f32> = trails.iter(1).rev().map(|x| x.x).collect();
+        assert_eq!(newest_first, vec![14.0, 13.0, 12.0]);
+
+        generations[1] = 1;
+        trails.record(&[Vec3::splat(5.0), Vec3::splat(-1.0)], &generations);
+        assert_eq!(trails.len(1), 1);
+        assert_eq!(trails.iter(1).collect::<Vec<_>>(), vec![Vec3::splat(-1.0)]);
+        assert_eq!(trails.len(0), 3);
+
+        // A particle born later gets a ring of its own.
+        trails.record(&[Vec3::ZERO, Vec3::ZERO, Vec3::ONE], &[0, 1, 0]);
+        assert_eq!(trails.particle_count(), 3);
+        assert_eq!(trails.iter(2).collect::<Vec<_>>(), vec![Vec3::ONE]);
+        let (capacity, head, points, lengths, generations) = trails.raw();
+        let copy = Trails::from_raw(
+            capacity,
+            head,
+            points.to_vec(),
+            lengths.to_vec(),
+            generations.to_vec(),
+        )
+        .unwrap();
+        assert_eq!(copy, trails);
+    }
+}

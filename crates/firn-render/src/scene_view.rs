@@ -1,0 +1,218 @@
+//! Pictures of a scene: the camera, stage, colours and snow look that a
+//! scene file implies, for one frame's particles.
+
+use std::borrow::Cow;
+
+use firn_core::Scene;
+use firn_core::scene::{ColorBy, RenderStyle};
+use glam::Vec3;
+
+use crate::camera::{CameraView, automatic_framing};
+use crate::legend::Legend;
+use crate::ramp::{Coloring, ValueRange, ramp};
+use crate::stage::Stage;
+use crate::trails::Trails;
+use crate::volume::SnowLook;
+use crate::{ParticleLayer, Picture};
+
+/// Snow's sprite radius relative to the particle spacing: a little over half,
+/// so neighbouring sprites overlap into a closed surface.
+const RADIUS_PER_SPACING: f32 = 0.6;
+/// Mean free path of light in snow at its rest density, in particle spacings.
+const MEAN_FREE_PATH_SPACINGS: f32 = 0.6;
+
+/// One frame's particles, as the renderer needs them.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameParticles<'a> {
+    /// Positions.
+    pub positions: &'a [Vec3],
+    /// Masses, if known (otherwise derived from the scene's first material).
+    pub masses: Option<&'a [f32]>,
+    /// Values of the scene's `color_by` quantity, one per particle, if it is
+    /// a ramp quantity.
+    pub values: Option<&'a [f32]>,
+    /// Recent positions per particle, for the `trails` style.
+    pub trails: Option<Trails<'a>>,
+}
+
+/// The picture of `scene` at simulated time `time` in `style`, at the
+/// scene's image size unless `size` overrides it.
+pub fn scene_picture<'a>(
+    scene: &Scene,
+    time: f64,
+    style: RenderStyle,
+    particles: FrameParticles<'a>,
+    size: Option<[u32; 2]>,
+) -> Picture<'a> {
+    let [width, height] = size.unwrap_or(scene.render.size);
+    let camera = scene_camera(scene, time, width, height);
+    let spacing = particle_spacing(scene);
+    let masses = particles.masses.map_or_else(
+        || {
+            Cow::Owned(vec![
+                uniform_mass(scene, spacing);
+                particles.positions.len()
+            ])
+        },
+        Cow::Borrowed,
+    );
+    let coloring = coloring(scene, particles.values);
+    let legend = scene
+        .render
+        .legend
+        .then(|| legend_for(scene, &coloring))
+        .flatten();
+    Picture {
+        camera,
+        style,
+        stage: scene_stage(scene, time),
+        particles: ParticleLayer {
+            positions: particles.positions,
+            masses,
+            coloring,
+            radius: scene
+                .render
+                .point_radius
+                .unwrap_or(RADIUS_PER_SPACING * spacing),
+            look: SnowLook::for_density(
+                reference_density(scene),
+                MEAN_FREE_PATH_SPACINGS * spacing,
+            ),
+            trails: particles.trails,
+            smooth_trails: scene.render.smooth_trails,
+        },
+        legend,
+    }
+}
+
+/// The scene's camera at time `t` (automatic framing where the scene is silent).
+pub fn scene_camera(scene: &Scene, t: f64, width: u32, height: u32) -> CameraView {
+    let camera = &scene.camera;
+    let aspect = width as f32 / height as f32;
+    let automatic = automatic_framing(
+        scene.domain.min,
+        scene.domain.max,
+        camera.fov_degrees,
+        aspect,
+    );
+    let (eye, look_at) = camera.view_at(t, automatic);
+    CameraView::look_at(eye, look_at, camera.fov_degrees, width, height)
+}
+
+/// The container, the ground at the domain floor and the colliders where
+/// they are at time `t`.
+pub fn scene_stage(scene: &Scene, t: f64) -> Stage {
+    let colliders = scene
+        .colliders
+        .iter()
+        .map(|collider| {
+            let start = collider.geometry.reference_point();
+            let (position, _) = collider.motion.state_at(start, t);
+            collider.geometry.moved_to(position)
+        })
+        .collect();
+    Stage {
+        ground: Some(scene.domain.min.y),
+        container: Some((scene.domain.min, scene.domain.max)),
+        colliders,
+        ..Stage::default()
+    }
+}
+
+/// Distance between neighbouring particles of the densest-sampled body (for
+/// flow scenes and scenes without bodies, a small fraction of the domain).
+pub fn particle_spacing(scene: &Scene) -> f32 {
+    let per_cell = scene
+        .bodies
+        .iter()
+        .map(|body| body.particles_per_cell)
+        .max();
+    match per_cell {
+        Some(count) => scene.domain.cell_size / (count.max(1) as f32).cbrt(),
+        None => (scene.domain.max - scene.domain.min).max_element() / 400.0,
+    }
+}
+
+/// Mass of one particle of the first material at the given spacing.
+fn uniform_mass(scene: &Scene, spacing: f32) -> f32 {
+    reference_density(scene) * spacing.powi(3)
+}
+
+/// The densest material's rest density (400 kg/m³ without materials).
+fn reference_density(scene: &Scene) -> f32 {
+    scene
+        .materials
+        .iter()
+        .map(|material| material.density)
+        .fold(None, |best: Option<f32>, d| {
+            Some(best.map_or(d, |b| b.max(d)))
+        })
+        .unwrap_or(400.0)
+}
+
+/// The colouring for the scene's `color_by` and the given per-particle values.
+fn coloring<'a>(scene: &Scene, values: Option<&'a [f32]>) -> Coloring<'a> {
+    let range = ramp_range(scene, scene.render.color_by);
+    match (scene.render.color_by, values, range) {
+        (ColorBy::Position, _, _) => Coloring::Position {
+            min: scene.domain.min,
+            max: scene.domain.max,
+        },
+        (_, Some(values), Some(range)) => Coloring::Ramp { values, range },
+        _ => Coloring::Uniform(ramp(0.72)),
+    }
+}
+
+/// The fixed ramp range of a quantity for this scene, so colours mean the
+/// same in every frame.
+pub fn ramp_range(scene: &Scene, color_by: ColorBy) -> Option<ValueRange> {
+    match color_by {
+        ColorBy::Density => {
+            let rho = reference_density(scene);
+            // Surface particles read low (their kernel sums see fewer
+            // neighbours), so the range starts well below the rest density.
+            Some(ValueRange {
+                low: 0.25 * rho,
+                high: 1.25 * rho,
+            })
+        }
+        ColorBy::PlasticJ => Some(ValueRange {
+            low: 1.25,
+            high: 0.75,
+        }),
+        ColorBy::Speed => Some(ValueRange {
+            low: 0.0,
+            high: reference_speed(scene),
+        }),
+        ColorBy::Position | ColorBy::Uniform => None,
+    }
+}
+
+/// A speed scale: the fastest initial body speed plus free fall over the domain height.
+fn reference_speed(scene: &Scene) -> f32 {
+    let thrown = scene
+        .bodies
+        .iter()
+        .map(|body| body.velocity.length())
+        .fold(0.0f32, f32::max);
+    let height = scene.domain.max.y - scene.domain.min.y;
+    let fall = (2.0 * scene.solver.gravity.length() * height).sqrt();
+    (thrown + fall).max(1e-3)
+}
+
+/// The legend for a ramp colouring (none for position or uniform colours).
+fn legend_for(scene: &Scene, coloring: &Coloring<'_>) -> Option<Legend> {
+    let Coloring::Ramp { range, .. } = coloring else {
+        return None;
+    };
+    let title = match scene.render.color_by {
+        ColorBy::Density => "density kg/m3",
+        ColorBy::PlasticJ => "plastic J",
+        ColorBy::Speed => "speed m/s",
+        ColorBy::Position | ColorBy::Uniform => return None,
+    };
+    Some(Legend {
+        title: title.to_string(),
+        range: *range,
+    })
+}

@@ -1,0 +1,340 @@
+//! Everything in a picture that is not particles: the sky, the ground plane,
+//! the colliders (Blinn-Phong shaded, thesis section 5.7) and the light.
+//! These are ray-cast per sample; the particles are drawn over them with a
+//! depth test.
+
+use firn_core::scene::ColliderGeometry;
+use glam::{Vec2, Vec3};
+
+use crate::camera::CameraView;
+use crate::film::Film;
+
+/// A directional key light plus an ambient sky term.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Light {
+    /// Unit direction from the scene towards the light.
+    pub direction: Vec3,
+    /// Radiance of the key light (linear RGB).
+    pub color: Vec3,
+    /// Ambient sky light (linear RGB).
+    pub ambient: Vec3,
+}
+
+impl Default for Light {
+    fn default() -> Light {
+        Light {
+            direction: Vec3::new(-0.35, 0.8, 0.5).normalize(),
+            color: Vec3::new(1.0, 0.97, 0.92),
+            ambient: Vec3::new(0.30, 0.34, 0.42),
+        }
+    }
+}
+
+/// The backdrop and solid geometry of a picture.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Stage {
+    /// Sky colour at the top of the image (linear RGB).
+    pub sky_top: Vec3,
+    /// Sky colour at the bottom of the image (linear RGB).
+    pub sky_bottom: Vec3,
+    /// Height of the ground plane (y), if one is drawn.
+    pub ground: Option<f32>,
+    /// The container (domain box) as (min, max), drawn as a wireframe; it
+    /// also bounds plane colliders.
+    pub container: Option<(Vec3, Vec3)>,
+    /// Colliders, placed where they are at the picture's time.
+    pub colliders: Vec<ColliderGeometry>,
+    /// The lighting.
+    pub light: Light,
+}
+
+impl Default for Stage {
+    fn default() -> Stage {
+        Stage {
+            sky_top: Vec3::new(0.075, 0.085, 0.11),
+            sky_bottom: Vec3::new(0.20, 0.21, 0.24),
+            ground: None,
+            container: None,
+            colliders: Vec::new(),
+            light: Light::default(),
+        }
+    }
+}
+
+/// Albedo of sphere and box colliders.
+const COLLIDER_ALBEDO: Vec3 = Vec3::new(0.55, 0.24, 0.18);
+/// Albedo of plane colliders (walls).
+const WALL_ALBEDO: Vec3 = Vec3::new(0.42, 0.45, 0.50);
+/// Albedo of the two tones of the ground's checkerboard.
+const GROUND_ALBEDO: [f32; 2] = [0.16, 0.185];
+
+/// What a ray hit first.
+struct SurfaceHit {
+    distance: f32,
+    normal: Vec3,
+    albedo: Vec3,
+    shininess: f32,
+    is_ground: bool,
+}
+
+impl Stage {
+    /// Sky colour for image row `y` of `height` rows.
+    pub fn sky(&self, y: f32, height: f32) -> Vec3 {
+        self.sky_top
+            .lerp(self.sky_bottom, (y / height).clamp(0.0, 1.0))
+    }
+
+    /// Fills every sample of `film` with the sky or the nearest surface.
+    /// `shadow` gives the fraction of key light reaching a surface point
+    /// (1 when nothing casts shadows).
+    pub fn draw(
+        &self,
+        film: &mut Film,
+        camera: &CameraView,
+        shadow: &(dyn Fn(Vec3) -> f32 + Sync),
+    ) {
+        let height = film.height as f32;
+        let fog = self.fog_range(camera);
+        let tile = self.ground_tile();
+        film.par_bands(|_, band| {
+            for y in band.rows() {
+                for x in 0..band.width {
+                    let pixel = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+                    let direction = camera.ray(pixel);
+                    let index = band.index(x, y);
+                    match self.trace(camera.eye, direction, tile) {
+                        Some(hit) => {
+                            let point = camera.eye + direction * hit.distance;
+                            let lit = self.shade(&hit, direction, shadow(point));
+                            let haze = if hit.is_ground {
+                                ((hit.distance - fog.0) / fog.1).clamp(0.0, 1.0)
+                            } else {
+                                0.0
+                            };
+                            band.color[index] = lit.lerp(self.sky(pixel.y, height), haze);
+                            band.depth[index] = hit.distance * direction.dot(camera.forward);
+                        }
+                        None => band.color[index] = self.sky(pixel.y, height),
+                    }
+                }
+            }
+        });
+    }
+
+    /// The nearest surface along the ray, if any; `tile` is the ground's checker size.
+    fn trace(&self, origin: Vec3, direction: Vec3, tile: f32) -> Option<SurfaceHit> {
+        let mut best: Option<SurfaceHit> = None;
+        let mut consider = |hit: Option<SurfaceHit>| {
+            if let Some(hit) = hit
+                && best.as_ref().is_none_or(|b| hit.distance < b.distance)
+            {
+                best = Some(hit);
+            }
+        };
+        if let Some(height) = self.ground {
+            consider(hit_ground(origin, direction, height, tile));
+        }
+        for collider in &self.colliders {
+            consider(self.hit_collider(collider, origin, direction));
+        }
+        best
+    }
+
+    /// Edge of the ground's checker tiles: a round number near a tenth of the container.
+    fn ground_tile(&self) -> f32 {
+        self.container.map_or(0.1, |(min, max)| {
+            let extent = (max - min).max_element();
+            10f32.powf((extent * 0.1).log10().round())
+        })
+    }
+
+    fn hit_collider(
+        &self,
+        collider: &ColliderGeometry,
+        origin: Vec3,
+        direction: Vec3,
+    ) -> Option<SurfaceHit> {
+        match *collider {
+            ColliderGeometry::Sphere { center, radius } => {
+                let distance = intersect_sphere(origin, direction, center, radius)?;
+                let normal = (origin + direction * distance - center).normalize();
+                Some(SurfaceHit {
+                    distance,
+                    normal,
+                    albedo: COLLIDER_ALBEDO,
+                    shininess: 48.0,
+                    is_ground: false,
+                })
+            }
+            ColliderGeometry::Box { center, size } => {
+                let (distance, normal) =
+                    intersect_box(origin, direction, center - 0.5 * size, center + 0.5 * size)?;
+                Some(SurfaceHit {
+                    distance,
+                    normal,
+                    albedo: COLLIDER_ALBEDO,
+                    shininess: 48.0,
+                    is_ground: false,
+                })
+            }
+            ColliderGeometry::HalfPlane { point, normal } => {
+                let distance = intersect_plane(origin, direction, point, normal)?;
+                let hit = origin + direction * distance;
+                // A plane is drawn only inside the container (it bounds the snow there).
+                let inside = self.container.is_none_or(|(min, max)| {
+                    let margin = 1e-3 * (max - min).max_element();
+                    hit.cmpge(min - margin).all() && hit.cmple(max + margin).all()
+                });
+                inside.then_some(SurfaceHit {
+                    distance,
+                    normal,
+                    albedo: WALL_ALBEDO,
+                    shininess: 16.0,
+                    is_ground: false,
+                })
+            }
+        }
+    }
+
+    /// Blinn-Phong: ambient + diffuse + specular, the key light scaled by `light_fraction`.
+    fn shade(&self, hit: &SurfaceHit, direction: Vec3, light_fraction: f32) -> Vec3 {
+        let light = &self.light;
+        // Planes are seen from either side.
+        let normal = if hit.normal.dot(direction) > 0.0 {
+            -hit.normal
+        } else {
+            hit.normal
+        };
+        let diffuse = normal.dot(light.direction).max(0.0);
+        let mut color = hit.albedo * (light.ambient + light.color * diffuse * light_fraction);
+        if hit.shininess > 0.0 && diffuse > 0.0 {
+            let half = (light.direction - direction).normalize();
+            let specular = normal.dot(half).max(0.0).powf(hit.shininess);
+            color += light.color * (0.35 * specular * light_fraction);
+        }
+        color
+    }
+
+    /// Where the ground starts fading into the sky and over what distance,
+    /// so the far plane meets the horizon softly.
+    fn fog_range(&self, camera: &CameraView) -> (f32, f32) {
+        let Some((min, max)) = self.container else {
+            return (f32::INFINITY, 1.0);
+        };
+        let center = 0.5 * (min + max);
+        let reach = (camera.eye - center).length() + (max - min).length();
+        (reach * 0.6, reach * 1.4)
+    }
+}
+
+/// The ground plane at `height`, a checkerboard of `tile`-sized squares.
+fn hit_ground(origin: Vec3, direction: Vec3, height: f32, tile: f32) -> Option<SurfaceHit> {
+    let distance = intersect_plane(origin, direction, Vec3::new(0.0, height, 0.0), Vec3::Y)?;
+    let point = origin + direction * distance;
+    let parity = ((point.x / tile).floor() + (point.z / tile).floor()) as i64 & 1;
+    Some(SurfaceHit {
+        distance,
+        normal: Vec3::Y,
+        albedo: Vec3::splat(GROUND_ALBEDO[parity as usize]),
+        shininess: 0.0,
+        is_ground: true,
+    })
+}
+
+/// Distance along a unit ray to a plane through `point` with `normal`.
+fn intersect_plane(origin: Vec3, direction: Vec3, point: Vec3, normal: Vec3) -> Option<f32> {
+    let denominator = direction.dot(normal);
+    if denominator.abs() < 1e-8 {
+        return None;
+    }
+    let distance = (point - origin).dot(normal) / denominator;
+    (distance > 0.0).then_some(distance)
+}
+
+/// Distance along a unit ray to the first intersection with a sphere.
+fn intersect_sphere(origin: Vec3, direction: Vec3, center: Vec3, radius: f32) -> Option<f32> {
+    let offset = origin - center;
+    let b = offset.dot(direction);
+    let c = offset.length_squared() - radius * radius;
+    let discriminant = b * b - c;
+    if discriminant < 0.0 {
+        return None;
+    }
+    let root = discriminant.sqrt();
+    [-b - root, -b + root].into_iter().find(|&t| t > 0.0)
+}
+
+/// Distance and outward normal of the first intersection with an axis-aligned box.
+pub fn intersect_box(origin: Vec3, direction: Vec3, min: Vec3, max: Vec3) -> Option<(f32, Vec3)> {
+    let (near, far) = slab_interval(origin, direction, min, max)?;
+    let distance = if near > 0.0 { near } else { far };
+    if distance <= 0.0 {
+        return None;
+    }
+    let point = origin + direction * distance;
+    let center = 0.5 * (min + max);
+    let local = (point - center) / (0.5 * (max - min)).max(Vec3::splat(1e-12));
+    let axis = local.abs().max_position();
+    let mut normal = Vec3::ZERO;
+    normal[axis] = local[axis].signum();
+    Some((distance, normal))
+}
+
+/// The parameter interval [near, far] in which a ray is inside a box, if any.
+pub fn slab_interval(origin: Vec3, direction: Vec3, min: Vec3, max: Vec3) -> Option<(f32, f32)> {
+    let inverse = direction.recip();
+    let a = (min - origin) * inverse;
+    let b = (max - origin) * inverse;
+    let near = a.min(b).max_element();
+    let far = a.max(b).min_element();
+    (far >= near.max(0.0)).then_some((near, far))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ray_hits_sphere_front_face() {
+        let t = intersect_sphere(Vec3::new(0.0, 0.0, 5.0), Vec3::NEG_Z, Vec3::ZERO, 1.0);
+        assert_eq!(t, Some(4.0));
+        assert_eq!(
+            intersect_sphere(Vec3::new(0.0, 2.0, 5.0), Vec3::NEG_Z, Vec3::ZERO, 1.0),
+            None
+        );
+    }
+
+    #[test]
+    fn ray_hits_box_with_the_face_normal() {
+        let (t, normal) = intersect_box(
+            Vec3::new(0.2, 0.1, 5.0),
+            Vec3::NEG_Z,
+            Vec3::splat(-1.0),
+            Vec3::ONE,
+        )
+        .expect("hit");
+        assert!((t - 4.0).abs() < 1e-6);
+        assert_eq!(normal, Vec3::Z);
+    }
+
+    #[test]
+    fn nearer_collider_wins() {
+        let stage = Stage {
+            colliders: vec![
+                ColliderGeometry::Sphere {
+                    center: Vec3::new(0.0, 0.0, -3.0),
+                    radius: 1.0,
+                },
+                ColliderGeometry::Sphere {
+                    center: Vec3::new(0.0, 0.0, -1.0),
+                    radius: 0.5,
+                },
+            ],
+            ..Stage::default()
+        };
+        let hit = stage
+            .trace(Vec3::new(0.0, 0.0, 2.0), Vec3::NEG_Z, 0.1)
+            .expect("hit");
+        assert!((hit.distance - 2.5).abs() < 1e-5);
+    }
+}

@@ -1,0 +1,300 @@
+//! Pictures of small known scenes, checked pixel by pixel.
+
+use std::borrow::Cow;
+
+use firn_render::film::encode_srgb;
+use firn_render::ramp::ramp;
+use firn_render::{
+    CameraView, Coloring, ParticleLayer, Picture, RenderStyle, SnowLook, Stage, ValueRange, render,
+};
+use glam::{Vec2, Vec3};
+use image::RgbImage;
+
+const WIDTH: u32 = 160;
+const HEIGHT: u32 = 120;
+
+/// Particles filling a ball on a cubic lattice.
+fn ball(center: Vec3, radius: f32, spacing: f32) -> Vec<Vec3> {
+    let steps = (radius / spacing).ceil() as i32;
+    let mut points = Vec::new();
+    for i in -steps..=steps {
+        for j in -steps..=steps {
+            for k in -steps..=steps {
+                let offset = Vec3::new(i as f32, j as f32, k as f32) * spacing;
+                if offset.length() <= radius {
+                    points.push(center + offset);
+                }
+            }
+        }
+    }
+    points
+}
+
+fn camera() -> CameraView {
+    CameraView::look_at(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 40.0, WIDTH, HEIGHT)
+}
+
+/// A picture with a plain stage: no ground, no container, no colliders.
+fn picture<'a>(positions: &'a [Vec3], coloring: Coloring<'a>, style: RenderStyle) -> Picture<'a> {
+    Picture {
+        camera: camera(),
+        style,
+        stage: Stage::default(),
+        particles: ParticleLayer {
+            positions,
+            masses: Cow::Owned(vec![400.0 * 0.02f32.powi(3); positions.len()]),
+            coloring,
+            radius: 0.012,
+            look: SnowLook::for_density(400.0, 0.012),
+            trails: None,
+            smooth_trails: false,
+        },
+        legend: None,
+    }
+}
+
+fn sky_pixel(stage: &Stage, y: u32) -> [u8; 3] {
+    // The sky is evaluated at sample centres; with 2x2 supersampling the
+    // four samples of a pixel sit at y + 0.25 and y + 0.75.
+    let s = firn_render::POINTS_SUPERSAMPLING as f32;
+    let height = HEIGHT as f32 * s;
+    let mut sum = Vec3::ZERO;
+    for sy in 0..firn_render::POINTS_SUPERSAMPLING {
+        sum += stage.sky(y as f32 * s + sy as f32 + 0.5, height);
+    }
+    encode_srgb(sum / s)
+}
+
+#[test]
+fn a_ball_appears_where_the_projection_says_and_nowhere_else() {
+    let center = Vec3::new(0.25, -0.1, 0.0);
+    let radius = 0.2;
+    let positions = ball(center, radius, 0.02);
+    let picture = picture(
+        &positions,
+        Coloring::Uniform(Vec3::splat(0.8)),
+        RenderStyle::Points,
+    );
+    let image = render(&picture);
+    let projected = camera().project(center).expect("in front");
+    // The silhouette radius of a ball seen from distance d is r d / sqrt(d² - r²);
+    // the sprites add their own radius.
+    let pixels_per_metre = projected.scale;
+    let silhouette = (radius + 0.012) * pixels_per_metre * 1.02;
+    let stage = Stage::default();
+    let mut covered = 0;
+    for (x, y, pixel) in image.enumerate_pixels() {
+        let distance = (Vec2::new(x as f32 + 0.5, y as f32 + 0.5) - projected.pixel).length();
+        if distance < 0.8 * radius * pixels_per_metre {
+            assert_ne!(
+                pixel.0,
+                sky_pixel(&stage, y),
+                "inside the ball at ({x}, {y})"
+            );
+            covered += 1;
+        } else if distance > silhouette + 1.5 {
+            assert_eq!(
+                pixel.0,
+                sky_pixel(&stage, y),
+                "outside the ball at ({x}, {y})"
+            );
+        }
+    }
+    assert!(covered > 100, "the ball covers {covered} pixels");
+}
+
+#[test]
+fn the_background_is_the_background() {
+    let picture = picture(&[], Coloring::Uniform(Vec3::ONE), RenderStyle::Points);
+    let image = render(&picture);
+    let stage = Stage::default();
+    for (_, y, pixel) in image.enumerate_pixels() {
+        assert_eq!(pixel.0, sky_pixel(&stage, y));
+    }
+    let volume = render(&Picture {
+        style: RenderStyle::Volume,
+        ..picture
+    });
+    for (_, y, pixel) in volume.enumerate_pixels() {
+        let expected = encode_srgb(stage.sky(y as f32 + 0.5, HEIGHT as f32));
+        assert_eq!(pixel.0, expected);
+    }
+}
+
+/// Colour at the image centre of two balls on the view axis, the near one
+/// coloured with ramp value `near_value`, the far one with `1 - near_value`.
+fn centre_of_two_balls(near_value: f32) -> [u8; 3] {
+    let mut positions = ball(Vec3::new(0.0, 0.0, 0.5), 0.1, 0.02);
+    let near_count = positions.len();
+    positions.extend(ball(Vec3::new(0.0, 0.0, -0.5), 0.3, 0.02));
+    let values: Vec<f32> = (0..positions.len())
+        .map(|i| {
+            if i < near_count {
+                near_value
+            } else {
+                1.0 - near_value
+            }
+        })
+        .collect();
+    let coloring = Coloring::Ramp {
+        values: &values,
+        range: ValueRange {
+            low: 0.0,
+            high: 1.0,
+        },
+    };
+    let image = render(&picture(&positions, coloring, RenderStyle::Points));
+    image.get_pixel(WIDTH / 2, HEIGHT / 2).0
+}
+
+#[test]
+fn a_nearer_ball_hides_a_farther_one() {
+    let blue_in_front = centre_of_two_balls(0.0);
+    let white_in_front = centre_of_two_balls(1.0);
+    let brightness = |p: [u8; 3]| p.iter().map(|&c| c as u32).sum::<u32>();
+    // The near ball decides the colour, whichever is drawn first.
+    assert!(
+        brightness(white_in_front) > brightness(blue_in_front) + 150,
+        "{white_in_front:?} vs {blue_in_front:?}"
+    );
+    let blue = ramp(0.0);
+    assert!(
+        blue_in_front[2] > blue_in_front[0],
+        "{blue_in_front:?} ~ {blue}"
+    );
+}
+
+/// Mean brightness above the sky within `radius` pixels of where `point` projects.
+fn brightness_around(image: &RgbImage, point: Vec3, radius: f32) -> f32 {
+    let center = camera().project(point).expect("in front").pixel;
+    let stage = Stage::default();
+    let (mut sum, mut count) = (0.0, 0);
+    for (x, y, pixel) in image.enumerate_pixels() {
+        if (Vec2::new(x as f32 + 0.5, y as f32 + 0.5) - center).length() < radius {
+            let sky = encode_srgb(stage.sky(y as f32 + 0.5, HEIGHT as f32));
+            sum += pixel
+                .0
+                .iter()
+                .zip(sky)
+                .map(|(&p, s)| p as f32 - s as f32)
+                .sum::<f32>();
+            count += 1;
+        }
+    }
+    sum / count as f32
+}
+
+#[test]
+fn volume_is_more_opaque_where_snow_is_denser() {
+    // Two equal balls; the right one's particles weigh four times as much.
+    let left = Vec3::new(-0.4, 0.0, 0.0);
+    let right = Vec3::new(0.4, 0.0, 0.0);
+    let mut positions = ball(left, 0.15, 0.02);
+    let split = positions.len();
+    positions.extend(ball(right, 0.15, 0.02));
+    let light = 50.0 * 0.02f32.powi(3);
+    let masses: Vec<f32> = (0..positions.len())
+        .map(|i| if i < split { light } else { 4.0 * light })
+        .collect();
+    let mut picture = picture(
+        &positions,
+        Coloring::Uniform(Vec3::ONE),
+        RenderStyle::Volume,
+    );
+    picture.particles.masses = Cow::Owned(masses);
+    picture.particles.radius = 0.01;
+    picture.particles.look = SnowLook::for_density(400.0, 0.05);
+    let image = render(&picture);
+    let pixels = 0.1 * camera().project(left).expect("in front").scale;
+    let powder = brightness_around(&image, left, pixels);
+    let packed = brightness_around(&image, right, pixels);
+    assert!(powder > 5.0, "powder is visible: {powder}");
+    assert!(packed > powder * 1.3, "packed {packed} vs powder {powder}");
+}
+
+#[test]
+fn the_same_picture_renders_to_the_same_bytes_on_any_thread_count() {
+    let positions = ball(Vec3::ZERO, 0.3, 0.02);
+    let values: Vec<f32> = positions.iter().map(|p| p.y).collect();
+    let coloring = Coloring::Ramp {
+        values: &values,
+        range: ValueRange {
+            low: -0.3,
+            high: 0.3,
+        },
+    };
+    for style in [RenderStyle::Points, RenderStyle::Volume] {
+        let picture = picture(&positions, coloring, style);
+        let first = render(&picture);
+        let second = render(&picture);
+        let single = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .expect("pool")
+            .install(|| render(&picture));
+        assert_eq!(first.as_raw(), second.as_raw(), "{style:?}");
+        assert_eq!(first.as_raw(), single.as_raw(), "{style:?}");
+    }
+}
+
+fn brightness(pixel: [u8; 3]) -> u32 {
+    pixel.iter().map(|&c| c as u32).sum()
+}
+
+#[test]
+fn billboards_add_up_and_hide_behind_solid_colliders() {
+    let one = [Vec3::ZERO];
+    let two = [Vec3::ZERO, Vec3::ZERO];
+    let white = Coloring::Uniform(Vec3::ONE);
+    let single = render(&picture(&one, white, RenderStyle::Billboards));
+    let double = render(&picture(&two, white, RenderStyle::Billboards));
+    let centre = |image: &RgbImage| brightness(image.get_pixel(WIDTH / 2, HEIGHT / 2).0);
+    assert!(centre(&double) > centre(&single) + 20, "additive blending");
+    let mut hidden = picture(&one, white, RenderStyle::Billboards);
+    hidden.stage.colliders = vec![firn_core::scene::ColliderGeometry::Sphere {
+        center: Vec3::new(0.0, 0.0, 1.0),
+        radius: 0.3,
+    }];
+    let mut bare = hidden.clone();
+    bare.particles.positions = &[];
+    assert_eq!(render(&hidden).as_raw(), render(&bare).as_raw());
+}
+
+#[test]
+fn trails_follow_the_path_and_fade_towards_the_oldest_end() {
+    // One particle that moved along x from -0.5 to 0.5 (newest).
+    let path: Vec<Vec3> = (0..8)
+        .map(|i| Vec3::new(-0.5 + i as f32 / 7.0, 0.0, 0.0))
+        .collect();
+    let lengths = [8u32];
+    let mut picture = picture(
+        &path[7..],
+        Coloring::Uniform(Vec3::ONE),
+        RenderStyle::Trails,
+    );
+    picture.particles.trails = Some(firn_render::Trails {
+        points: &path,
+        capacity: 8,
+        lengths: &lengths,
+    });
+    let image = render(&picture);
+    let at = |x: f32| {
+        let pixel = camera()
+            .project(Vec3::new(x, 0.0, 0.0))
+            .expect("visible")
+            .pixel;
+        image.get_pixel(pixel.x as u32, pixel.y as u32).0
+    };
+    let stage = Stage::default();
+    let sky = sky_pixel(&stage, HEIGHT / 2);
+    assert!(
+        brightness(at(0.4)) > brightness(at(-0.3)),
+        "newer is brighter"
+    );
+    assert!(brightness(at(-0.3)) >= brightness(sky));
+    assert_eq!(
+        image.get_pixel(WIDTH / 2, 5).0,
+        sky_pixel(&stage, 5),
+        "off the path"
+    );
+}
