@@ -93,6 +93,22 @@ pub enum IntegratorChoice {
     SemiImplicit,
 }
 
+impl IntegratorChoice {
+    /// The scene's integrator switched to this choice, keeping the scene's
+    /// semi-implicit settings where it has them.
+    pub fn applied_to(self, current: Integrator) -> Integrator {
+        match (self, current) {
+            (IntegratorChoice::Explicit, _) => Integrator::Explicit,
+            (IntegratorChoice::SemiImplicit, Integrator::SemiImplicit(settings)) => {
+                Integrator::SemiImplicit(settings)
+            }
+            (IntegratorChoice::SemiImplicit, Integrator::Explicit) => {
+                Integrator::SemiImplicit(ImplicitSettings::DEFAULT)
+            }
+        }
+    }
+}
+
 /// Which transfer schemes to benchmark.
 #[derive(Clone, Copy, Debug, ValueEnum)]
 pub enum TransferChoice {
@@ -215,19 +231,17 @@ fn bench_scene(path: &std::path::Path, args: &BenchArgs) -> Result<Scene, Failur
     if let Some(dt) = args.dt {
         scene.time.step = TimeStep::Fixed { dt };
     }
-    scene.solver.integrator = match (args.integrator, scene.solver.integrator) {
-        (None, integrator) => integrator,
-        (Some(IntegratorChoice::Explicit), _) => Integrator::Explicit,
-        (Some(IntegratorChoice::SemiImplicit), Integrator::SemiImplicit(settings)) => {
-            Integrator::SemiImplicit(settings)
-        }
-        (Some(IntegratorChoice::SemiImplicit), Integrator::Explicit) => {
-            Integrator::SemiImplicit(ImplicitSettings::DEFAULT)
-        }
-    };
-    scene
-        .validate()
-        .map_err(|error| Failure::BadInput(format!("{}: {error}", path.display())))?;
+    if let Some(choice) = args.integrator {
+        scene.solver.integrator = choice.applied_to(scene.solver.integrator);
+    }
+    scene.validate().map_err(|error| {
+        Failure::BadInput(format!(
+            "error: {} with the command line's overrides: {}\n  fix: {}",
+            path.display(),
+            error.message,
+            error.hint
+        ))
+    })?;
     Ok(scene)
 }
 

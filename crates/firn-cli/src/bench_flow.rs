@@ -27,8 +27,25 @@ struct FlowRecord {
     seconds: f64,
     ns_per_particle_step: f64,
     steps_per_second: f64,
+    /// CPU time of all threads over the timed steps (Linux), which other
+    /// programs on the machine do not inflate; `None` where unknown.
+    cpu_seconds: Option<f64>,
+    /// `cpu_seconds` per particle-step: the wall time per particle-step on
+    /// `threads` otherwise idle cores is this divided by `threads`.
+    cpu_ns_per_particle_step: Option<f64>,
     memory_mib: f64,
     threads: usize,
+}
+
+/// CPU seconds this process has used so far, all threads, from
+/// `/proc/self/stat` (utime + stime, in the kernel's fixed 100 ticks per
+/// second); `None` off Linux.
+fn process_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the command name (which may hold spaces) start at field 3.
+    let fields: Vec<&str> = stat.rsplit_once(')')?.1.split_whitespace().collect();
+    let ticks = |field: usize| fields.get(field - 3)?.parse::<f64>().ok();
+    Some((ticks(14)? + ticks(15)?) / 100.0)
 }
 
 /// The benchmark scene with `particles` particles and the given curl.
@@ -85,7 +102,7 @@ pub fn bench_flow(args: &BenchArgs) -> Result<(), Failure> {
         for (curl, simd) in runs {
             let record = measure(particles, curl, simd, args)?;
             println!(
-                "firn flow curl={} simd={} particles={} steps={} seconds={:.3} ns_per_particle_step={:.2} steps_per_s={:.2} memory_mib={:.1} threads={}",
+                "firn flow curl={} simd={} particles={} steps={} seconds={:.3} ns_per_particle_step={:.2} steps_per_s={:.2} cpu_ns_per_particle_step={} memory_mib={:.1} threads={}",
                 record.curl,
                 record.simd,
                 record.particles,
@@ -93,6 +110,9 @@ pub fn bench_flow(args: &BenchArgs) -> Result<(), Failure> {
                 record.seconds,
                 record.ns_per_particle_step,
                 record.steps_per_second,
+                record
+                    .cpu_ns_per_particle_step
+                    .map_or("unknown".to_string(), |ns| format!("{ns:.2}")),
                 record.memory_mib,
                 record.threads
             );
@@ -119,11 +139,15 @@ fn measure(
     for _ in 0..args.warmup {
         flow.step();
     }
+    let cpu_before = process_cpu_seconds();
     let started = Instant::now();
     for _ in 0..args.steps {
         flow.step();
     }
     let seconds = started.elapsed().as_secs_f64();
+    let cpu_seconds = cpu_before
+        .zip(process_cpu_seconds())
+        .map(|(before, after)| after - before);
     let count = flow.len();
     let steps = args.steps.max(1);
     Ok(FlowRecord {
@@ -136,6 +160,9 @@ fn measure(
         seconds,
         ns_per_particle_step: seconds * 1e9 / (f64::from(steps) * count as f64),
         steps_per_second: f64::from(steps) / seconds,
+        cpu_seconds,
+        cpu_ns_per_particle_step: cpu_seconds
+            .map(|cpu| cpu * 1e9 / (f64::from(steps) * count as f64)),
         memory_mib: flow.memory_bytes() as f64 / (1024.0 * 1024.0),
         threads: rayon::current_num_threads(),
     })

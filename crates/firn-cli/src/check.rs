@@ -3,7 +3,9 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use firn_core::scene::{Shape, TimeStep};
+use firn_core::Scene;
+use firn_core::scene::{FlowSettings, Shape, TimeStep};
+use firn_flow::FlowSimulation;
 use firn_mpm::Simulation;
 
 use crate::Failure;
@@ -27,6 +29,9 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
             .map_err(|error| Failure::Failed(error.to_string()))?;
         println!("{json}");
         return Ok(());
+    }
+    if let Some(flow) = scene.kind.flow() {
+        return check_flow(&scene, flow);
     }
     let simulation = Simulation::new(scene.clone())
         .map_err(|error| Failure::BadInput(format!("error: {error}")))?;
@@ -93,6 +98,55 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
     println!(
         "time step   {policy}; first step {:.3e} s",
         simulation.next_dt()
+    );
+    println!(
+        "frames      {} at {} fps ({} s)",
+        scene.time.frame_count(),
+        scene.time.fps,
+        scene.time.duration
+    );
+    println!("output      {}", scene.output.directory.display());
+    Ok(())
+}
+
+/// The summary of a curl-noise flow scene: particles at time 0, the field's
+/// parameters, emitters and obstacles.
+fn check_flow(scene: &Scene, flow: &FlowSettings) -> Result<(), Failure> {
+    let simulation = FlowSimulation::new(scene.clone())
+        .map_err(|error| Failure::BadInput(format!("error: {error}")))?;
+    println!("scene       {} (curl-noise flow)", scene.name);
+    println!(
+        "domain      [{}, {}, {}] to [{}, {}, {}]",
+        scene.domain.min.x,
+        scene.domain.min.y,
+        scene.domain.min.z,
+        scene.domain.max.x,
+        scene.domain.max.y,
+        scene.domain.max.z
+    );
+    println!(
+        "field       noise share {}, strength {}, length scale {}, background {} along [{}, {}, {}], curl {:?}",
+        flow.noise_share,
+        flow.noise_strength,
+        flow.length_scale,
+        flow.background_strength,
+        flow.background_direction.x,
+        flow.background_direction.y,
+        flow.background_direction.z,
+        flow.curl
+    );
+    println!(
+        "stepping    {:?}, {} substeps per frame ({:.3e} s)",
+        flow.integrator,
+        flow.substeps,
+        simulation.dt()
+    );
+    println!("particles   {} at t = 0", simulation.len());
+    println!("emitters    {}", flow.emitters.len());
+    println!("obstacles   {}", flow.obstacles.len());
+    println!(
+        "memory      {:.1} MiB",
+        simulation.memory_bytes() as f64 / (1024.0 * 1024.0)
     );
     println!(
         "frames      {} at {} fps ({} s)",

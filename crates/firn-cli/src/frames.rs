@@ -55,20 +55,35 @@ pub fn write_frame(
     for attribute in wanted {
         frame = frame.with_attribute(attribute_data(*attribute, particles, &derived));
     }
+    write_caches(scene, &frame, directory, pvd)
+}
+
+/// Writes `frame` in every cache format of the scene into `directory`;
+/// returns the files' paths relative to `directory`.
+pub fn write_caches(
+    scene: &Scene,
+    frame: &FrameData,
+    directory: &Path,
+    pvd: &mut PvdCollection,
+) -> Result<Vec<String>, IoError> {
     let mut files = Vec::new();
     for format in &scene.output.formats {
         let extension = match format {
             CacheFormat::Ply => "ply",
             CacheFormat::Vtk => "vtp",
         };
-        let name = format!("{}/frame_{index:05}.{extension}", cache_folder(*format));
+        let name = format!(
+            "{}/frame_{:05}.{extension}",
+            cache_folder(*format),
+            frame.index
+        );
         let path = directory.join(&name);
         match format {
-            CacheFormat::Ply => write_ply(&path, &frame)?,
+            CacheFormat::Ply => write_ply(&path, frame)?,
             CacheFormat::Vtk => {
-                write_vtp(&path, &frame)?;
-                pvd.remove_after(simulation.time() - 1e-12);
-                pvd.push(simulation.time(), name.clone());
+                write_vtp(&path, frame)?;
+                pvd.remove_after(frame.time - 1e-12);
+                pvd.push(frame.time, name.clone());
                 pvd.write(&directory.join("particles.pvd"))?;
             }
         }

@@ -10,6 +10,7 @@ mod presets;
 mod render;
 mod run;
 mod scene_source;
+mod solver;
 
 use std::process::ExitCode;
 

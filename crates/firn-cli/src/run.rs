@@ -8,17 +8,18 @@ use std::time::{Duration, Instant};
 
 use clap::Args;
 use firn_core::Scene;
-use firn_io::{FrameRecord, Manifest, PvdCollection, RunStatus, ensure_writable_dir};
-use firn_mpm::Simulation;
-use firn_render::scene_view::FrameParticles;
+use firn_io::{
+    FrameRecord, Manifest, PvdCollection, RunStatus, SolverFrameStats, ensure_writable_dir,
+};
+use firn_mpm::SolverStats;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use crate::Failure;
-use crate::frames::{
-    color_values, prepare_cache_dirs, read_checkpoint, scene_json, write_checkpoint, write_frame,
-};
+use crate::bench::IntegratorChoice;
+use crate::frames::{prepare_cache_dirs, scene_json};
 use crate::pictures::{prepare_image_dirs, render_frame, write_animations};
 use crate::scene_source::load_scene;
+use crate::solver::{Solver, frame_solver_stats};
 
 /// Arguments of `firn run`.
 #[derive(Args, Debug)]
@@ -43,6 +44,9 @@ pub struct RunArgs {
     /// Write caches only: no pictures and no animation.
     #[arg(long)]
     pub no_render: bool,
+    /// Time integrator (default: the scene's [solver] integrator).
+    #[arg(long, value_enum)]
+    pub integrator: Option<IntegratorChoice>,
 }
 
 /// File name of the checkpoint inside the output directory.
@@ -58,6 +62,9 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
     }
     if args.no_render {
         scene.render.enabled = false;
+    }
+    if let Some(choice) = args.integrator {
+        scene.solver.integrator = choice.applied_to(scene.solver.integrator);
     }
     let threads = configure_threads(args.threads)?;
     let directory = scene.output.directory.clone();
@@ -104,12 +111,14 @@ fn configure_threads(threads: Option<usize>) -> Result<usize, Failure> {
 
 /// A run in progress: the simulation, where it writes, and what it wrote.
 struct RunState {
-    simulation: Simulation,
+    simulation: Solver,
     directory: PathBuf,
     manifest: Manifest,
     pvd: PvdCollection,
     frame: u32,
     scene_json: serde_json::Value,
+    /// The solver's running totals when the previous frame was recorded.
+    solver_totals: Option<SolverStats>,
 }
 
 impl RunState {
@@ -123,14 +132,14 @@ impl RunState {
     ) -> Result<RunState, Failure> {
         let cells = scene.domain.cells();
         let simulation =
-            Simulation::new(scene).map_err(|error| Failure::BadInput(format!("error: {error}")))?;
+            Solver::new(scene).map_err(|error| Failure::BadInput(format!("error: {error}")))?;
         let manifest = Manifest {
             firn_version: env!("CARGO_PKG_VERSION").to_string(),
             scene_file: scene_file.map(|path| path.display().to_string()),
             scene: scene_json.clone(),
             backend: "cpu".into(),
             threads,
-            particle_count: simulation.particles().len(),
+            particle_count: simulation.particle_count(),
             grid_cells: cells,
             frames: Vec::new(),
             status: RunStatus::Running,
@@ -143,6 +152,7 @@ impl RunState {
             pvd: PvdCollection::new(),
             frame: 0,
             scene_json,
+            solver_totals: None,
         };
         state.record_frame(0, 0, Duration::ZERO)?;
         Ok(state)
@@ -162,12 +172,13 @@ impl RunState {
                 checkpoint_path.display()
             )));
         }
-        let restored = read_checkpoint(&checkpoint_path).map_err(|message| {
-            Failure::BadInput(format!(
-                "error: cannot resume: {message}\n  fix: run without --resume to start over"
-            ))
-        })?;
-        if &restored.scene_json != scene_json {
+        let (simulation, restored_frame, restored_scene) = Solver::resume(scene, &checkpoint_path)
+            .map_err(|message| {
+                Failure::BadInput(format!(
+                    "error: cannot resume: {message}\n  fix: run without --resume to start over"
+                ))
+            })?;
+        if &restored_scene != scene_json {
             return Err(Failure::BadInput(format!(
                 "error: cannot resume: the scene differs from the one that wrote {}\n  fix: resume with the same scene file, or run without --resume to start over",
                 checkpoint_path.display()
@@ -180,20 +191,19 @@ impl RunState {
         })?;
         manifest
             .frames
-            .retain(|record| record.index <= restored.frame);
+            .retain(|record| record.index <= restored_frame);
         manifest.status = RunStatus::Running;
         manifest.threads = rayon::current_num_threads();
         let mut pvd = PvdCollection::read(&directory.join("particles.pvd")).unwrap_or_default();
-        pvd.remove_after(restored.snapshot.time + 1e-12);
-        let simulation = Simulation::from_snapshot(scene, restored.snapshot)
-            .map_err(|error| Failure::BadInput(format!("error: cannot resume: {error}")))?;
+        pvd.remove_after(simulation.time() + 1e-12);
         Ok(RunState {
             simulation,
             directory: directory.to_path_buf(),
             manifest,
             pvd,
-            frame: restored.frame,
+            frame: restored_frame,
             scene_json: scene_json.clone(),
+            solver_totals: None,
         })
     }
 
@@ -236,11 +246,12 @@ impl RunState {
             self.manifest.status = RunStatus::Finished;
         }
         self.write_manifest()?;
+        self.warn_unconverged(quiet);
         let cost = self.mean_cost();
         println!(
             "firn: {} frames of {} particles in {:.1} s ({cost:.0} ns per particle-substep); caches and manifest in {}",
             self.frame,
-            self.simulation.particles().len(),
+            self.simulation.particle_count(),
             started.elapsed().as_secs_f64(),
             self.directory.display()
         );
@@ -249,11 +260,14 @@ impl RunState {
 
     /// Writes the current frame's caches, its manifest record and, when due, a checkpoint.
     fn record_frame(&mut self, index: u32, substeps: u32, wall: Duration) -> Result<(), Failure> {
-        let files = write_frame(&self.simulation, index, &self.directory, &mut self.pvd)
+        let files = self
+            .simulation
+            .write_frame(index, &self.directory, &mut self.pvd)
             .map_err(|error| self.fail(format!("error: {error}")))?;
         let images = self.render_frame(index)?;
-        let particles = self.simulation.particles().len().max(1) as f64;
+        let particles = self.simulation.particle_count().max(1) as f64;
         let wall_seconds = wall.as_secs_f64();
+        let solver = self.frame_solver_stats();
         self.manifest.record_frame(FrameRecord {
             index,
             time: self.simulation.time(),
@@ -266,6 +280,7 @@ impl RunState {
             },
             files,
             images,
+            solver,
         });
         self.frame = index;
         let every = self.simulation.scene().output.checkpoint_every;
@@ -275,22 +290,25 @@ impl RunState {
         self.write_manifest()
     }
 
+    /// The solver's work since the previous frame, if it runs a semi-implicit solve.
+    fn frame_solver_stats(&mut self) -> Option<SolverFrameStats> {
+        let totals = self.simulation.solver_stats()?;
+        let stats = frame_solver_stats(self.solver_totals, totals);
+        self.solver_totals = Some(totals);
+        Some(stats)
+    }
+
     /// Renders the current state in every style of the scene, if rendering is on.
     fn render_frame(&mut self, index: u32) -> Result<Vec<String>, Failure> {
         let scene = self.simulation.scene();
         if !scene.render.enabled {
             return Ok(Vec::new());
         }
-        let particles = self.simulation.particles();
-        let values = color_values(&self.simulation, scene.render.color_by);
-        let frame = FrameParticles {
-            positions: &particles.position,
-            masses: Some(&particles.mass),
-            values: values.as_deref(),
-            trails: None,
-        };
-        render_frame(scene, &self.directory, index, self.simulation.time(), frame)
-            .map_err(|error| self.fail(format!("error: {error}")))
+        let (directory, time) = (&self.directory, self.simulation.time());
+        let rendered = self
+            .simulation
+            .with_frame_particles(|frame| render_frame(scene, directory, index, time, frame));
+        rendered.map_err(|error| self.fail(format!("error: {error}")))
     }
 
     /// Writes the animations of all frames rendered so far.
@@ -307,7 +325,8 @@ impl RunState {
 
     fn write_checkpoint(&mut self) -> Result<(), Failure> {
         let path = self.directory.join(CHECKPOINT_FILE);
-        write_checkpoint(&self.simulation, self.frame, &self.scene_json, &path)
+        self.simulation
+            .write_checkpoint(self.frame, &self.scene_json, &path)
             .map_err(|error| self.fail(format!("error: {error}")))
     }
 
@@ -326,6 +345,22 @@ impl RunState {
         // The run has already failed; a manifest that cannot be written changes nothing.
         let _ = self.manifest.write(&self.directory.join(MANIFEST_FILE));
         Failure::Failed(message)
+    }
+
+    /// Says on stderr when semi-implicit solves stopped before converging.
+    fn warn_unconverged(&self, quiet: bool) {
+        let unconverged: u64 = self
+            .manifest
+            .frames
+            .iter()
+            .filter_map(|record| record.solver)
+            .map(|stats| stats.unconverged)
+            .sum();
+        if unconverged > 0 && !quiet {
+            eprintln!(
+                "warning: the semi-implicit solve stopped before reaching its tolerance in {unconverged} substeps (see \"solver\" in manifest.json)\n  fix: raise [solver] solver_max_iterations, or lower dt"
+            );
+        }
     }
 
     /// Mean cost over the frames of this manifest that took substeps.

@@ -385,3 +385,77 @@ fn bench_times_a_scene_file_with_either_integrator() {
             > 0.0
     );
 }
+
+#[test]
+fn the_semi_implicit_integrator_records_its_solver_work_per_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = run_small(
+        dir.path(),
+        "implicit",
+        &["--integrator", "semi-implicit", "--no-render"],
+    );
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let manifest = manifest(&dir.path().join("implicit"));
+    assert_eq!(
+        manifest["scene"]["solver"]["integrator"]["kind"],
+        "semi-implicit"
+    );
+    let frames = manifest["frames"].as_array().unwrap();
+    assert!(frames[0].get("solver").is_some_and(|s| s["solves"] == 0));
+    for frame in &frames[1..] {
+        let solver = &frame["solver"];
+        assert!(solver["solves"].as_u64().unwrap() > 0, "{frame}");
+        assert_eq!(solver["unconverged"], 0, "{frame}");
+    }
+    // In free flight v* already solves the system; the landing takes work.
+    let iterations: u64 = frames
+        .iter()
+        .map(|frame| frame["solver"]["iterations"].as_u64().unwrap())
+        .sum();
+    assert!(iterations > 0);
+}
+
+#[test]
+fn a_flow_scene_runs_resumes_and_writes_its_caches() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenes/curl-noise-demo.toml"
+    );
+    let whole = dir.path().join("whole");
+    let part = dir.path().join("part");
+    let run = |out: &Path, frames: &str, resume: bool| {
+        let mut args = vec!["run", scene, "--out", out.to_str().unwrap()];
+        args.extend(["--frames", frames, "--no-render", "--quiet"]);
+        if resume {
+            args.push("--resume");
+        }
+        let output = firn(&args);
+        assert!(output.status.success(), "{}", text(&output.stderr));
+    };
+    run(&whole, "4", false);
+    run(&part, "2", false);
+    run(&part, "4", true);
+    let cache = "ply/frame_00004.ply";
+    assert_eq!(
+        fs::read(whole.join(cache)).unwrap(),
+        fs::read(part.join(cache)).unwrap(),
+        "a resumed flow matches an uninterrupted one bit for bit"
+    );
+    let header = fs::read(whole.join(cache)).unwrap();
+    let header = String::from_utf8_lossy(&header[..400]);
+    assert!(header.contains("property float age"), "{header}");
+}
+
+#[test]
+fn check_summarises_a_flow_scene() {
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenes/curl-noise-demo.toml"
+    );
+    let output = firn(&["check", scene]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let stdout = text(&output.stdout);
+    assert!(stdout.contains("curl-noise flow"), "{stdout}");
+    assert!(stdout.contains("obstacles   1"), "{stdout}");
+}

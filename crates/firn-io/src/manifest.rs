@@ -57,6 +57,25 @@ pub struct FrameRecord {
     /// This frame's pictures, one per render style, relative to the manifest.
     #[serde(default)]
     pub images: Vec<String>,
+    /// The semi-implicit solver's work in this frame (absent for the
+    /// explicit integrator).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub solver: Option<SolverFrameStats>,
+}
+
+/// What the semi-implicit velocity solve did during one frame.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SolverFrameStats {
+    /// Substeps solved.
+    pub solves: u64,
+    /// Conjugate-residual iterations, summed over the substeps.
+    pub iterations: u64,
+    /// Mean iterations per solve.
+    pub mean_iterations: f64,
+    /// Final relative residual of the frame's last solve.
+    pub final_residual: f32,
+    /// Solves that stopped before reaching the tolerance.
+    pub unconverged: u64,
 }
 
 /// The state of a run, as recorded in its manifest.
@@ -122,6 +141,13 @@ mod tests {
             ns_per_particle_substep: 85.5,
             files: vec![format!("frames/frame_{index:04}.ply")],
             images: vec![format!("images/points/frame_{index:05}.png")],
+            solver: Some(SolverFrameStats {
+                solves: 40,
+                iterations: 400,
+                mean_iterations: 10.0,
+                final_residual: 1e-4,
+                unconverged: 0,
+            }),
         }
     }
 

@@ -4,7 +4,7 @@
 use std::borrow::Cow;
 
 use firn_core::Scene;
-use firn_core::scene::{ColorBy, RenderStyle};
+use firn_core::scene::{ColliderGeometry, ColorBy, RenderStyle};
 use glam::Vec3;
 
 use crate::camera::{CameraView, automatic_framing};
@@ -99,10 +99,10 @@ pub fn scene_camera(scene: &Scene, t: f64, width: u32, height: u32) -> CameraVie
     CameraView::look_at(eye, look_at, camera.fov_degrees, width, height)
 }
 
-/// The container, the ground at the domain floor and the colliders where
-/// they are at time `t`.
+/// The container, the ground at the domain floor, and the colliders (and a
+/// flow's obstacles) where they are at time `t`.
 pub fn scene_stage(scene: &Scene, t: f64) -> Stage {
-    let colliders = scene
+    let mut colliders: Vec<ColliderGeometry> = scene
         .colliders
         .iter()
         .map(|collider| {
@@ -111,6 +111,17 @@ pub fn scene_stage(scene: &Scene, t: f64) -> Stage {
             collider.geometry.moved_to(position)
         })
         .collect();
+    // A flow's obstacles are drawn like sphere colliders.
+    if let Some(flow) = scene.kind.flow() {
+        colliders.extend(
+            flow.obstacles
+                .iter()
+                .map(|obstacle| ColliderGeometry::Sphere {
+                    center: obstacle.center,
+                    radius: obstacle.radius,
+                }),
+        );
+    }
     Stage {
         ground: Some(scene.domain.min.y),
         container: Some((scene.domain.min, scene.domain.max)),

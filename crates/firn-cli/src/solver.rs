@@ -1,0 +1,274 @@
+//! The simulation behind a run: snow on the MPM solver, or particles in a
+//! curl-noise flow. `firn run` drives either through this one interface:
+//! step to a time, write a frame's caches, render it, checkpoint it.
+
+use std::path::Path;
+
+use firn_core::Scene;
+use firn_core::scene::SceneKind;
+use firn_flow::{FlowSimulation, FlowSnapshot};
+use firn_io::{Attribute, Checkpoint, FrameData, IoError, PvdCollection, SolverFrameStats};
+use firn_mpm::{Simulation, SolverStats};
+use firn_render::scene_view::FrameParticles;
+use firn_render::trails::Trails;
+use glam::Vec3;
+
+use crate::frames::{color_values, read_checkpoint, write_caches, write_checkpoint, write_frame};
+
+/// A running simulation of either kind.
+pub enum Solver {
+    /// Snow on the CPU MPM solver.
+    Snow(Box<Simulation>),
+    /// Particles carried by a curl-noise flow.
+    Flow(Box<FlowSimulation>),
+}
+
+/// A frame's trails, flattened oldest first for the renderer.
+pub struct FlatTrails {
+    points: Vec<Vec3>,
+    capacity: usize,
+    lengths: Vec<u32>,
+}
+
+impl FlatTrails {
+    /// The renderer's view of these trails.
+    pub fn view(&self) -> Trails<'_> {
+        Trails {
+            points: &self.points,
+            capacity: self.capacity,
+            lengths: &self.lengths,
+        }
+    }
+}
+
+impl Solver {
+    /// Starts the scene's simulation at time 0.
+    pub fn new(scene: Scene) -> Result<Solver, String> {
+        match scene.kind {
+            SceneKind::Snow => Simulation::new(scene)
+                .map(|simulation| Solver::Snow(Box::new(simulation)))
+                .map_err(|error| error.to_string()),
+            SceneKind::Flow(_) => FlowSimulation::new(scene)
+                .map(|flow| Solver::Flow(Box::new(flow)))
+                .map_err(|error| error.to_string()),
+        }
+    }
+
+    /// The scene being simulated.
+    pub fn scene(&self) -> &Scene {
+        match self {
+            Solver::Snow(simulation) => simulation.scene(),
+            Solver::Flow(flow) => flow.scene(),
+        }
+    }
+
+    /// Simulated time in seconds.
+    pub fn time(&self) -> f64 {
+        match self {
+            Solver::Snow(simulation) => simulation.time(),
+            Solver::Flow(flow) => flow.time(),
+        }
+    }
+
+    /// Current number of particles.
+    pub fn particle_count(&self) -> usize {
+        match self {
+            Solver::Snow(simulation) => simulation.particles().len(),
+            Solver::Flow(flow) => flow.len(),
+        }
+    }
+
+    /// The semi-implicit solver's running totals (snow with that integrator only).
+    pub fn solver_stats(&self) -> Option<SolverStats> {
+        match self {
+            Solver::Snow(simulation) => simulation.solver_stats(),
+            Solver::Flow(_) => None,
+        }
+    }
+
+    /// Advances to simulated time `until`; returns the substeps taken.
+    pub fn advance_to(&mut self, until: f64) -> Result<u32, String> {
+        match self {
+            Solver::Snow(simulation) => simulation
+                .advance_to(until)
+                .map_err(|error| error.to_string()),
+            Solver::Flow(flow) => Ok(flow.advance_to(until)),
+        }
+    }
+
+    /// Writes frame `index`'s caches; returns their paths relative to `directory`.
+    pub fn write_frame(
+        &self,
+        index: u32,
+        directory: &Path,
+        pvd: &mut PvdCollection,
+    ) -> Result<Vec<String>, IoError> {
+        match self {
+            Solver::Snow(simulation) => write_frame(simulation, index, directory, pvd),
+            Solver::Flow(flow) => {
+                let frame = FrameData::new(index, flow.time(), flow.positions())
+                    .with_attribute(Attribute::vector("velocity", flow.velocities()))
+                    .with_attribute(Attribute::scalar("age", flow.ages()));
+                write_caches(flow.scene(), &frame, directory, pvd)
+            }
+        }
+    }
+
+    /// Calls `draw` with this frame's particles as the renderer needs them.
+    pub fn with_frame_particles<T>(&self, draw: impl FnOnce(FrameParticles<'_>) -> T) -> T {
+        match self {
+            Solver::Snow(simulation) => {
+                let particles = simulation.particles();
+                let values = color_values(simulation, simulation.scene().render.color_by);
+                draw(FrameParticles {
+                    positions: &particles.position,
+                    masses: Some(&particles.mass),
+                    values: values.as_deref(),
+                    trails: None,
+                })
+            }
+            Solver::Flow(flow) => {
+                let trails = flat_trails(flow);
+                let speeds: Vec<f32> = flow.velocities().iter().map(|v| v.length()).collect();
+                draw(FrameParticles {
+                    positions: flow.positions(),
+                    masses: None,
+                    values: Some(&speeds),
+                    trails: trails.as_ref().map(FlatTrails::view),
+                })
+            }
+        }
+    }
+
+    /// Writes a checkpoint taken after frame `frame`.
+    pub fn write_checkpoint(
+        &self,
+        frame: u32,
+        scene_json: &serde_json::Value,
+        path: &Path,
+    ) -> Result<(), IoError> {
+        match self {
+            Solver::Snow(simulation) => write_checkpoint(simulation, frame, scene_json, path),
+            Solver::Flow(flow) => write_flow_checkpoint(flow, frame, scene_json, path),
+        }
+    }
+
+    /// Restores the simulation of `scene` from a checkpoint; returns it, the
+    /// frame the checkpoint follows, and the scene it was written for.
+    pub fn resume(scene: Scene, path: &Path) -> Result<(Solver, u32, serde_json::Value), String> {
+        match scene.kind {
+            SceneKind::Snow => {
+                let restored = read_checkpoint(path)?;
+                let simulation = Simulation::from_snapshot(scene, restored.snapshot)
+                    .map_err(|error| error.to_string())?;
+                Ok((
+                    Solver::Snow(Box::new(simulation)),
+                    restored.frame,
+                    restored.scene_json,
+                ))
+            }
+            SceneKind::Flow(_) => {
+                let (snapshot, frame, scene_json) = read_flow_checkpoint(path)?;
+                let flow = FlowSimulation::from_snapshot(scene, snapshot)
+                    .map_err(|error| error.to_string())?;
+                Ok((Solver::Flow(Box::new(flow)), frame, scene_json))
+            }
+        }
+    }
+}
+
+/// The solver's work between two readings of its running totals.
+pub fn frame_solver_stats(before: Option<SolverStats>, after: SolverStats) -> SolverFrameStats {
+    let before = before.unwrap_or_default();
+    let solves = after.steps - before.steps;
+    let iterations = after.total_iterations - before.total_iterations;
+    SolverFrameStats {
+        solves,
+        iterations,
+        mean_iterations: if solves > 0 {
+            iterations as f64 / solves as f64
+        } else {
+            0.0
+        },
+        final_residual: after.last_residual,
+        unconverged: after.unconverged_steps - before.unconverged_steps,
+    }
+}
+
+/// The flow's trails (if it keeps them), oldest position first.
+fn flat_trails(flow: &FlowSimulation) -> Option<FlatTrails> {
+    let trails = flow.trails()?;
+    let capacity = trails.capacity();
+    let count = trails.particle_count();
+    let mut points = vec![Vec3::ZERO; capacity * count];
+    let mut lengths = vec![0u32; count];
+    for particle in 0..count {
+        for (slot, point) in trails.iter(particle).enumerate() {
+            points[particle * capacity + slot] = point;
+        }
+        lengths[particle] = trails.len(particle) as u32;
+    }
+    Some(FlatTrails {
+        points,
+        capacity,
+        lengths,
+    })
+}
+
+/// Writes a flow checkpoint: the snapshot's arrays and its counters.
+fn write_flow_checkpoint(
+    flow: &FlowSimulation,
+    frame: u32,
+    scene_json: &serde_json::Value,
+    path: &Path,
+) -> Result<(), IoError> {
+    let snapshot = flow.snapshot();
+    let mut checkpoint = Checkpoint::new(serde_json::json!({
+        "kind": "flow",
+        "frame": frame,
+        "substeps": snapshot.substeps,
+        "trail_capacity": snapshot.trail_capacity,
+        "trail_head": snapshot.trail_head,
+        "scene": scene_json,
+    }));
+    checkpoint.push_array("births", &snapshot.births);
+    checkpoint.push_array("positions", &snapshot.positions);
+    checkpoint.push_array("velocities", &snapshot.velocities);
+    checkpoint.push_array("ages", &snapshot.ages);
+    checkpoint.push_array("lifetimes", &snapshot.lifetimes);
+    checkpoint.push_array("generations", &snapshot.generations);
+    checkpoint.push_array("emitters", &snapshot.emitters);
+    checkpoint.push_array("trail_points", &snapshot.trail_points);
+    checkpoint.push_array("trail_lengths", &snapshot.trail_lengths);
+    checkpoint.push_array("trail_generations", &snapshot.trail_generations);
+    checkpoint.write(path)
+}
+
+/// Reads a checkpoint written by [`write_flow_checkpoint`].
+fn read_flow_checkpoint(path: &Path) -> Result<(FlowSnapshot, u32, serde_json::Value), String> {
+    let checkpoint = Checkpoint::read(path).map_err(|error| error.to_string())?;
+    let meta = &checkpoint.meta;
+    let field = |name: &str| {
+        meta.get(name)
+            .and_then(serde_json::Value::as_u64)
+            .ok_or_else(|| format!("checkpoint {} lacks `{name}`", path.display()))
+    };
+    let array_error = |error: IoError| error.to_string();
+    let snapshot = FlowSnapshot {
+        substeps: field("substeps")?,
+        births: checkpoint.array("births").map_err(array_error)?,
+        positions: checkpoint.array("positions").map_err(array_error)?,
+        velocities: checkpoint.array("velocities").map_err(array_error)?,
+        ages: checkpoint.array("ages").map_err(array_error)?,
+        lifetimes: checkpoint.array("lifetimes").map_err(array_error)?,
+        generations: checkpoint.array("generations").map_err(array_error)?,
+        emitters: checkpoint.array("emitters").map_err(array_error)?,
+        trail_capacity: field("trail_capacity")? as u32,
+        trail_head: field("trail_head")? as u32,
+        trail_points: checkpoint.array("trail_points").map_err(array_error)?,
+        trail_lengths: checkpoint.array("trail_lengths").map_err(array_error)?,
+        trail_generations: checkpoint.array("trail_generations").map_err(array_error)?,
+    };
+    let scene_json = meta.get("scene").cloned().unwrap_or_default();
+    Ok((snapshot, field("frame")? as u32, scene_json))
+}
