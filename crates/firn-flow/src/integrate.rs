@@ -1,5 +1,5 @@
 //! Moving particles through the field: second-order (midpoint) or classic
-//! fourth-order Runge-Kutta, eight particles per batch in SIMD lanes.
+//! fourth-order Runge-Kutta, 8 or 16 particles per batch in SIMD lanes.
 //!
 //! The seed moves each particle by x ← x + V(x) Δt once per frame (forward
 //! Euler); Runge-Kutta follows the curved streamlines of curl noise far more
@@ -8,9 +8,11 @@
 //! Batches are formed from a particle's index alone (a partial batch at the
 //! end of a slice is padded), and every lane does the same operations, so a
 //! particle's new position does not depend on how particles are split among
-//! threads. On x86-64 CPUs with AVX2 the lanes live in one 256-bit register
-//! ([`crate::lanes_avx2`]); elsewhere the portable lanes of
-//! [`crate::lanes::F32s`] are used. Both give the same bits.
+//! threads. On x86-64 CPUs with AVX-512 the lanes live in one 512-bit register
+//! (16 particles, `lanes_avx512`), with AVX2 in one 256-bit register (8,
+//! `lanes_avx2`); elsewhere the portable lanes of [`crate::lanes::F32s`] are
+//! used (8). The path is chosen at run time ([`Simd::detect`]); all give the
+//! same bits.
 
 use firn_core::scene::{FlowIntegrator, FlowObstacle};
 use glam::Vec3;

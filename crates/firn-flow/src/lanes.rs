@@ -1,14 +1,14 @@
 //! Numbers the field is evaluated in: one `f64` (the reference and test
-//! path), or `N` lanes of `f32` at once ([`F32s`], the fast path).
+//! path), or `N` lanes of `f32` at once ([`F32s`], the portable path; the
+//! AVX2 and AVX-512 lane types implement the same trait with intrinsics).
 //!
 //! The noise and the curl are written once, generic over [`Real`], without
-//! branches on values: comparisons give masks and masks select. With
-//! `F32s<8>` the compiler turns every operation into one SIMD instruction
-//! (two with SSE2), so eight particles are advanced for the price of about
-//! one. `F32s<1>` is the scalar `f32` path; as every lane does exactly the
-//! same operations in the same order, a particle gets the same bits whether it
-//! is evaluated alone or in a batch, on any x86-64 CPU (no fused multiply-add
-//! is ever formed).
+//! branches on values: comparisons give masks and masks select, so each
+//! operation is one SIMD instruction on a whole batch of particles.
+//! `F32s<1>` is the scalar `f32` path. As every lane does exactly the same
+//! IEEE operations in the same order, a particle gets the same bits whether it
+//! is evaluated alone or in a batch of 8 or 16, on any x86-64 CPU (no fused
+//! multiply-add is ever formed).
 
 use std::ops::{Add, Div, Mul, Neg, Sub};
 

@@ -12,8 +12,10 @@
 //!   v = s · curl ψ' (seed eq. 4), exact or by central differences;
 //! - [`emitters`], [`particles`], [`trails`]: where particles are born, their
 //!   state (structure of arrays) and their recent positions;
-//! - [`integrate`] and [`simulation`]: RK2/RK4 steps, eight particles per SIMD
-//!   batch, in parallel with rayon, bit-identical for any thread count.
+//! - [`integrate`] and [`simulation`]: RK2/RK4 steps, 16 (AVX-512), 8 (AVX2)
+//!   or 8 portable lanes per SIMD batch, chosen at run time ([`Simd`]), in
+//!   parallel with rayon, bit-identical for any thread count and code path;
+//! - [`lanes`]: the number types the field is written over.
 //!
 //! ```no_run
 //! use firn_core::Scene;

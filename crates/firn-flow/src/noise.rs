@@ -51,7 +51,7 @@ fn mix<R: Real>(mut h: R::Int) -> R::Int {
 }
 
 /// Hash of a lattice point: the three coordinates are multiplied by odd
-/// constants, combined, and mixed by [`mix`].
+/// constants, combined, and mixed by a multiply-xorshift finaliser.
 #[inline(always)]
 pub fn lattice_hash<R: Real>(i: R::Int, j: R::Int, k: R::Int) -> R::Int {
     mix::<R>(R::int_xor(
