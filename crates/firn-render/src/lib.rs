@@ -7,9 +7,11 @@
 //! scene and a frame's particles, and [`output`] writes PNGs and animations.
 //!
 //! - `points` (thesis section 5.7): sphere-shaded, depth-tested sprites with
-//!   the bluish ramp, supersampled 2x2 for anti-aliasing.
+//!   the bluish ramp.
 //! - `volume` (the thesis' future work, chapter 7): a density grid
 //!   ray-marched with Beer-Lambert extinction and single scattering.
+//!
+//! Every style renders 2x2 samples per pixel and averages them (anti-aliasing).
 
 #![warn(missing_docs)]
 
@@ -40,8 +42,8 @@ pub use volume::{DensityGrid, SnowLook};
 
 use crate::film::Film;
 
-/// Supersampling factor per axis for the `points` style (anti-aliasing).
-pub const POINTS_SUPERSAMPLING: u32 = 2;
+/// Supersampling factor per axis of every style (anti-aliasing).
+pub const SUPERSAMPLING: u32 = 2;
 /// Width of the container's edges in output pixels.
 const EDGE_WIDTH_PIXELS: f32 = 1.3;
 
@@ -96,7 +98,7 @@ pub fn render(picture: &Picture<'_>) -> RgbImage {
 }
 
 fn render_points(picture: &Picture<'_>) -> RgbImage {
-    let factor = POINTS_SUPERSAMPLING;
+    let factor = SUPERSAMPLING;
     let camera = picture.camera.scaled(factor);
     let mut film = Film::new(camera.width, camera.height);
     picture.stage.draw(&mut film, &camera, &|_| 1.0);
@@ -121,7 +123,7 @@ const RIBBON_WIDTH_PIXELS: f32 = 1.6;
 /// Billboards, or trails where the picture has them (billboards otherwise),
 /// added over the stage.
 fn render_additive(picture: &Picture<'_>) -> RgbImage {
-    let factor = POINTS_SUPERSAMPLING;
+    let factor = SUPERSAMPLING;
     let camera = picture.camera.scaled(factor);
     let mut film = Film::new(camera.width, camera.height);
     picture.stage.draw(&mut film, &camera, &|_| 1.0);
@@ -149,7 +151,8 @@ fn render_additive(picture: &Picture<'_>) -> RgbImage {
 }
 
 fn render_volume(picture: &Picture<'_>) -> RgbImage {
-    let camera = picture.camera;
+    let factor = SUPERSAMPLING;
+    let camera = picture.camera.scaled(factor);
     let particles = &picture.particles;
     let mut film = Film::new(camera.width, camera.height);
     let grid = DensityGrid::deposit(
@@ -160,10 +163,9 @@ fn render_volume(picture: &Picture<'_>) -> RgbImage {
     let light = picture.stage.light;
     let shadow = |point: Vec3| volume::surface_shadow(&grid, &particles.look, &light, point);
     picture.stage.draw(&mut film, &camera, &shadow);
-    // Without supersampling, slightly wider edges keep thin lines unbroken.
-    draw_container(&mut film, &camera, &picture.stage, 1.6);
+    draw_container(&mut film, &camera, &picture.stage, factor as f32);
     volume::draw_volume(&mut film, &camera, &grid, &particles.look, &light);
-    film.resolve(1)
+    film.resolve(factor)
 }
 
 /// Draws the container's edges `scale` times the nominal width (in samples).

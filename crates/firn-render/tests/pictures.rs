@@ -56,10 +56,10 @@ fn picture<'a>(positions: &'a [Vec3], coloring: Coloring<'a>, style: RenderStyle
 fn sky_pixel(stage: &Stage, y: u32) -> [u8; 3] {
     // The sky is evaluated at sample centres; with 2x2 supersampling the
     // four samples of a pixel sit at y + 0.25 and y + 0.75.
-    let s = firn_render::POINTS_SUPERSAMPLING as f32;
+    let s = firn_render::SUPERSAMPLING as f32;
     let height = HEIGHT as f32 * s;
     let mut sum = Vec3::ZERO;
-    for sy in 0..firn_render::POINTS_SUPERSAMPLING {
+    for sy in 0..firn_render::SUPERSAMPLING {
         sum += stage.sky(y as f32 * s + sy as f32 + 0.5, height);
     }
     encode_srgb(sum / s)
@@ -116,8 +116,7 @@ fn the_background_is_the_background() {
         ..picture
     });
     for (_, y, pixel) in volume.enumerate_pixels() {
-        let expected = encode_srgb(stage.sky(y as f32 + 0.5, HEIGHT as f32));
-        assert_eq!(pixel.0, expected);
+        assert_eq!(pixel.0, sky_pixel(&stage, y));
     }
 }
 
