@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use firn_core::Scene;
-use firn_core::scene::SceneKind;
+use firn_core::scene::{ColorBy, SceneKind};
 use firn_flow::{FlowSimulation, FlowSnapshot};
 use firn_io::{Attribute, Checkpoint, FrameData, IoError, PvdCollection, SolverFrameStats};
 use firn_mpm::{Simulation, SolverStats};
@@ -129,11 +129,17 @@ impl Solver {
             }
             Solver::Flow(flow) => {
                 let trails = flat_trails(flow);
-                let speeds: Vec<f32> = flow.velocities().iter().map(|v| v.length()).collect();
+                // Only speed is a ramp quantity of a flow; others need no values.
+                let speeds = (flow.scene().render.color_by == ColorBy::Speed).then(|| {
+                    flow.velocities()
+                        .iter()
+                        .map(|v| v.length())
+                        .collect::<Vec<f32>>()
+                });
                 draw(FrameParticles {
                     positions: flow.positions(),
                     masses: None,
-                    values: Some(&speeds),
+                    values: speeds.as_deref(),
                     trails: trails.as_ref().map(FlatTrails::view),
                 })
             }

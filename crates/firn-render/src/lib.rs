@@ -97,12 +97,18 @@ pub fn render(picture: &Picture<'_>) -> RgbImage {
     image
 }
 
-fn render_points(picture: &Picture<'_>) -> RgbImage {
-    let factor = SUPERSAMPLING;
-    let camera = picture.camera.scaled(factor);
+/// A supersampled film holding the stage (unshadowed) and the container,
+/// ready for particles, with the camera that matches it.
+fn staged_film(picture: &Picture<'_>) -> (Film, CameraView) {
+    let camera = picture.camera.scaled(SUPERSAMPLING);
     let mut film = Film::new(camera.width, camera.height);
     picture.stage.draw(&mut film, &camera, &|_| 1.0);
-    draw_container(&mut film, &camera, &picture.stage, factor as f32);
+    draw_container(&mut film, &camera, &picture.stage, SUPERSAMPLING as f32);
+    (film, camera)
+}
+
+fn render_points(picture: &Picture<'_>) -> RgbImage {
+    let (mut film, camera) = staged_film(picture);
     let particles = &picture.particles;
     points::draw_points(
         &mut film,
@@ -112,7 +118,7 @@ fn render_points(picture: &Picture<'_>) -> RgbImage {
         particles.radius,
         &picture.stage.light,
     );
-    film.resolve(factor)
+    film.resolve(SUPERSAMPLING)
 }
 
 /// Brightness a billboard adds at its centre, and a ribbon at its newest end.
@@ -123,16 +129,12 @@ const RIBBON_WIDTH_PIXELS: f32 = 1.6;
 /// Billboards, or trails where the picture has them (billboards otherwise),
 /// added over the stage.
 fn render_additive(picture: &Picture<'_>) -> RgbImage {
-    let factor = SUPERSAMPLING;
-    let camera = picture.camera.scaled(factor);
-    let mut film = Film::new(camera.width, camera.height);
-    picture.stage.draw(&mut film, &camera, &|_| 1.0);
-    draw_container(&mut film, &camera, &picture.stage, factor as f32);
+    let (mut film, camera) = staged_film(picture);
     let particles = &picture.particles;
     match (&particles.trails, picture.style) {
         (Some(trails), RenderStyle::Trails) => {
             let look = RibbonLook {
-                width: RIBBON_WIDTH_PIXELS * factor as f32,
+                width: RIBBON_WIDTH_PIXELS * SUPERSAMPLING as f32,
                 intensity: ADDITIVE_INTENSITY,
                 smooth: particles.smooth_trails,
             };
@@ -147,7 +149,7 @@ fn render_additive(picture: &Picture<'_>) -> RgbImage {
             ADDITIVE_INTENSITY,
         ),
     }
-    film.resolve(factor)
+    film.resolve(SUPERSAMPLING)
 }
 
 fn render_volume(picture: &Picture<'_>) -> RgbImage {

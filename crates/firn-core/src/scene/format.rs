@@ -1901,6 +1901,35 @@ fn check_material(path: &KeyPath, material: &Material) -> Check {
     )
 }
 
+/// The box `low .. high` of the thing at `path` (a `what`) must lie inside
+/// the domain; the error names the axis and both spans.
+fn check_inside_domain(
+    path: &KeyPath,
+    what: &str,
+    (low, high): (Vec3, Vec3),
+    domain: &Domain,
+    hint: &str,
+) -> Check {
+    let slack = 1e-6 * (domain.max - domain.min).max_element();
+    for (axis, a) in AXES.iter().enumerate() {
+        if low[axis] < domain.min[axis] - slack || high[axis] > domain.max[axis] + slack {
+            return Err(Issue::new(
+                path.key("center"),
+                format!(
+                    "{path} ({what}) sticks out of the domain along {a}: it spans {a} = {} .. {} \
+                     but the domain spans {a} = {} .. {}",
+                    Num::from(low[axis]),
+                    Num::from(high[axis]),
+                    Num::from(domain.min[axis]),
+                    Num::from(domain.max[axis])
+                ),
+                hint,
+            ));
+        }
+    }
+    Ok(())
+}
+
 fn shape_name(shape: &Shape) -> &'static str {
     match shape {
         Shape::Sphere { .. } => "sphere",
@@ -1961,25 +1990,14 @@ fn check_body(scene: &Scene, index: usize, body: &Body) -> Check {
 
     let domain = &scene.domain;
     let (low, high) = body.shape.bounds();
-    let slack = 1e-6 * (domain.max - domain.min).max_element();
-    for (axis, a) in AXES.iter().enumerate() {
-        if low[axis] < domain.min[axis] - slack || high[axis] > domain.max[axis] + slack {
-            return Err(Issue::new(
-                path.key("center"),
-                format!(
-                    "{path} ({}) sticks out of the domain along {a}: it spans {a} = {} .. {} but \
-                     the domain spans {a} = {} .. {}",
-                    shape_name(&body.shape),
-                    Num::from(low[axis]),
-                    Num::from(high[axis]),
-                    Num::from(domain.min[axis]),
-                    Num::from(domain.max[axis])
-                ),
-                "move or shrink the body so that it lies inside domain.min .. domain.max, or \
-                 enlarge the domain",
-            ));
-        }
-    }
+    check_inside_domain(
+        &path,
+        shape_name(&body.shape),
+        (low, high),
+        domain,
+        "move or shrink the body so that it lies inside domain.min .. domain.max, or \
+         enlarge the domain",
+    )?;
 
     if !sampling::body_has_particles(scene, index) {
         let spacing = sampling::particle_spacing(domain.cell_size, ppc);

@@ -7,11 +7,13 @@
 
 use serde::Deserialize;
 
-use super::{AXES, check_camera, check_domain, check_output, check_render, check_time};
 use super::{
     Check, Issue, KeyPath, Num, RawScene, default_name, ensure, finite_vec, missing, not_negative,
     positive, positive_vec, reject, require, resolve_camera, resolve_output, resolve_render,
     resolve_solver, resolve_time, unit_or_zero, unit_vec, vec3,
+};
+use super::{
+    check_camera, check_domain, check_inside_domain, check_output, check_render, check_time,
 };
 use crate::scene::flow::{
     FlowCurl, FlowEmission, FlowEmitter, FlowEmitterShape, FlowIntegrator, FlowObstacle,
@@ -657,27 +659,14 @@ fn check_emitter(scene: &Scene, path: &KeyPath, emitter: &FlowEmitter) -> Check 
             .to_string(),
     )?;
 
-    let domain = &scene.domain;
-    let (low, high) = emitter.shape.bounds();
-    let slack = 1e-6 * (domain.max - domain.min).max_element();
-    for (axis, a) in AXES.iter().enumerate() {
-        if low[axis] < domain.min[axis] - slack || high[axis] > domain.max[axis] + slack {
-            return Err(Issue::new(
-                path.key("center"),
-                format!(
-                    "{path} ({}) sticks out of the domain along {a}: it spans {a} = {} .. {} but \
-                     the domain spans {a} = {} .. {}",
-                    emitter_shape_name(&emitter.shape),
-                    Num::from(low[axis]),
-                    Num::from(high[axis]),
-                    Num::from(domain.min[axis]),
-                    Num::from(domain.max[axis])
-                ),
-                "move or shrink the emitter so that it lies inside domain.min .. domain.max \
-                 (particles outside the domain are born again at once)",
-            ));
-        }
-    }
+    check_inside_domain(
+        path,
+        emitter_shape_name(&emitter.shape),
+        emitter.shape.bounds(),
+        &scene.domain,
+        "move or shrink the emitter so that it lies inside domain.min .. domain.max \
+         (particles outside the domain are born again at once)",
+    )?;
     Ok(())
 }
 
