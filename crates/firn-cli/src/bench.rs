@@ -23,6 +23,7 @@ use serde::Serialize;
 
 use crate::Failure;
 use crate::bench_render::bench_render;
+use crate::bench_sweep::SweepArgs;
 
 /// Arguments of `firn bench`.
 #[derive(Args, Debug)]
@@ -81,6 +82,9 @@ pub struct BenchArgs {
     /// --steps and --warmup apply; see bench_flow.rs.
     #[arg(long)]
     pub flow: bool,
+    /// `--sweep particles|grid` and its options; see bench_sweep.rs.
+    #[command(flatten)]
+    pub sweep: SweepArgs,
 }
 
 /// Time integrators for `--scene`.
@@ -118,6 +122,17 @@ pub enum TransferChoice {
     Apic,
     /// Both, one after the other.
     Both,
+}
+
+impl TransferChoice {
+    /// The schemes to measure, in order.
+    pub fn schemes(self) -> &'static [Transfer] {
+        match self {
+            TransferChoice::PicFlip => &[Transfer::PicFlip],
+            TransferChoice::Apic => &[Transfer::Apic],
+            TransferChoice::Both => &[Transfer::PicFlip, Transfer::Apic],
+        }
+    }
 }
 
 /// One measured configuration.
@@ -180,15 +195,14 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
     if args.flow {
         return crate::bench_flow::bench_flow(&args);
     }
+    if let Some(kind) = args.sweep.sweep {
+        return crate::bench_sweep::bench_sweep(kind, &args);
+    }
     if let Some(path) = &args.scene {
         let record = measure_scene(path, &args)?;
         return write_json(&args.json, &[record]);
     }
-    let transfers: &[Transfer] = match args.transfer {
-        TransferChoice::PicFlip => &[Transfer::PicFlip],
-        TransferChoice::Apic => &[Transfer::Apic],
-        TransferChoice::Both => &[Transfer::PicFlip, Transfer::Apic],
-    };
+    let transfers = args.transfer.schemes();
     let mut records = Vec::new();
     for &grid in &args.grid {
         for &particles in &args.particles {
@@ -305,7 +319,8 @@ fn measure_scene(path: &std::path::Path, args: &BenchArgs) -> Result<SceneRecord
     Ok(record)
 }
 
-fn transfer_name(transfer: Transfer) -> &'static str {
+/// The scheme's name on the command line.
+pub fn transfer_name(transfer: Transfer) -> &'static str {
     match transfer {
         Transfer::PicFlip => "pic-flip",
         Transfer::Apic => "apic",
@@ -320,15 +335,7 @@ fn measure(scene: Scene, grid: u32, args: &BenchArgs) -> Result<BenchRecord, Fai
     let transfer = scene.solver.transfer;
     let mut simulation =
         Simulation::new(scene).map_err(|error| Failure::Failed(format!("error: {error}")))?;
-    let fail = |error: firn_mpm::SimulationError| Failure::Failed(format!("error: {error}"));
-    for _ in 0..args.warmup {
-        simulation.step(f64::INFINITY).map_err(fail)?;
-    }
-    let started = Instant::now();
-    for _ in 0..args.steps {
-        simulation.step(f64::INFINITY).map_err(fail)?;
-    }
-    let seconds = started.elapsed().as_secs_f64();
+    let (_, seconds) = time_substeps(&mut simulation, args.warmup, args.steps, None)?;
     let particles = simulation.particles().len();
     Ok(BenchRecord {
         transfer,
@@ -344,6 +351,35 @@ fn measure(scene: Scene, grid: u32, args: &BenchArgs) -> Result<BenchRecord, Fai
         center_of_mass_y: simulation.diagnostics().center_of_mass[1],
     })
 }
+
+/// Runs `warmup` untimed substeps, then `steps` timed ones, or fewer once
+/// `budget` has passed (but at least [`MIN_TIMED_SUBSTEPS`]); returns the
+/// timed substeps and their wall-clock seconds.
+pub fn time_substeps(
+    simulation: &mut Simulation,
+    warmup: u32,
+    steps: u32,
+    budget: Option<std::time::Duration>,
+) -> Result<(u32, f64), Failure> {
+    let fail = |error: firn_mpm::SimulationError| Failure::Failed(format!("error: {error}"));
+    for _ in 0..warmup {
+        simulation.step(f64::INFINITY).map_err(fail)?;
+    }
+    let started = Instant::now();
+    let mut timed = 0;
+    while timed < steps {
+        simulation.step(f64::INFINITY).map_err(fail)?;
+        timed += 1;
+        if budget.is_some_and(|budget| timed >= MIN_TIMED_SUBSTEPS && started.elapsed() >= budget) {
+            break;
+        }
+    }
+    Ok((timed, started.elapsed().as_secs_f64()))
+}
+
+/// Fewest timed substeps [`time_substeps`] runs before its time budget may
+/// stop it.
+pub const MIN_TIMED_SUBSTEPS: u32 = 3;
 
 /// The benchmark scene with about `particles` particles on a `grid`³ grid.
 pub fn snowball_drop(particles: u32, grid: u32, transfer: Transfer) -> Scene {

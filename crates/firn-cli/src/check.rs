@@ -62,6 +62,16 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
             Shape::Cylinder { radius, height, .. } => {
                 format!("cylinder r = {radius}, height {height}")
             }
+            Shape::Mesh(ref mesh) => {
+                let size = mesh.max - mesh.min;
+                format!(
+                    "mesh {} ({:.3} x {:.3} x {:.3} m)",
+                    mesh.placement.file.display(),
+                    size.x,
+                    size.y,
+                    size.z
+                )
+            }
         };
         let material = &scene.materials[body.material];
         println!(

@@ -3,7 +3,11 @@
 mod bench;
 mod bench_flow;
 mod bench_render;
+mod bench_sweep;
+mod charts;
 mod check;
+mod compare;
+mod compare_layout;
 mod frames;
 mod pictures;
 mod presets;
@@ -41,6 +45,8 @@ enum Command {
     Bench(bench::BenchArgs),
     /// Re-render a run's frames from its caches (other styles, camera or size).
     Render(render::RenderArgs),
+    /// Picture scene variants side by side at given times (the thesis' figures 14-18).
+    Compare(compare::CompareArgs),
 }
 
 /// A failure, classified for the exit code.
@@ -63,6 +69,7 @@ fn main() -> ExitCode {
         }
         Command::Bench(args) => bench::bench(args),
         Command::Render(args) => render::render(args),
+        Command::Compare(args) => compare::compare(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

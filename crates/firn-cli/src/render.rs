@@ -87,6 +87,12 @@ pub fn render(args: RenderArgs) -> Result<(), Failure> {
             manifest_path.display()
         ))
     })?;
+    scene.load_meshes().map_err(|error| {
+        Failure::BadInput(format!(
+            "error: {}: a mesh of the scene cannot be loaded again: {error}",
+            manifest_path.display()
+        ))
+    })?;
     apply_overrides(&mut scene, &args)?;
     prepare_image_dirs(&scene, &directory)?;
     let progress = progress_bar(manifest.frames.len() as u32, 0, args.quiet);
@@ -195,8 +201,8 @@ fn parse_vec3(text: &str) -> Option<Vec3> {
     vector.is_finite().then_some(vector)
 }
 
-/// Parses `--size WIDTHxHEIGHT`.
-fn parse_size(text: &str) -> Result<[u32; 2], Failure> {
+/// Parses `--size WIDTHxHEIGHT` (shared by `firn run` and `firn render`).
+pub(crate) fn parse_size(text: &str) -> Result<[u32; 2], Failure> {
     let parsed = text
         .split_once(['x', 'X'])
         .and_then(|(w, h)| Some([w.trim().parse().ok()?, h.trim().parse().ok()?]));
@@ -278,5 +284,18 @@ fn cached_values(cloud: &PlyCloud, color_by: ColorBy) -> Result<Option<Vec<f32>>
             .map(|velocity| Some(velocity.iter().map(|v| v.length()).collect()))
             .ok_or("velocity"),
         ColorBy::Position | ColorBy::Uniform => Ok(None),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_size;
+
+    #[test]
+    fn sizes_are_width_by_height_within_limits() {
+        assert!(matches!(parse_size("64x48"), Ok([64, 48])));
+        assert!(matches!(parse_size("1920X1080"), Ok([1920, 1080])));
+        assert!(parse_size("wide").is_err());
+        assert!(parse_size("8x8").is_err());
     }
 }

@@ -44,6 +44,10 @@ pub struct RunArgs {
     /// Write caches only: no pictures and no animation.
     #[arg(long)]
     pub no_render: bool,
+    /// Picture size as WIDTHxHEIGHT, instead of the scene's `[render] size`
+    /// (e.g. a small preview: --size 320x180).
+    #[arg(long)]
+    pub size: Option<String>,
     /// Time integrator (default: the scene's [solver] integrator).
     #[arg(long, value_enum)]
     pub integrator: Option<IntegratorChoice>,
@@ -62,6 +66,9 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
     }
     if args.no_render {
         scene.render.enabled = false;
+    }
+    if let Some(size) = &args.size {
+        scene.render.size = crate::render::parse_size(size)?;
     }
     if let Some(choice) = args.integrator {
         scene.solver.integrator = choice.applied_to(scene.solver.integrator);

@@ -11,8 +11,17 @@ pub const DEFAULT_SCENE: &str = include_str!("../../../scenes/snowball-wall.toml
 /// Name shown for the bundled scene in messages.
 pub const DEFAULT_SCENE_NAME: &str = "<bundled snowball-wall.toml>";
 
-/// Loads `path`, or the bundled default scene when no path is given.
+/// Loads `path`, or the bundled default scene when no path is given, and
+/// prints what the inspection of its meshes found as warnings.
 pub fn load_scene(path: Option<&Path>) -> Result<(Scene, Option<PathBuf>), Failure> {
+    let loaded = read_scene(path)?;
+    for warning in loaded.0.mesh_warnings() {
+        eprintln!("warning: {warning}");
+    }
+    Ok(loaded)
+}
+
+fn read_scene(path: Option<&Path>) -> Result<(Scene, Option<PathBuf>), Failure> {
     match path {
         Some(path) => Scene::load(path)
             .map(|scene| (scene, Some(path.to_path_buf())))

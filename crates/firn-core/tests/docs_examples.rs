@@ -55,8 +55,9 @@ fn every_toml_example_is_a_valid_scene() {
     );
     let mut failures = Vec::new();
     for (index, (line, text)) in blocks.iter().enumerate() {
-        let origin = format!("docs/scene-format.md block {} (line {line})", index + 1);
-        if let Err(err) = Scene::from_toml_str(text, &origin) {
+        // The document's own path, so that mesh files resolve from docs/.
+        let origin = concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/scene-format.md");
+        if let Err(err) = Scene::from_toml_str(text, origin) {
             failures.push(format!("toml block {} at line {line}:\n{err}", index + 1));
         }
     }

@@ -3,7 +3,7 @@
 //! These are ray-cast per sample; the particles are drawn over them with a
 //! depth test.
 
-use firn_core::scene::ColliderGeometry;
+use firn_core::scene::{ColliderGeometry, MeshCollider};
 use glam::{Vec2, Vec3};
 
 use crate::camera::CameraView;
@@ -177,6 +177,16 @@ impl Stage {
                     is_ground: false,
                 })
             }
+            ColliderGeometry::Mesh(ref mesh) => {
+                let (distance, normal) = march_mesh(mesh, origin, direction)?;
+                Some(SurfaceHit {
+                    distance,
+                    normal,
+                    albedo: COLLIDER_ALBEDO,
+                    shininess: 32.0,
+                    is_ground: false,
+                })
+            }
             ColliderGeometry::HalfPlane { point, normal } => {
                 let distance = intersect_plane(origin, direction, point, normal)?;
                 let hit = origin + direction * distance;
@@ -278,6 +288,30 @@ pub fn intersect_box(origin: Vec3, direction: Vec3, min: Vec3, max: Vec3) -> Opt
     let mut normal = Vec3::ZERO;
     normal[axis] = local[axis].signum();
     Some((distance, normal))
+}
+
+/// The first crossing of a unit ray with a mesh collider's surface, found by
+/// sphere tracing its signed distance field inside the field's box (Hart
+/// 1996): each step advances by the distance to the nearest surface, which
+/// cannot overshoot it.
+fn march_mesh(mesh: &MeshCollider, origin: Vec3, direction: Vec3) -> Option<(f32, Vec3)> {
+    const MAX_STEPS: u32 = 512;
+    let (low, high) = mesh.bounds();
+    let (near, far) = slab_interval(origin, direction, low, high)?;
+    let spacing = mesh.sdf_spacing;
+    let surface = 0.05 * spacing;
+    let mut distance = near.max(0.0);
+    for _ in 0..MAX_STEPS {
+        if distance > far {
+            return None;
+        }
+        let (gap, normal) = mesh.signed_distance(origin + direction * distance);
+        if gap < surface {
+            return Some((distance, normal));
+        }
+        distance += gap.max(0.1 * spacing);
+    }
+    None
 }
 
 /// The parameter interval [near, far] in which a ray is inside a box, if any.

@@ -297,3 +297,52 @@ fn trails_follow_the_path_and_fade_towards_the_oldest_end() {
         "off the path"
     );
 }
+
+#[test]
+fn a_cube_mesh_collider_looks_like_the_box_it_is_shaped_as() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("cube.obj");
+    std::fs::write(
+        &file,
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
+         f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 4 8 7 3\nf 1 5 8 4\nf 2 3 7 6\n",
+    )
+    .unwrap();
+    let center = Vec3::new(0.1, -0.05, 0.0);
+    let size = Vec3::new(0.5, 0.4, 0.45);
+    let placement = firn_core::scene::MeshPlacement {
+        file,
+        scale: size,
+        rotation_degrees: Vec3::ZERO,
+        center,
+    };
+    let mesh = firn_core::scene::MeshCollider::load(placement, 0.01).unwrap();
+    let with = |geometry: firn_core::scene::ColliderGeometry| {
+        let mut scene = picture(&[], Coloring::Uniform(Vec3::ONE), RenderStyle::Points);
+        scene.stage.colliders = vec![geometry];
+        render(&scene)
+    };
+    let meshed = with(firn_core::scene::ColliderGeometry::Mesh(Box::new(mesh)));
+    let boxed = with(firn_core::scene::ColliderGeometry::Box { center, size });
+    let bare = render(&picture(
+        &[],
+        Coloring::Uniform(Vec3::ONE),
+        RenderStyle::Points,
+    ));
+    let pixels = (WIDTH * HEIGHT) as usize;
+    let covered = (0..pixels)
+        .filter(|&i| boxed.as_raw()[3 * i..3 * i + 3] != bare.as_raw()[3 * i..3 * i + 3])
+        .count();
+    let silhouette_mismatch = (0..pixels)
+        .filter(|&i| {
+            let on_box = boxed.as_raw()[3 * i..3 * i + 3] != bare.as_raw()[3 * i..3 * i + 3];
+            let on_mesh = meshed.as_raw()[3 * i..3 * i + 3] != bare.as_raw()[3 * i..3 * i + 3];
+            on_box != on_mesh
+        })
+        .count();
+    assert!(covered > 300, "the box covers {covered} pixels");
+    assert!(
+        silhouette_mismatch * 20 < covered,
+        "{silhouette_mismatch} of {covered} pixels differ in coverage"
+    );
+}

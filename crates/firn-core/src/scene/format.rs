@@ -29,6 +29,7 @@ use toml::de::{DeTable, DeValue};
 
 use super::flow::SceneKind;
 use super::material::{Material, PRESET_NAMES};
+use super::mesh::{MeshBody, MeshCollider, MeshPlacement};
 use super::model::{
     Attribute, Body, CacheFormat, Collider, ColliderGeometry, Contact, ContactMode, Domain,
     ImplicitSettings, Integrator, Keyframe, Motion, OutputSettings, Scene, Shape, SolverSettings,
@@ -620,6 +621,10 @@ fn example(leaf: &str) -> Option<&'static str> {
         "velocity" => "velocity = [0.0, 0.0, 0.0]",
         "material" => "material = \"snow\"",
         "particles_per_cell" => "particles_per_cell = 8",
+        "mesh" => "mesh = \"../assets/meshes/bunny.obj\"",
+        "scale" => "scale = 2.0",
+        "rotation" => "rotation = [0.0, 90.0, 0.0]",
+        "sdf_spacing" => "sdf_spacing = 0.01",
         "point" => "point = [0.0, 0.0, 0.0]",
         "normal" => "normal = [0.0, 1.0, 0.0]",
         "keyframes" => {
@@ -807,6 +812,17 @@ struct RawBody {
     velocity: Option<[f32; 3]>,
     material: Option<String>,
     particles_per_cell: Option<u32>,
+    mesh: Option<String>,
+    scale: Option<RawScale>,
+    rotation: Option<[f32; 3]>,
+}
+
+/// A mesh's scale: one factor for all axes or one per axis.
+#[derive(Clone, Copy, Deserialize)]
+#[serde(untagged)]
+enum RawScale {
+    Uniform(f32),
+    PerAxis([f32; 3]),
 }
 
 #[derive(Clone, Copy, Deserialize)]
@@ -815,6 +831,7 @@ enum RawBodyShape {
     Sphere,
     Box,
     Cylinder,
+    Mesh,
 }
 
 #[derive(Deserialize)]
@@ -830,6 +847,10 @@ struct RawCollider {
     friction: Option<f32>,
     velocity: Option<[f32; 3]>,
     keyframes: Option<Vec<RawKeyframe>>,
+    mesh: Option<String>,
+    scale: Option<RawScale>,
+    rotation: Option<[f32; 3]>,
+    sdf_spacing: Option<f32>,
 }
 
 #[derive(Clone, Copy, Deserialize)]
@@ -838,6 +859,7 @@ enum RawColliderShape {
     Plane,
     Sphere,
     Box,
+    Mesh,
 }
 
 #[derive(Deserialize)]
@@ -1024,6 +1046,113 @@ fn default_name(origin: &str) -> String {
     }
 }
 
+/// Largest number of signed distance samples a mesh collider may take (64 MiB).
+pub const MAX_SDF_SAMPLES: u64 = 1 << 24;
+
+/// The mesh file, scale, rotation and centre of a mesh body or collider,
+/// checked before the file is read. A relative `mesh` path is taken from the
+/// scene file's folder, like an `include` in other tools.
+fn mesh_placement(
+    path: &KeyPath,
+    file: Option<String>,
+    scale: Option<RawScale>,
+    rotation: Option<[f32; 3]>,
+    center: Vec3,
+    origin: &str,
+) -> Result<MeshPlacement, Issue> {
+    let file = require(file, path.key("mesh"), "the mesh file (OBJ, STL or PLY)")?;
+    let scale = match scale.unwrap_or(RawScale::Uniform(1.0)) {
+        RawScale::Uniform(factor) => Vec3::splat(factor),
+        RawScale::PerAxis(factors) => vec3(factors),
+    };
+    let folder = Path::new(origin).parent().unwrap_or(Path::new(""));
+    let joined = folder.join(&file);
+    let placement = MeshPlacement {
+        file: std::fs::canonicalize(&joined)
+            .or_else(|_| std::path::absolute(&joined))
+            .unwrap_or(joined),
+        scale,
+        rotation_degrees: vec3(rotation.unwrap_or([0.0; 3])),
+        center,
+    };
+    check_mesh_placement(path, &placement)?;
+    Ok(placement)
+}
+
+/// Scale factors greater than 0; finite rotation and centre.
+fn check_mesh_placement(path: &KeyPath, placement: &MeshPlacement) -> Check {
+    for factor in placement.scale.to_array() {
+        positive(
+            factor,
+            path.key("scale"),
+            "scale by a factor greater than 0, e.g. scale = 2.0 or scale = [1.0, 2.0, 1.0]"
+                .to_string(),
+        )?;
+    }
+    finite_vec(placement.rotation_degrees, path.key("rotation"))?;
+    finite_vec(placement.center, path.key("center"))
+}
+
+/// A mesh that cannot be read, located at the `mesh` key that names it.
+fn mesh_issue(path: &KeyPath, err: &firn_mesh::MeshError) -> Issue {
+    let location = match err.line {
+        Some(line) => format!("{}:{line}", err.path.display()),
+        None => err.path.display().to_string(),
+    };
+    Issue::new(
+        path.key("mesh"),
+        format!("{path}.mesh cannot be used: {location}: {}", err.message),
+        err.hint.clone(),
+    )
+}
+
+/// The signed distance sample spacing: positive, and not so fine that the
+/// field would not fit.
+fn check_sdf_spacing(path: &KeyPath, spacing: f32) -> Check {
+    positive(
+        spacing,
+        path.key("sdf_spacing"),
+        "set the signed distance sample spacing in metres, e.g. sdf_spacing = 0.01, or remove \
+         it to use half the domain's cell size"
+            .to_string(),
+    )
+}
+
+/// The field of a placed mesh collider must stay under [`MAX_SDF_SAMPLES`].
+fn check_sdf_size(path: &KeyPath, (low, high): (Vec3, Vec3), spacing: f32) -> Check {
+    let padding = 2.0 * MeshCollider::PADDING_SAMPLES as f32;
+    let samples = ((high - low) / spacing + padding)
+        .to_array()
+        .iter()
+        .map(|n| n.ceil().max(1.0) as u64 + 1)
+        .product::<u64>();
+    ensure(
+        samples <= MAX_SDF_SAMPLES,
+        path.key("sdf_spacing"),
+        &format!("coarse enough for at most {MAX_SDF_SAMPLES} signed distance samples"),
+        format!("{samples} samples"),
+        "raise sdf_spacing, or scale the mesh down".to_string(),
+    )
+}
+
+fn body_shape_name(shape: RawBodyShape) -> &'static str {
+    match shape {
+        RawBodyShape::Sphere => "sphere",
+        RawBodyShape::Box => "box",
+        RawBodyShape::Cylinder => "cylinder",
+        RawBodyShape::Mesh => "mesh",
+    }
+}
+
+fn collider_shape_name(shape: RawColliderShape) -> &'static str {
+    match shape {
+        RawColliderShape::Plane => "plane",
+        RawColliderShape::Sphere => "sphere",
+        RawColliderShape::Box => "box",
+        RawColliderShape::Mesh => "mesh",
+    }
+}
+
 fn resolve(raw: RawScene, origin: &str) -> Result<Scene, Issue> {
     // `format` was checked on the spanned tree already.
     let _ = raw.format;
@@ -1080,13 +1209,13 @@ fn resolve(raw: RawScene, origin: &str) -> Result<Scene, Issue> {
                 materials.len() - 1
             }
         };
-        bodies.push(resolve_body(&path, raw_body, material)?);
+        bodies.push(resolve_body(&path, raw_body, material, origin)?);
     }
 
     let mut colliders = Vec::new();
     for (index, raw_collider) in raw.colliders.unwrap_or_default().into_iter().enumerate() {
         let path = KeyPath::of("colliders").index(index);
-        colliders.push(resolve_collider(&path, raw_collider)?);
+        colliders.push(resolve_collider(&path, raw_collider, origin, &domain)?);
     }
 
     let output = resolve_output(raw.output, &name);
@@ -1283,13 +1412,37 @@ fn unknown_material(body: &KeyPath, name: &str, declared: &BTreeMap<String, Mate
     )
 }
 
-fn resolve_body(path: &KeyPath, raw: RawBody, material: usize) -> Result<Body, Issue> {
+fn resolve_body(
+    path: &KeyPath,
+    raw: RawBody,
+    material: usize,
+    origin: &str,
+) -> Result<Body, Issue> {
     let shape_kind = raw.shape.ok_or_else(|| {
-        missing(path.key("shape"), "the shape to fill")
-            .with_hint("add shape = \"sphere\", \"box\" or \"cylinder\" with its dimensions")
+        missing(path.key("shape"), "the shape to fill").with_hint(
+            "add shape = \"sphere\", \"box\", \"cylinder\" or \"mesh\" with its dimensions",
+        )
     })?;
     let center = vec3(require(raw.center, path.key("center"), "the centre")?);
+    if !matches!(shape_kind, RawBodyShape::Mesh) {
+        let shape = body_shape_name(shape_kind);
+        let takes = "mesh, scale, rotation and center";
+        reject(&raw.mesh, path.key("mesh"), shape, takes)?;
+        reject(&raw.scale, path.key("scale"), shape, takes)?;
+        reject(&raw.rotation, path.key("rotation"), shape, takes)?;
+    }
     let shape = match shape_kind {
+        RawBodyShape::Mesh => {
+            let takes = "mesh, scale, rotation and center";
+            reject(&raw.radius, path.key("radius"), "mesh", takes)?;
+            reject(&raw.size, path.key("size"), "mesh", takes)?;
+            reject(&raw.height, path.key("height"), "mesh", takes)?;
+            reject(&raw.axis, path.key("axis"), "mesh", takes)?;
+            let placement =
+                mesh_placement(path, raw.mesh, raw.scale, raw.rotation, center, origin)?;
+            let body = MeshBody::load(placement).map_err(|err| mesh_issue(path, &err))?;
+            Shape::Mesh(Box::new(body))
+        }
         RawBodyShape::Sphere => {
             let takes = "center and radius";
             reject(&raw.size, path.key("size"), "sphere", takes)?;
@@ -1333,12 +1486,42 @@ fn resolve_body(path: &KeyPath, raw: RawBody, material: usize) -> Result<Body, I
     })
 }
 
-fn resolve_collider(path: &KeyPath, raw: RawCollider) -> Result<Collider, Issue> {
+fn resolve_collider(
+    path: &KeyPath,
+    raw: RawCollider,
+    origin: &str,
+    domain: &Domain,
+) -> Result<Collider, Issue> {
     let shape = raw.shape.ok_or_else(|| {
         missing(path.key("shape"), "the collider's shape")
-            .with_hint("add shape = \"plane\", \"sphere\" or \"box\" with its dimensions")
+            .with_hint("add shape = \"plane\", \"sphere\", \"box\" or \"mesh\" with its dimensions")
     })?;
+    if !matches!(shape, RawColliderShape::Mesh) {
+        let name = collider_shape_name(shape);
+        let takes = "mesh, scale, rotation, center and sdf_spacing";
+        reject(&raw.mesh, path.key("mesh"), name, takes)?;
+        reject(&raw.scale, path.key("scale"), name, takes)?;
+        reject(&raw.rotation, path.key("rotation"), name, takes)?;
+        reject(&raw.sdf_spacing, path.key("sdf_spacing"), name, takes)?;
+    }
     let geometry = match shape {
+        RawColliderShape::Mesh => {
+            let takes = "mesh, scale, rotation, center and sdf_spacing";
+            reject(&raw.point, path.key("point"), "mesh", takes)?;
+            reject(&raw.normal, path.key("normal"), "mesh", takes)?;
+            reject(&raw.radius, path.key("radius"), "mesh", takes)?;
+            reject(&raw.size, path.key("size"), "mesh", takes)?;
+            let center = vec3(require(raw.center, path.key("center"), "the centre")?);
+            let placement =
+                mesh_placement(path, raw.mesh, raw.scale, raw.rotation, center, origin)?;
+            let spacing = raw.sdf_spacing.unwrap_or(0.5 * domain.cell_size);
+            check_sdf_spacing(path, spacing)?;
+            let placed = placement.load().map_err(|err| mesh_issue(path, &err))?;
+            check_sdf_size(path, placed.mesh.bounds(), spacing)?;
+            ColliderGeometry::Mesh(Box::new(MeshCollider::from_placed(
+                placement, placed, spacing,
+            )))
+        }
         RawColliderShape::Plane => {
             let takes = "point and normal";
             reject(&raw.center, path.key("center"), "plane", takes)?;
@@ -1935,6 +2118,7 @@ fn shape_name(shape: &Shape) -> &'static str {
         Shape::Sphere { .. } => "sphere",
         Shape::Box { .. } => "box",
         Shape::Cylinder { .. } => "cylinder",
+        Shape::Mesh(_) => "mesh",
     }
 }
 
@@ -1986,6 +2170,7 @@ fn check_body(scene: &Scene, index: usize, body: &Body) -> Check {
                 "set the length along the axis in metres, e.g. height = 0.5".to_string(),
             )?;
         }
+        Shape::Mesh(ref mesh) => check_mesh_placement(&path, &mesh.placement)?,
     }
 
     let domain = &scene.domain;
@@ -2049,6 +2234,10 @@ fn check_collider(path: &KeyPath, collider: &Collider) -> Check {
         }
         ColliderGeometry::Box { center, size } => {
             check_box(path, center, size)?;
+        }
+        ColliderGeometry::Mesh(ref mesh) => {
+            check_mesh_placement(path, &mesh.placement)?;
+            check_sdf_spacing(path, mesh.sdf_spacing)?;
         }
     }
     check_contact(path, &collider.contact)?;

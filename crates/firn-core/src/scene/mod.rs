@@ -4,11 +4,13 @@
 //! [`mod@format`] reads them from TOML scene files (`format = 1`) and reports bad
 //! input with file, line, column and a fix; [`sampling`] turns bodies of snow
 //! into particles; [`render`] holds the camera and the picture settings;
-//! [`flow`] holds the settings of curl-noise particle flows (`kind = "flow"`).
+//! [`flow`] holds the settings of curl-noise particle flows (`kind = "flow"`);
+//! [`mesh`] places triangle meshes as bodies and colliders.
 
 pub mod flow;
 pub mod format;
 pub mod material;
+pub mod mesh;
 pub mod model;
 pub mod render;
 pub mod sampling;
@@ -16,5 +18,6 @@ pub mod sampling;
 pub use flow::*;
 pub use format::SceneError;
 pub use material::Material;
+pub use mesh::{MeshBody, MeshCollider, MeshPlacement};
 pub use model::*;
 pub use render::*;

@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use super::flow::SceneKind;
 use super::material::Material;
+use super::mesh::{MeshBody, MeshCollider};
 use super::render::{Camera, RenderSettings};
 
 /// A complete snow scene, resolved: presets expanded, defaults filled in.
@@ -202,6 +203,8 @@ pub enum Shape {
         /// Length along the axis.
         height: f32,
     },
+    /// The inside of a triangle mesh, by its generalized winding number.
+    Mesh(Box<MeshBody>),
 }
 
 impl Shape {
@@ -223,6 +226,7 @@ impl Shape {
                 let across = offset - along * axis;
                 along.abs() <= 0.5 * height && across.length_squared() <= radius * radius
             }
+            Shape::Mesh(ref mesh) => mesh.contains(point),
         }
     }
 
@@ -242,6 +246,7 @@ impl Shape {
                 let half = (axis * 0.5 * height).abs() + disc;
                 (center - half, center + half)
             }
+            Shape::Mesh(ref mesh) => (mesh.min, mesh.max),
         }
     }
 }
@@ -305,6 +310,8 @@ pub enum ColliderGeometry {
         /// Edge lengths along x, y, z.
         size: Vec3,
     },
+    /// A solid triangle mesh, through its signed distance field.
+    Mesh(Box<MeshCollider>),
 }
 
 /// How a collider moves; its reference point is the plane point or centre.
@@ -414,6 +421,7 @@ impl ColliderGeometry {
             ColliderGeometry::Sphere { center, .. } | ColliderGeometry::Box { center, .. } => {
                 center
             }
+            ColliderGeometry::Mesh(ref mesh) => mesh.center,
         }
     }
 
@@ -425,6 +433,7 @@ impl ColliderGeometry {
             ColliderGeometry::Sphere { center, .. } | ColliderGeometry::Box { center, .. } => {
                 *center = position
             }
+            ColliderGeometry::Mesh(mesh) => mesh.center = position,
         }
         moved
     }
@@ -449,6 +458,7 @@ impl ColliderGeometry {
             ColliderGeometry::Box { center, size } => {
                 box_signed_distance(point - center, 0.5 * size)
             }
+            ColliderGeometry::Mesh(ref mesh) => mesh.signed_distance(point),
         }
     }
 }

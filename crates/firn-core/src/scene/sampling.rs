@@ -9,13 +9,16 @@
 //!
 //! The jitter comes from a PCG generator seeded from the scene seed and the
 //! body index, and the lattice is visited in a fixed z, y, x order, so the same
-//! scene always gives bit-identical particles. Sampling runs once, sequentially.
+//! scene always gives bit-identical particles. The inside tests of each
+//! z-slice run in parallel; their order, and so the result, does not depend
+//! on the thread count.
 
 use std::ops::ControlFlow;
 
 use glam::Vec3;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
+use rayon::prelude::*;
 
 use super::model::{Body, Domain, Scene};
 
@@ -127,20 +130,32 @@ fn visit_lattice(
         n as u64
     });
     let mut rng = Pcg64Mcg::seed_from_u64(seed);
+    let mut candidates = Vec::with_capacity((counts[0] * counts[1]) as usize);
     for k in 0..counts[2] {
+        candidates.clear();
         for j in 0..counts[1] {
             for i in 0..counts[0] {
                 // Draw the jitter before testing, so every candidate consumes
                 // the same numbers whatever happens to its neighbours.
                 let jitter = Vec3::new(rng.random(), rng.random(), rng.random());
                 let cell = Vec3::new(i as f32, j as f32, k as f32);
-                let position = low + (cell + jitter) * spacing;
-                if body.shape.contains(position)
-                    && domain.contains(position)
-                    && keep(position).is_break()
-                {
-                    return;
-                }
+                candidates.push(low + (cell + jitter) * spacing);
+            }
+        }
+        // Inside tests of one slice run in parallel (mesh winding numbers
+        // are costly); the results keep the lattice order.
+        let inside: Vec<bool> = candidates
+            .par_iter()
+            .with_min_len(256)
+            .map(|&position| body.shape.contains(position) && domain.contains(position))
+            .collect();
+        for (&position, _) in candidates
+            .iter()
+            .zip(&inside)
+            .filter(|(_, inside)| **inside)
+        {
+            if keep(position).is_break() {
+                return;
             }
         }
     }

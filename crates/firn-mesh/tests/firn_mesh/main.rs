@@ -1,0 +1,10 @@
+//! firn-mesh integration tests, one binary: winding numbers, signed
+//! distance fields, loaders, diagnostics and the Stanford bunny.
+
+mod bunny;
+mod common;
+mod diagnostics;
+mod loaders;
+mod mesh;
+mod sdf;
+mod winding;
