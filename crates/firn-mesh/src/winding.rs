@@ -110,9 +110,11 @@ impl WindingNumber {
         (sum / (4.0 * PI)) as f32
     }
 
-    /// Whether `point` is inside: winding number above one half.
+    /// Whether `point` is inside: a winding number above one half in
+    /// magnitude. A mesh whose faces are all wound inwards (exported inside
+    /// out) has −1 inside instead of 1, so it fills all the same.
     pub fn contains(&self, point: Vec3) -> bool {
-        self.at(point) > 0.5
+        self.at(point).abs() > 0.5
     }
 
     /// The tree, for the distance queries of the signed distance field.

@@ -2186,16 +2186,27 @@ fn check_body(scene: &Scene, index: usize, body: &Body) -> Check {
 
     if !sampling::body_has_particles(scene, index) {
         let spacing = sampling::particle_spacing(domain.cell_size, ppc);
+        let (cause, hint) = match body.shape {
+            Shape::Mesh(_) => (
+                "it encloses no volume larger than the particle spacing",
+                "check that the mesh is a solid (not a single open sheet) and its scale, raise \
+                 particles_per_cell (at most 64), or use a smaller domain.cell_size",
+            ),
+            _ => (
+                "it is too small for the particle spacing",
+                "make the body larger, raise particles_per_cell (at most 64), or use a smaller \
+                 domain.cell_size",
+            ),
+        };
         return Err(Issue::new(
             path.clone(),
             format!(
-                "{path} ({}) gets no particles: it is too small for the particle spacing \
-                 cell_size / cbrt(particles_per_cell) = {} m",
+                "{path} ({}) gets no particles: {cause} cell_size / cbrt(particles_per_cell) = \
+                 {} m",
                 shape_name(&body.shape),
                 Num::from(spacing)
             ),
-            "make the body larger, raise particles_per_cell (at most 64), or use a smaller \
-             domain.cell_size",
+            hint,
         ));
     }
     Ok(())

@@ -112,6 +112,18 @@ fn cube_with_a_missing_face_is_still_filled() {
 }
 
 #[test]
+fn an_inside_out_mesh_fills_like_the_mesh() {
+    let mut inverted = icosphere(0.5, 3);
+    for triangle in &mut inverted.triangles {
+        triangle.swap(1, 2);
+    }
+    let winding = WindingNumber::new(&inverted);
+    assert!(winding.at(Vec3::ZERO) < -0.99, "{}", winding.at(Vec3::ZERO));
+    assert!(winding.contains(Vec3::new(0.1, 0.2, -0.3)));
+    assert!(!winding.contains(Vec3::new(0.6, 0.0, 0.0)));
+}
+
+#[test]
 fn empty_mesh_is_everywhere_outside() {
     let winding = WindingNumber::new(&TriangleMesh::default());
     assert_eq!(winding.at(Vec3::ZERO), 0.0);
