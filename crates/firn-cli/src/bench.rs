@@ -17,7 +17,7 @@ use firn_core::scene::{
     OutputSettings, RenderSettings, Scene, SceneKind, Shape, SolverSettings, TimeSettings,
     TimeStep, Transfer,
 };
-use firn_mpm::Simulation;
+use firn_mpm::{PhaseTimes, Simulation};
 use glam::Vec3;
 use serde::Serialize;
 
@@ -78,6 +78,11 @@ pub struct BenchArgs {
     /// With --render: timed pictures per style.
     #[arg(long, default_value_t = 3, requires = "render")]
     pub repeats: u32,
+    /// Print where the time of each substep goes, phase by phase (binning,
+    /// scatter, grid update, implicit solve, gather, clear); the JSON record
+    /// holds the phases either way.
+    #[arg(long)]
+    pub phases: bool,
     /// Measure the curl-noise particle flow instead (seed 002): --particles,
     /// --steps and --warmup apply; see bench_flow.rs.
     #[arg(long)]
@@ -149,6 +154,43 @@ struct BenchRecord {
     memory_mib: f64,
     threads: usize,
     center_of_mass_y: f64,
+    /// Nanoseconds per particle-substep in each phase of the step.
+    phases_ns_per_particle_substep: Vec<PhaseRecord>,
+}
+
+/// The time of one phase of the step, per particle and substep.
+#[derive(Debug, Serialize)]
+struct PhaseRecord {
+    phase: &'static str,
+    ns_per_particle_substep: f64,
+    share: f64,
+}
+
+/// The phase profile of `substeps` timed substeps of `particles` particles.
+fn phase_records(times: PhaseTimes, substeps: u32, particles: usize) -> Vec<PhaseRecord> {
+    let total = times.total().max(f64::MIN_POSITIVE);
+    let per_particle_substep = 1e9 / (substeps.max(1) as f64 * particles.max(1) as f64);
+    times
+        .entries()
+        .into_iter()
+        .map(|(phase, seconds)| PhaseRecord {
+            phase,
+            ns_per_particle_substep: seconds * per_particle_substep,
+            share: seconds / total,
+        })
+        .collect()
+}
+
+/// Prints a phase profile as a small table.
+fn print_phases(phases: &[PhaseRecord]) {
+    for phase in phases {
+        println!(
+            "  {:<15} {:>9.2} ns  {:>5.1} %",
+            phase.phase,
+            phase.ns_per_particle_substep,
+            100.0 * phase.share
+        );
+    }
 }
 
 /// One `--scene` run.
@@ -220,6 +262,9 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
                     record.memory_mib,
                     record.threads
                 );
+                if args.phases {
+                    print_phases(&record.phases_ns_per_particle_substep);
+                }
                 records.push(record);
             }
         }
@@ -337,6 +382,7 @@ fn measure(scene: Scene, grid: u32, args: &BenchArgs) -> Result<BenchRecord, Fai
         Simulation::new(scene).map_err(|error| Failure::Failed(format!("error: {error}")))?;
     let (_, seconds) = time_substeps(&mut simulation, args.warmup, args.steps, None)?;
     let particles = simulation.particles().len();
+    let phases = phase_records(simulation.phase_times(), args.steps, particles);
     Ok(BenchRecord {
         transfer,
         particles,
@@ -349,6 +395,7 @@ fn measure(scene: Scene, grid: u32, args: &BenchArgs) -> Result<BenchRecord, Fai
         memory_mib: simulation.memory_bytes() as f64 / (1024.0 * 1024.0),
         threads: rayon::current_num_threads(),
         center_of_mass_y: simulation.diagnostics().center_of_mass[1],
+        phases_ns_per_particle_substep: phases,
     })
 }
 
@@ -365,6 +412,7 @@ pub fn time_substeps(
     for _ in 0..warmup {
         simulation.step(f64::INFINITY).map_err(fail)?;
     }
+    simulation.reset_phase_times();
     let started = Instant::now();
     let mut timed = 0;
     while timed < steps {

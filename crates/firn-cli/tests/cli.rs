@@ -459,3 +459,53 @@ fn check_summarises_a_flow_scene() {
     assert!(stdout.contains("curl-noise flow"), "{stdout}");
     assert!(stdout.contains("obstacles   1"), "{stdout}");
 }
+
+#[test]
+fn bench_phases_split_each_substep_into_the_steps_of_the_algorithm() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("bench.json");
+    let output = firn(&[
+        "bench",
+        "--particles",
+        "2000",
+        "--grid",
+        "32",
+        "--transfer",
+        "apic",
+        "--steps",
+        "4",
+        "--warmup",
+        "1",
+        "--phases",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let stdout = text(&output.stdout);
+    for phase in [
+        "binning",
+        "scatter",
+        "grid_update",
+        "implicit_solve",
+        "gather",
+        "clear",
+    ] {
+        assert!(stdout.contains(phase), "{phase} missing from\n{stdout}");
+    }
+    let records: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(&json).unwrap()).unwrap();
+    let record = &records[0];
+    let phases = record["phases_ns_per_particle_substep"].as_array().unwrap();
+    assert_eq!(phases.len(), 6);
+    let share: f64 = phases.iter().map(|p| p["share"].as_f64().unwrap()).sum();
+    assert!((share - 1.0).abs() < 1e-9, "shares sum to {share}");
+    let phase_ns: f64 = phases
+        .iter()
+        .map(|p| p["ns_per_particle_substep"].as_f64().unwrap())
+        .sum();
+    let total_ns = record["ns_per_particle_substep"].as_f64().unwrap();
+    assert!(
+        phase_ns > 0.0 && phase_ns <= total_ns,
+        "the phases ({phase_ns} ns) lie within the substeps ({total_ns} ns)"
+    );
+}

@@ -25,9 +25,11 @@ pub mod contact;
 pub mod grid;
 pub mod implicit;
 pub mod particles;
+pub mod profile;
 pub mod simulation;
 pub mod transfer;
 
 pub use implicit::SolverStats;
 pub use particles::Particles;
+pub use profile::PhaseTimes;
 pub use simulation::{Diagnostics, Simulation, SimulationError, Snapshot};

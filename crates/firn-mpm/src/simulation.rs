@@ -12,6 +12,7 @@ use crate::contact::ColliderSet;
 use crate::grid::{Grid, GridLayout};
 use crate::implicit::{ImplicitSolver, ImplicitStep, SolverStats};
 use crate::particles::Particles;
+use crate::profile::{PhaseClock, PhaseTimes};
 use crate::transfer::{
     self, GatherStats, GridForces, ParticleProblem, ProblemKind, UpdateContext, gather_apic,
     gather_pic_flip,
@@ -100,6 +101,8 @@ pub struct Simulation {
     stats: GatherStats,
     /// The step-6 solver, with the semi-implicit integrator only.
     implicit: Option<ImplicitSolver>,
+    /// Wall-clock time per phase since the last reset.
+    profile: PhaseTimes,
 }
 
 impl Simulation {
@@ -183,6 +186,7 @@ impl Simulation {
                 Integrator::Explicit => None,
                 Integrator::SemiImplicit(_) => Some(ImplicitSolver::default()),
             },
+            profile: PhaseTimes::default(),
             scene,
         }
     }
@@ -256,11 +260,13 @@ impl Simulation {
     pub fn step(&mut self, until: f64) -> Result<f32, SimulationError> {
         let dt = (self.next_dt() as f64).min(until - self.time).max(0.0) as f32;
         let layout = self.grid.layout;
+        let mut clock = PhaseClock::start();
         if self.steps.is_multiple_of(REORDER_INTERVAL) {
             self.bins.rebuild(&layout, &self.particles.position);
             self.particles.permute(&self.bins.order);
         }
         self.bins.rebuild(&layout, &self.particles.position);
+        clock.lap(&mut self.profile.binning);
         let transfer_scheme = self.scene.solver.transfer;
         match transfer_scheme {
             Transfer::PicFlip => {
@@ -270,6 +276,7 @@ impl Simulation {
                 transfer::scatter_apic(&mut self.grid, &self.bins, &self.particles, dt)
             }
         }
+        clock.lap(&mut self.profile.scatter);
         let colliders = self.colliders.placed_at(self.time + dt as f64);
         let forces = match transfer_scheme {
             Transfer::PicFlip => GridForces::Separate,
@@ -289,6 +296,7 @@ impl Simulation {
             self.scene.solver.gravity,
             grid_colliders,
         );
+        clock.lap(&mut self.profile.grid_update);
         if let (Integrator::SemiImplicit(settings), Some(solver)) =
             (self.scene.solver.integrator, self.implicit.as_mut())
         {
@@ -301,6 +309,7 @@ impl Simulation {
             };
             solver.solve(&mut self.grid, &self.bins, &self.particles, &step);
         }
+        clock.lap(&mut self.profile.implicit_solve);
         let tolerance = Vec3::splat(LEAVE_TOLERANCE_CELLS * layout.cell_size);
         let context = UpdateContext {
             dt,
@@ -318,7 +327,9 @@ impl Simulation {
             ),
             Transfer::Apic => gather_apic(&self.grid, &mut self.particles, &context),
         };
+        clock.lap(&mut self.profile.gather);
         transfer::clear_grid(&mut self.grid, &self.bins);
+        clock.lap(&mut self.profile.clear);
         if let Some(problem) = stats.problem {
             return Err(self.instability(problem, dt));
         }
@@ -326,6 +337,17 @@ impl Simulation {
         self.steps += 1;
         self.stats = stats;
         Ok(dt)
+    }
+
+    /// Wall-clock seconds spent in each phase of the substeps since the last
+    /// [`Simulation::reset_phase_times`] (or since the start).
+    pub fn phase_times(&self) -> PhaseTimes {
+        self.profile
+    }
+
+    /// Starts the phase profile afresh, e.g. after untimed warm-up substeps.
+    pub fn reset_phase_times(&mut self) {
+        self.profile = PhaseTimes::default();
     }
 
     /// Substeps until time `until` is reached; returns the number of substeps.
