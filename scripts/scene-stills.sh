@@ -14,14 +14,14 @@ trap 'rm -rf "$out"' EXIT
 
 # Scene name, the frame of its still, and the style to keep.
 stills=(
-  "snowball-wall 9 points"
-  "snowball-drop 15 points"
+  "snowball-wall 5 points"
+  "snowball-drop 15 volume"
   "snowball-wall-a 30 points"
   "snowball-wall-b 30 points"
   "snowball-wall-c 30 points"
   "snowball-wall-d 30 points"
   "snowball-wall-e 30 points"
-  "bunny 18 points"
+  "bunny 9 points"
   "tower 27 points"
   "dry-vs-wet 15 points"
   "curl-noise-demo 60 trails"

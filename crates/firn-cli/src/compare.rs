@@ -55,6 +55,10 @@ pub struct CompareArgs {
     /// Worker threads (default: all cores). Results are identical for any count.
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Draw each scene's colour legend in its panels (off by default: a grid
+    /// of panels reads better without one in every panel).
+    #[arg(long)]
+    pub legend: bool,
     /// Print nothing but errors and the final summary line.
     #[arg(long, short)]
     pub quiet: bool,
@@ -165,7 +169,8 @@ impl Plan {
         let report = report_path(&args.out).map_err(Failure::BadInput)?;
         let mut scenes = Vec::with_capacity(args.scenes.len());
         for file in &args.scenes {
-            let (scene, _) = load_scene(Some(file))?;
+            let (mut scene, _) = load_scene(Some(file))?;
+            scene.render.legend = args.legend;
             let style = args.style.map_or_else(
                 || {
                     scene
