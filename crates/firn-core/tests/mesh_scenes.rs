@@ -13,7 +13,9 @@ use glam::Vec3;
 const CUBE_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
 f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 4 8 7 3\nf 1 5 8 4\nf 2 3 7 6\n";
 
-fn scene_with(dir: &Path, tail: &str) -> Result<Scene, SceneError> {
+/// Writes a scene file ending in `tail` into `dir` and loads it (the error
+/// boxed: it is large, and only the failing cases look at it).
+fn scene_with(dir: &Path, tail: &str) -> Result<Scene, Box<SceneError>> {
     let text = format!(
         "format = 1
 
@@ -27,7 +29,7 @@ duration = 0.5
     );
     let path = dir.join("scene.toml");
     fs::write(&path, text).unwrap();
-    Scene::load(&path)
+    Scene::load(&path).map_err(Box::new)
 }
 
 fn cube_dir() -> tempfile::TempDir {
