@@ -60,6 +60,9 @@ pub const MANIFEST_FILE: &str = "manifest.json";
 
 /// Runs the simulation described by `args`.
 pub fn run(args: RunArgs) -> Result<(), Failure> {
+    // Before anything runs in parallel (loading fills bodies on the global
+    // pool), so that the pool gets the asked-for size.
+    let threads = configure_threads(args.threads)?;
     let (mut scene, scene_file) = load_scene(args.scene.as_deref())?;
     if let Some(out) = &args.out {
         scene.output.directory = out.clone();
@@ -73,7 +76,6 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
     if let Some(choice) = args.integrator {
         scene.solver.integrator = choice.applied_to(scene.solver.integrator);
     }
-    let threads = configure_threads(args.threads)?;
     let directory = scene.output.directory.clone();
     ensure_writable_dir(&directory)
         .and_then(|()| prepare_cache_dirs(&scene, &directory))
