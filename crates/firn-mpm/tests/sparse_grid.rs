@@ -99,3 +99,34 @@ fn results_match_the_dense_grid_bit_for_bit() {
     }
     assert!(failures.is_empty(), "{failures:#?}");
 }
+
+/// A 1024³-cell unit box with a snowball of radius 10 cells: memory follows
+/// the snow, so the whole run holds the page table and binning table (64 MiB
+/// each) and a few hundred blocks, not the 34 GiB of a dense grid.
+#[test]
+fn a_huge_box_costs_memory_in_proportion_to_the_snow() {
+    let mut scene = common::scene_with(
+        Shape::Sphere {
+            center: Vec3::new(0.3, 0.5, 0.7),
+            radius: 0.01,
+        },
+        Vec3::new(1.0, 0.0, 0.0),
+        Transfer::Apic,
+        1.0 / 1024.0,
+    );
+    scene.time.step = TimeStep::Fixed { dt: 1e-5 };
+    let mut simulation = Simulation::new(scene).unwrap();
+    for _ in 0..4 {
+        simulation.step(f64::INFINITY).unwrap();
+    }
+    let layout = simulation.grid_layout();
+    assert!(layout.blocks.cmpge(glam::UVec3::splat(256)).all());
+    let particles = simulation.particles().len();
+    let particle_bytes = particles * Particles::bytes_per_particle();
+    let grid_bytes = simulation.memory_bytes() - particle_bytes;
+    assert!(
+        grid_bytes < 200 << 20,
+        "{particles} particles, {} MiB besides them",
+        grid_bytes >> 20
+    );
+}
