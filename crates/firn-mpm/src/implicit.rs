@@ -46,7 +46,7 @@ use crate::constitutive::MaterialConstants;
 use crate::contact::{Constraint, PlacedCollider, collide_all, collide_all_constrained};
 use crate::grid::{BLOCK_NODES, Grid, GridLayout, PageTable};
 use crate::particles::Particles;
-use crate::transfer::{scatter_by_colour, stencil_indices};
+use crate::transfer::scatter_by_colour;
 
 /// The differential of V_p^0 ∂Ψ/∂F_E for one particle, at its current F_E.
 ///
@@ -167,12 +167,15 @@ impl ForceKernel for CubicGradient {
     #[inline(always)]
     fn visit(self, table: PageTable<'_>, position: Vec3, mut visit: impl FnMut(usize, Vec3)) {
         let weights = cubic_weights(table.layout.to_grid(position));
-        let index = stencil_indices::<4>(table, weights.base);
+        let stencil = table.stencil(weights.base);
         let inverse_h = 1.0 / table.layout.cell_size;
         for i in 0..4 {
             for j in 0..4 {
                 for k in 0..4 {
-                    visit(index(i, j, k), weights.gradient(i, j, k) * inverse_h);
+                    visit(
+                        stencil.index(i, j, k),
+                        weights.gradient(i, j, k) * inverse_h,
+                    );
                 }
             }
         }
@@ -188,14 +191,14 @@ impl ForceKernel for MlsGradient {
     #[inline(always)]
     fn visit(self, table: PageTable<'_>, position: Vec3, mut visit: impl FnMut(usize, Vec3)) {
         let weights = quadratic_weights(table.layout.to_grid(position));
-        let index = stencil_indices::<3>(table, weights.base);
+        let stencil = table.stencil(weights.base);
         // (4/h²) times the offset in world units (cells · h).
         let scale = 4.0 / table.layout.cell_size;
         for i in 0..3 {
             for j in 0..3 {
                 for k in 0..3 {
                     let gradient = weights.node_offset(i, j, k) * (weights.weight(i, j, k) * scale);
-                    visit(index(i, j, k), gradient);
+                    visit(stencil.index(i, j, k), gradient);
                 }
             }
         }

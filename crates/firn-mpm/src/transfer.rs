@@ -21,7 +21,7 @@ use firn_core::math::bspline::{StencilWeights, cubic_weights, quadratic_weights}
 use crate::binning::Bins;
 use crate::constitutive::{MaterialConstants, PlasticProjection, scaled_stress};
 use crate::contact::{PlacedCollider, collide_all};
-use crate::grid::{Grid, GridLayout, Node, PageTable};
+use crate::grid::{Grid, GridLayout, Node};
 use crate::particles::Particles;
 
 /// Writes into grid nodes from several threads at once. The nodes are stored
@@ -85,17 +85,6 @@ pub(crate) fn for_each_active_block(grid: &mut Grid, visit: impl Fn(IVec3, &mut 
         .for_each(|(block, nodes)| visit(block, nodes));
 }
 
-/// Indices in [`Grid::nodes`] of a particle's stencil, node (i, j, k) at
-/// `[(i * N + j) * N + k]`.
-#[inline(always)]
-pub(crate) fn stencil_indices<const N: usize>(
-    table: PageTable<'_>,
-    base: IVec3,
-) -> impl Fn(usize, usize, usize) -> usize {
-    let stencil = table.stencil::<N>(base);
-    move |i, j, k| stencil.index(i, j, k)
-}
-
 /// Steps 1 and 3 for PIC/FLIP: mass, momentum and elastic force on the grid.
 pub fn scatter_pic_flip(grid: &mut Grid, bins: &Bins, particles: &Particles) {
     let (table, nodes) = grid.parts_mut();
@@ -108,13 +97,13 @@ pub fn scatter_pic_flip(grid: &mut Grid, bins: &Bins, particles: &Particles) {
             let mass = particles.mass[p];
             let momentum = particles.velocity[p] * mass;
             let stress = particles.stress[p];
-            let index = stencil_indices::<4>(table, weights.base);
+            let stencil = table.stencil(weights.base);
             for i in 0..4 {
                 for j in 0..4 {
                     for k in 0..4 {
                         let w = weights.weight(i, j, k);
                         let force = -(stress * (weights.gradient(i, j, k) * inverse_h));
-                        writer.update(index(i, j, k), |node| {
+                        writer.update(stencil.index(i, j, k), |node| {
                             node.mass += mass * w;
                             node.velocity += momentum * w;
                             node.velocity_new += force;
@@ -142,13 +131,13 @@ pub fn scatter_apic(grid: &mut Grid, bins: &Bins, particles: &Particles, dt: f32
             let affine = (particles.velocity_gradient[p] * mass
                 - particles.stress[p] * (dt * inverse_inertia))
                 * h;
-            let index = stencil_indices::<3>(table, weights.base);
+            let stencil = table.stencil(weights.base);
             for i in 0..3 {
                 for j in 0..3 {
                     for k in 0..3 {
                         let w = weights.weight(i, j, k);
                         let node_momentum = (momentum + affine * weights.node_offset(i, j, k)) * w;
-                        writer.update(index(i, j, k), |node| {
+                        writer.update(stencil.index(i, j, k), |node| {
                             node.mass += mass * w;
                             node.velocity += node_momentum;
                         });
@@ -172,12 +161,12 @@ pub fn scatter_mass<const N: usize>(
         for &p in block {
             let p = p as usize;
             let weights = weights_at(layout.to_grid(particles.position[p]));
-            let index = stencil_indices::<N>(table, weights.base);
+            let stencil = table.stencil(weights.base);
             for i in 0..N {
                 for j in 0..N {
                     for k in 0..N {
                         let mass = particles.mass[p] * weights.weight(i, j, k);
-                        writer.update(index(i, j, k), |node| node.mass += mass);
+                        writer.update(stencil.index(i, j, k), |node| node.mass += mass);
                     }
                 }
             }
@@ -202,12 +191,13 @@ pub fn estimate_volumes<const N: usize>(
         .enumerate()
         .for_each(|(p, volume)| {
             let weights = weights_at(layout.to_grid(positions[p]));
-            let index = stencil_indices::<N>(table, weights.base);
+            let stencil = table.stencil(weights.base);
             let mut density = 0.0;
             for i in 0..N {
                 for j in 0..N {
                     for k in 0..N {
-                        density += grid.nodes[index(i, j, k)].mass * weights.weight(i, j, k);
+                        density +=
+                            grid.nodes[stencil.index(i, j, k)].mass * weights.weight(i, j, k);
                     }
                 }
             }
@@ -451,14 +441,14 @@ pub fn gather_pic_flip(
     let nodes = &grid.nodes;
     gather_with(particles, context, |position, velocity| {
         let weights = cubic_weights(layout.to_grid(position));
-        let index = stencil_indices::<4>(table, weights.base);
+        let stencil = table.stencil(weights.base);
         let mut pic = Vec3::ZERO;
         let mut change = Vec3::ZERO;
         let mut gradient = Mat3::ZERO;
         for i in 0..4 {
             for j in 0..4 {
                 for k in 0..4 {
-                    let node = &nodes[index(i, j, k)];
+                    let node = &nodes[stencil.index(i, j, k)];
                     let w = weights.weight(i, j, k);
                     let grad_w = weights.gradient(i, j, k) * inverse_h;
                     pic += node.velocity_new * w;
@@ -481,14 +471,14 @@ pub fn gather_apic(grid: &Grid, particles: &mut Particles, context: &UpdateConte
     let nodes = &grid.nodes;
     gather_with(particles, context, |position, _| {
         let weights = quadratic_weights(layout.to_grid(position));
-        let index = stencil_indices::<3>(table, weights.base);
+        let stencil = table.stencil(weights.base);
         let mut velocity = Vec3::ZERO;
         let mut affine = Mat3::ZERO;
         for i in 0..3 {
             for j in 0..3 {
                 for k in 0..3 {
                     let node_velocity =
-                        nodes[index(i, j, k)].velocity_new * weights.weight(i, j, k);
+                        nodes[stencil.index(i, j, k)].velocity_new * weights.weight(i, j, k);
                     velocity += node_velocity;
                     affine += outer(node_velocity, weights.node_offset(i, j, k));
                 }
