@@ -157,9 +157,10 @@ impl PageTable<'_> {
 
     /// Node indices of the stencil whose first node is `base`. A stencil
     /// spans at most 2 blocks per axis, and the block of its first node is
-    /// resident, so one page-table read and one read of that block's
-    /// [`Grid`] neighbour list find every node; a per-node page-table read
-    /// made the scatter a quarter slower.
+    /// resident for every binned particle (panics otherwise), so one
+    /// page-table read and one read of that block's [`Grid`] neighbour list
+    /// find every node; a per-node page-table read made the scatter a quarter
+    /// slower.
     #[inline(always)]
     pub fn stencil(&self, base: IVec3) -> StencilIndex {
         let first_block = base >> 2;
