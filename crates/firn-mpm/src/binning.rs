@@ -146,10 +146,10 @@ impl Bins {
         self.active_blocks.sort_unstable();
     }
 
-    /// Bytes held by the binning buffers.
+    /// Bytes held by the binning buffers, except `order`, which
+    /// [`crate::Particles::bytes_per_particle`] already counts.
     pub fn memory_bytes(&self) -> usize {
         let lists = [
-            &self.order,
             &self.active_blocks,
             &self.keys,
             &self.numbers,
