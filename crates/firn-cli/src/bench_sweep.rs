@@ -14,12 +14,14 @@
 //!   this h; fewer, in a ball that size, would be far apart, not snow.
 //! - `grid`: the same ball of about 2¹⁶ particles (radius 12.5 cells, 4.9 cm)
 //!   in boxes of 64³, 128³, 256³ and 512x512x256 cells: the cell size stays,
-//!   the box grows, so only the grid's node count changes.
+//!   the box grows, so only the grid's node count changes (and, with the
+//!   sparse grid, only its page table grows with it).
 //!
-//! Before each size the memory it needs (grid nodes, bins, particles) is
-//! estimated and compared with the memory available (MemAvailable and any
-//! cgroup limit, less 10 %, or `--memory-budget`); a size that does not fit
-//! is recorded as skipped, never allocated.
+//! Before each size the memory it needs (the sparse grid's page table and the
+//! blocks near the ball, bins, particles) is estimated and compared with the
+//! memory available (MemAvailable and any cgroup limit, less 10 %, or
+//! `--memory-budget`); a size that does not fit is recorded as skipped, never
+//! allocated.
 
 use std::fmt::Write as _;
 use std::io::Write as _;
@@ -28,7 +30,7 @@ use std::time::Duration;
 
 use clap::{Args, ValueEnum};
 use firn_core::scene::{Scene, Shape, Transfer};
-use firn_mpm::grid::{BLOCK_NODES, GridLayout, Node};
+use firn_mpm::grid::{BLOCK_NODES, BLOCK_WIDTH, GridLayout, Node};
 use firn_mpm::{Particles, Simulation};
 use glam::{Mat3, UVec3, Vec3};
 use serde::Serialize;
@@ -435,19 +437,24 @@ fn sweep_scene(cells: UVec3, ball: &Ball, transfer: Transfer) -> Scene {
     scene
 }
 
-/// Bytes a simulation of `particles` on `layout` holds at its peak: the grid
-/// nodes (the whole box, in 4³ blocks with padding), the per-block bin
-/// arrays, and per particle its attributes, bin key and order, and one
-/// attribute's copy while the particles are reordered.
-fn estimate_bytes(layout: &GridLayout, particles: u64) -> u64 {
+/// Bytes a simulation of `particles` in `ball` on `layout` holds at its
+/// peak. The grid is sparse: a page table and the binning's block table, 4
+/// bytes each per block of the box, and node storage only for the blocks near
+/// the snow, here the ball's bounding cube in blocks widened by one block each
+/// side for the stencils' reach (twice over, for the pool's growth). Per
+/// particle: its attributes, bin key and order, and one attribute's copy while
+/// the particles are reordered.
+fn estimate_bytes(layout: &GridLayout, ball: &Ball, particles: u64) -> u64 {
     let blocks = layout.blocks.as_u64vec3();
-    let blocks = blocks.x * blocks.y * blocks.z;
-    let grid = blocks * (BLOCK_NODES * std::mem::size_of::<Node>()) as u64;
-    // Per block: a count, a "reached" flag and, at worst, an active index.
-    let bins = blocks * 9;
+    let tables = blocks.element_product() * 2 * std::mem::size_of::<u32>() as u64;
+    let ball_blocks = ((2.0 * ball.radius + 2.0) / BLOCK_WIDTH as f32).ceil() as u64 + 3;
+    let near_blocks = blocks
+        .min(glam::U64Vec3::splat(ball_blocks))
+        .element_product();
+    let nodes = 2 * near_blocks * (BLOCK_NODES * std::mem::size_of::<Node>()) as u64;
     let per_particle =
         Particles::bytes_per_particle() + std::mem::size_of::<u32>() + std::mem::size_of::<Mat3>();
-    grid + bins + particles * per_particle as u64
+    tables + nodes + particles * per_particle as u64
 }
 
 /// Measures one size with one scheme, or records why it was skipped.
@@ -469,6 +476,7 @@ fn measure_size(
     let nodes = layout.node_dims();
     let needed = estimate_bytes(
         &layout,
+        &ball,
         (ball.expected_particles() * COUNT_MARGIN).ceil() as u64,
     );
     let resident = procfs::status_bytes("VmRSS");
@@ -832,11 +840,25 @@ mod tests {
     }
 
     #[test]
-    fn the_estimate_counts_every_node_of_the_box() {
-        let layout = GridLayout::new(Vec3::ZERO, Vec3::splat(1.0), 1.0 / 64.0);
-        let nodes = layout.node_count() as u64;
-        let bytes = estimate_bytes(&layout, 0);
-        assert!(bytes >= nodes * 32 && bytes < nodes * 33);
-        assert!(estimate_bytes(&layout, 1000) - bytes >= 1000 * 150);
+    fn the_estimate_follows_the_ball_and_covers_the_simulation() {
+        let cells = UVec3::splat(64);
+        let ball = Ball::new(1 << 12, cells);
+        let scene = sweep_scene(cells, &ball, Transfer::Apic);
+        let layout = GridLayout::new(scene.domain.min, scene.domain.max, scene.domain.cell_size);
+        let mut simulation = Simulation::new(scene).unwrap();
+        for _ in 0..3 {
+            simulation.step(f64::INFINITY).unwrap();
+        }
+        let particles = simulation.particles().len() as u64;
+        let estimate = estimate_bytes(&layout, &ball, particles);
+        assert!(estimate >= simulation.memory_bytes() as u64);
+
+        let big = GridLayout::new(Vec3::ZERO, Vec3::new(2.0, 2.0, 1.0), 1.0 / 256.0);
+        let block_bytes = 8 * (big.block_count() - layout.block_count()) as u64;
+        assert_eq!(
+            estimate_bytes(&big, &ball, particles) - estimate,
+            block_bytes,
+            "a bigger box costs only its page and binning tables"
+        );
     }
 }

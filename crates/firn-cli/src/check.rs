@@ -96,7 +96,7 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
         scene.colliders.len()
     );
     println!(
-        "memory      {:.1} MiB (grid and particles)",
+        "memory      {:.1} MiB (sparse grid, bins and particles)",
         simulation.memory_bytes() as f64 / (1024.0 * 1024.0)
     );
     let policy = match scene.time.step {

@@ -12,7 +12,7 @@
 use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 
-use crate::grid::{BLOCK_WIDTH, GridLayout};
+use crate::grid::{ABSENT, BLOCK_WIDTH, GridLayout};
 
 /// A grid block that holds particles.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -27,6 +27,10 @@ pub struct OccupiedBlock {
 
 /// Particles sorted by block, the occupied blocks by colour, and the blocks
 /// whose nodes receive mass this step.
+///
+/// Rebuilding costs time in proportion to the particles and the blocks near
+/// them, not to the domain: a per-block table (4 bytes per block of the box)
+/// numbers the occupied blocks, and is reset entry by entry afterwards.
 #[derive(Clone, Debug, Default)]
 pub struct Bins {
     /// Particle indices, stably sorted by block index.
@@ -35,55 +39,75 @@ pub struct Bins {
     pub occupied: Vec<OccupiedBlock>,
     /// Indices into `occupied`, one list per colour.
     pub colours: [Vec<u32>; 8],
-    /// Linear indices of the blocks that the particles' stencils reach.
+    /// Linear indices of the blocks that the particles' stencils reach, increasing.
     pub active_blocks: Vec<u32>,
+    /// Block index of each particle.
     keys: Vec<u32>,
+    /// Block index → number of the block in `seen`; [`ABSENT`] between rebuilds.
+    numbers: Vec<u32>,
+    /// Occupied block indices in order of first appearance.
+    seen: Vec<u32>,
+    /// Particle count, then next free place in `order`, per block of `seen`.
     counts: Vec<u32>,
-    reached: Vec<bool>,
+    /// Numbers of the `seen` blocks sorted by block index.
+    sorted: Vec<u32>,
 }
 
 impl Bins {
     /// Re-bins all particles by their current positions (a stable counting sort).
     pub fn rebuild(&mut self, grid: &GridLayout, positions: &[Vec3]) {
-        let block_count = grid.block_count();
         self.keys.resize(positions.len(), 0);
         self.keys
             .par_iter_mut()
             .zip(positions.par_iter())
             .with_min_len(4096)
             .for_each(|(key, &position)| *key = block_key(grid, position) as u32);
+        self.numbers.resize(grid.block_count(), ABSENT);
 
+        self.seen.clear();
         self.counts.clear();
-        self.counts.resize(block_count + 1, 0);
         for &key in &self.keys {
-            self.counts[key as usize + 1] += 1;
-        }
-        for b in 0..block_count {
-            self.counts[b + 1] += self.counts[b];
+            let number = &mut self.numbers[key as usize];
+            if *number == ABSENT {
+                *number = self.seen.len() as u32;
+                self.seen.push(key);
+                self.counts.push(0);
+            }
+            self.counts[*number as usize] += 1;
         }
         self.collect_occupied(grid);
         self.order.resize(positions.len(), 0);
         for (p, &key) in self.keys.iter().enumerate() {
-            let slot = &mut self.counts[key as usize];
-            self.order[*slot as usize] = p as u32;
-            *slot += 1;
+            let next = &mut self.counts[self.numbers[key as usize] as usize];
+            self.order[*next as usize] = p as u32;
+            *next += 1;
+        }
+        for &key in &self.seen {
+            self.numbers[key as usize] = ABSENT;
         }
         self.collect_colours();
         self.collect_active(grid);
     }
 
-    /// Lists the occupied blocks from the prefix sums (before they are consumed).
+    /// Lists the occupied blocks in block order and turns `counts` into the
+    /// first place of each block's particles in `order`.
     fn collect_occupied(&mut self, grid: &GridLayout) {
+        self.sorted.clear();
+        self.sorted.extend(0..self.seen.len() as u32);
+        let seen = &self.seen;
+        self.sorted
+            .sort_unstable_by_key(|&number| seen[number as usize]);
         self.occupied.clear();
-        for b in 0..grid.block_count() {
-            let (start, end) = (self.counts[b], self.counts[b + 1]);
-            if end > start {
-                self.occupied.push(OccupiedBlock {
-                    coord: grid.block_coord(b),
-                    start,
-                    end,
-                });
-            }
+        let mut start = 0;
+        for &number in &self.sorted {
+            let count = self.counts[number as usize];
+            self.counts[number as usize] = start;
+            self.occupied.push(OccupiedBlock {
+                coord: grid.block_coord(self.seen[number as usize] as usize),
+                start,
+                end: start + count,
+            });
+            start += count;
         }
     }
 
@@ -96,10 +120,10 @@ impl Bins {
         }
     }
 
-    /// Marks the blocks within one block of an occupied block.
+    /// Lists the blocks within one block of an occupied block, marking them
+    /// in `numbers` to list each once.
     fn collect_active(&mut self, grid: &GridLayout) {
-        self.reached.clear();
-        self.reached.resize(grid.block_count(), false);
+        self.active_blocks.clear();
         let last = grid.blocks.as_ivec3() - IVec3::ONE;
         for block in &self.occupied {
             let low = (block.coord - IVec3::ONE).max(IVec3::ZERO);
@@ -107,19 +131,36 @@ impl Bins {
             for x in low.x..=high.x {
                 for y in low.y..=high.y {
                     for z in low.z..=high.z {
-                        self.reached[grid.block_index(IVec3::new(x, y, z))] = true;
+                        let index = grid.block_index(IVec3::new(x, y, z));
+                        if self.numbers[index] == ABSENT {
+                            self.numbers[index] = 0;
+                            self.active_blocks.push(index as u32);
+                        }
                     }
                 }
             }
         }
-        self.active_blocks.clear();
-        self.active_blocks.extend(
-            self.reached
-                .iter()
-                .enumerate()
-                .filter(|(_, reached)| **reached)
-                .map(|(b, _)| b as u32),
-        );
+        for &index in &self.active_blocks {
+            self.numbers[index as usize] = ABSENT;
+        }
+        self.active_blocks.sort_unstable();
+    }
+
+    /// Bytes held by the binning buffers, except `order`, which
+    /// [`crate::Particles::bytes_per_particle`] already counts.
+    pub fn memory_bytes(&self) -> usize {
+        let lists = [
+            &self.active_blocks,
+            &self.keys,
+            &self.numbers,
+            &self.seen,
+            &self.counts,
+            &self.sorted,
+        ];
+        let words: usize = lists.iter().map(|list| list.capacity()).sum::<usize>()
+            + self.colours.iter().map(Vec::capacity).sum::<usize>();
+        words * std::mem::size_of::<u32>()
+            + self.occupied.capacity() * std::mem::size_of::<OccupiedBlock>()
     }
 
     /// Particle indices of an occupied block.

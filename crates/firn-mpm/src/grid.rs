@@ -1,8 +1,17 @@
 //! The background grid: nodes stored block by block so that the stencil of a
-//! particle touches a few contiguous 2 KiB blocks, and so that clearing and
-//! updating visit only the blocks near snow.
+//! particle touches a few contiguous 2 KiB blocks, and sparsely, so that memory
+//! follows the snow rather than the domain box.
+//!
+//! A page table maps every block of the box to a slot in a pool of 64-node
+//! blocks, or to [`ABSENT`]. Each substep, after binning, [`Grid::allocate`]
+//! gives storage to exactly the blocks the particles' stencils reach, slot
+//! after slot in increasing block index, and takes it from all others. The
+//! slots therefore depend only on the particle positions (not on threads or on
+//! history), the pool stays in the same order a dense grid would have, and a
+//! 1024³-cell box costs a 64 MiB page table plus the blocks near the snow.
 
 use glam::{IVec3, UVec3, Vec3};
+use rayon::prelude::*;
 
 /// Nodes per block edge. Particle blocks use the same width; it must be at
 /// least 3 so that blocks of one colour never share a stencil node (see
@@ -10,6 +19,8 @@ use glam::{IVec3, UVec3, Vec3};
 pub const BLOCK_WIDTH: i32 = 4;
 /// Nodes in one block.
 pub const BLOCK_NODES: usize = (BLOCK_WIDTH * BLOCK_WIDTH * BLOCK_WIDTH) as usize;
+/// Page-table entry of a block without storage.
+pub const ABSENT: u32 = u32::MAX;
 /// Empty nodes kept around the domain on every side, so that the widest
 /// stencil of a particle slightly outside the domain still lands on the grid.
 pub const PADDING_NODES: i32 = 3;
@@ -101,13 +112,11 @@ impl GridLayout {
         IVec3::new(x as i32, y as i32, z as i32)
     }
 
-    /// Linear index of node `node` in [`Grid::nodes`].
+    /// Number (0..64) of node `node` inside its block.
     #[inline(always)]
-    pub fn node_index(&self, node: IVec3) -> usize {
-        let block = node >> 2;
+    pub fn local_index(node: IVec3) -> usize {
         let local = node & IVec3::splat(BLOCK_WIDTH - 1);
-        self.block_index(block) * BLOCK_NODES
-            + (local.x * BLOCK_WIDTH * BLOCK_WIDTH + local.y * BLOCK_WIDTH + local.z) as usize
+        (local.x * BLOCK_WIDTH * BLOCK_WIDTH + local.y * BLOCK_WIDTH + local.z) as usize
     }
 
     /// Grid coordinate of node number `local` (0..64) of block `block`.
@@ -123,28 +132,199 @@ impl GridLayout {
     }
 }
 
-/// A dense grid over the domain plus padding, stored in blocks of 4³ nodes.
+/// Where each block's nodes live: the layout plus the page table, borrowed
+/// apart from the node pool so that passes can look nodes up while they write
+/// them.
+#[derive(Clone, Copy, Debug)]
+pub struct PageTable<'a> {
+    /// Geometry and numbering.
+    pub layout: GridLayout,
+    /// Block index → slot, [`ABSENT`] for blocks without storage.
+    slots: &'a [u32],
+    /// Per slot: the slots of the blocks at offsets {0, 1}³, as in [`Grid`].
+    neighbours: &'a [[u32; 8]],
+}
+
+impl PageTable<'_> {
+    /// Index in [`Grid::nodes`] of node `node`. The block must have storage:
+    /// an absent block maps far past the end of the pool, so that any access
+    /// through the index panics instead of reading or writing another block.
+    #[inline(always)]
+    pub fn node_index(&self, node: IVec3) -> usize {
+        let slot = self.slots[self.layout.block_index(node >> 2)] as usize;
+        slot * BLOCK_NODES + GridLayout::local_index(node)
+    }
+
+    /// Node indices of the stencil whose first node is `base`. A stencil
+    /// spans at most 2 blocks per axis, and the block of its first node is
+    /// resident for every binned particle (panics otherwise), so one
+    /// page-table read and one read of that block's [`Grid`] neighbour list
+    /// find every node; a per-node page-table read made the scatter a quarter
+    /// slower.
+    #[inline(always)]
+    pub fn stencil(&self, base: IVec3) -> StencilIndex {
+        let first_block = base >> 2;
+        let slot = self.slots[self.layout.block_index(first_block)];
+        StencilIndex {
+            base,
+            first_block,
+            slots: self.neighbours[slot as usize],
+        }
+    }
+
+    /// Slot of block `block` (a linear block index), `None` without storage.
+    pub fn slot(&self, block: usize) -> Option<usize> {
+        let slot = self.slots[block];
+        (slot != ABSENT).then_some(slot as usize)
+    }
+}
+
+/// Node indices of one particle's stencil, from [`PageTable::stencil`].
+#[derive(Clone, Copy, Debug)]
+pub struct StencilIndex {
+    /// The stencil's first node.
+    base: IVec3,
+    /// The block of `base`.
+    first_block: IVec3,
+    /// Slots of the blocks at offsets x, y, z ∈ {0, 1} from `first_block`,
+    /// at `4 x + 2 y + z`.
+    slots: [u32; 8],
+}
+
+impl StencilIndex {
+    /// Index in [`Grid::nodes`] of stencil node (i, j, k).
+    #[inline(always)]
+    pub fn index(&self, i: usize, j: usize, k: usize) -> usize {
+        let node = self.base + IVec3::new(i as i32, j as i32, k as i32);
+        let block: IVec3 = (node >> 2) - self.first_block;
+        // `& 7` keeps the index provably in bounds; the offsets are 0 or 1.
+        let slot = self.slots[((block.x * 4 + block.y * 2 + block.z) & 7) as usize];
+        slot as usize * BLOCK_NODES + GridLayout::local_index(node)
+    }
+}
+
+/// A sparse grid over the domain plus padding, stored in blocks of 4³ nodes;
+/// only the blocks given to [`Grid::allocate`] have storage.
 #[derive(Clone, Debug)]
 pub struct Grid {
     /// Geometry and numbering.
     pub layout: GridLayout,
-    /// Nodes, block after block (x-major block order, x-major inside a block).
+    /// Block index → slot, [`ABSENT`] for blocks without storage.
+    slots: Vec<u32>,
+    /// Linear index of the block in each slot, increasing.
+    resident: Vec<u32>,
+    /// Per slot: the slots of the blocks at offsets x, y, z ∈ {0, 1} (at
+    /// `4 x + 2 y + z`), [`ABSENT`] where absent or outside the box; what a
+    /// stencil starting in the block needs (see [`PageTable::stencil`]).
+    neighbours: Vec<[u32; 8]>,
+    /// Nodes of the resident blocks, slot after slot (x-major inside a block).
+    /// Between substeps every node is zero.
     pub nodes: Vec<Node>,
 }
 
 impl Grid {
-    /// An empty grid covering `[min, max]` with spacing `cell_size`, plus padding.
+    /// An empty grid covering `[min, max]` with spacing `cell_size`, plus
+    /// padding; no block has storage yet.
     pub fn new(min: Vec3, max: Vec3, cell_size: f32) -> Grid {
         let layout = GridLayout::new(min, max, cell_size);
         Grid {
             layout,
-            nodes: vec![Node::default(); layout.node_count()],
+            slots: vec![ABSENT; layout.block_count()],
+            resident: Vec::new(),
+            neighbours: Vec::new(),
+            nodes: Vec::new(),
         }
     }
 
-    /// Bytes held by the node array.
+    /// Gives storage to exactly `blocks` (linear indices, strictly
+    /// increasing): block `blocks[s]` gets slot `s`, all others none. Every
+    /// node must be zero (as [`crate::transfer::clear_grid`] leaves them), so
+    /// the new slots start zeroed whichever block held them before. The pool
+    /// keeps its capacity unless it shrinks below a quarter of it.
+    pub fn allocate(&mut self, blocks: &[u32]) {
+        debug_assert!(blocks.windows(2).all(|pair| pair[0] < pair[1]));
+        for &block in &self.resident {
+            self.slots[block as usize] = ABSENT;
+        }
+        for (slot, &block) in blocks.iter().enumerate() {
+            self.slots[block as usize] = slot as u32;
+        }
+        self.resident.clear();
+        self.resident.extend_from_slice(blocks);
+        let layout = self.layout;
+        let slots = &self.slots;
+        self.neighbours.clear();
+        self.neighbours.extend(blocks.iter().map(|&block| {
+            let coord = layout.block_coord(block as usize);
+            std::array::from_fn(|offset| {
+                let offset = offset as i32;
+                let neighbour = coord + IVec3::new(offset >> 2, (offset >> 1) & 1, offset & 1);
+                if neighbour.cmplt(layout.blocks.as_ivec3()).all() {
+                    slots[layout.block_index(neighbour)]
+                } else {
+                    ABSENT
+                }
+            })
+        }));
+        let len = blocks.len() * BLOCK_NODES;
+        self.nodes.resize(len, Node::default());
+        if self.nodes.capacity() > 4 * len {
+            self.nodes.shrink_to(2 * len);
+        }
+    }
+
+    /// The page table, for looking nodes up.
+    pub fn page_table(&self) -> PageTable<'_> {
+        PageTable {
+            layout: self.layout,
+            slots: &self.slots,
+            neighbours: &self.neighbours,
+        }
+    }
+
+    /// The page table and the node pool at once, for passes that look nodes
+    /// up while they write them.
+    pub fn parts_mut(&mut self) -> (PageTable<'_>, &mut [Node]) {
+        let table = PageTable {
+            layout: self.layout,
+            slots: &self.slots,
+            neighbours: &self.neighbours,
+        };
+        (table, &mut self.nodes)
+    }
+
+    /// Linear indices of the blocks with storage, in slot order.
+    pub fn resident_blocks(&self) -> &[u32] {
+        &self.resident
+    }
+
+    /// The resident blocks in slot order, each with its coordinate and its 64
+    /// nodes, for parallel passes over every node with storage.
+    pub fn par_blocks_mut(
+        &mut self,
+    ) -> impl IndexedParallelIterator<Item = (IVec3, &mut [Node])> + '_ {
+        let layout = self.layout;
+        self.nodes
+            .par_chunks_mut(BLOCK_NODES)
+            .zip(self.resident.par_iter())
+            .map(move |(nodes, &block)| (layout.block_coord(block as usize), nodes))
+    }
+
+    /// The resident blocks in slot order, each with its coordinate and nodes.
+    pub fn blocks(&self) -> impl Iterator<Item = (IVec3, &[Node])> + '_ {
+        self.nodes
+            .chunks(BLOCK_NODES)
+            .zip(&self.resident)
+            .map(|(nodes, &block)| (self.layout.block_coord(block as usize), nodes))
+    }
+
+    /// Bytes allocated: page table, lists of resident blocks and their
+    /// neighbours, and node pool.
     pub fn memory_bytes(&self) -> usize {
-        self.nodes.len() * std::mem::size_of::<Node>()
+        self.slots.capacity() * std::mem::size_of::<u32>()
+            + self.resident.capacity() * std::mem::size_of::<u32>()
+            + self.neighbours.capacity() * std::mem::size_of::<[u32; 8]>()
+            + self.nodes.capacity() * std::mem::size_of::<Node>()
     }
 }
 
@@ -154,23 +334,62 @@ mod tests {
 
     #[test]
     fn node_indices_are_a_bijection() {
-        let grid = GridLayout::new(Vec3::ZERO, Vec3::new(0.5, 0.3, 0.2), 0.05);
-        let dims = grid.node_dims().as_ivec3();
-        let mut seen = vec![false; grid.node_count()];
+        let mut grid = Grid::new(Vec3::ZERO, Vec3::new(0.5, 0.3, 0.2), 0.05);
+        let all: Vec<u32> = (0..grid.layout.block_count() as u32).collect();
+        grid.allocate(&all);
+        let layout = grid.layout;
+        let table = grid.page_table();
+        let dims = layout.node_dims().as_ivec3();
+        let mut seen = vec![false; layout.node_count()];
         for x in 0..dims.x {
             for y in 0..dims.y {
                 for z in 0..dims.z {
-                    let index = grid.node_index(IVec3::new(x, y, z));
+                    let index = table.node_index(IVec3::new(x, y, z));
                     assert!(!seen[index]);
                     seen[index] = true;
                     let block = IVec3::new(x, y, z) >> 2;
                     let local = index % BLOCK_NODES;
                     assert_eq!(GridLayout::node_in_block(block, local), IVec3::new(x, y, z));
-                    assert_eq!(grid.block_coord(grid.block_index(block)), block);
+                    assert_eq!(layout.block_coord(layout.block_index(block)), block);
                 }
             }
         }
         assert!(seen.iter().all(|&s| s));
+    }
+
+    #[test]
+    fn stencils_agree_with_single_node_lookups() {
+        let mut grid = Grid::new(Vec3::ZERO, Vec3::ONE, 1.0 / 32.0);
+        let all: Vec<u32> = (0..grid.layout.block_count() as u32).collect();
+        grid.allocate(&all);
+        let table = grid.page_table();
+        for base in [
+            IVec3::new(1, 2, 3),
+            IVec3::new(3, 7, 4),
+            IVec3::new(6, 5, 2),
+        ] {
+            let stencil = table.stencil(base);
+            for (i, j, k) in (0..64).map(|n| (n / 16, n / 4 % 4, n % 4)) {
+                let node = base + IVec3::new(i as i32, j as i32, k as i32);
+                assert_eq!(stencil.index(i, j, k), table.node_index(node));
+            }
+        }
+    }
+
+    #[test]
+    fn allocation_follows_the_given_blocks_and_frees_the_rest() {
+        let mut grid = Grid::new(Vec3::ZERO, Vec3::ONE, 1.0 / 64.0);
+        grid.allocate(&[3, 9, 40]);
+        assert_eq!(grid.page_table().slot(9), Some(1));
+        assert_eq!(grid.nodes.len(), 3 * BLOCK_NODES);
+        grid.allocate(&[9, 41]);
+        let table = grid.page_table();
+        assert_eq!(
+            [3, 9, 40, 41].map(|block| table.slot(block)),
+            [None, Some(0), None, Some(1)]
+        );
+        assert_eq!(grid.resident_blocks(), &[9, 41]);
+        assert_eq!(grid.nodes.len(), 2 * BLOCK_NODES);
     }
 
     #[test]

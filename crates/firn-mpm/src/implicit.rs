@@ -44,9 +44,9 @@ use rayon::prelude::*;
 use crate::binning::Bins;
 use crate::constitutive::MaterialConstants;
 use crate::contact::{Constraint, PlacedCollider, collide_all, collide_all_constrained};
-use crate::grid::{BLOCK_NODES, Grid, GridLayout};
+use crate::grid::{BLOCK_NODES, Grid, GridLayout, PageTable};
 use crate::particles::Particles;
-use crate::transfer::{for_each_active_block, scatter_by_colour, stencil_indices};
+use crate::transfer::scatter_by_colour;
 
 /// The differential of V_p^0 ∂Ψ/∂F_E for one particle, at its current F_E.
 ///
@@ -154,8 +154,9 @@ fn cofactor_differential(f: Mat3, d: Mat3) -> Mat3 {
 /// act; the Hessian must use the same ones to be the derivative of the forces.
 pub trait ForceKernel: Copy + Send + Sync {
     /// Calls `visit(node, ∇w_ip)` for every node of the stencil of a particle
-    /// at `position`, with `node` a linear index into [`Grid::nodes`].
-    fn visit(self, layout: &GridLayout, position: Vec3, visit: impl FnMut(usize, Vec3));
+    /// at `position`, with `node` an index into [`Grid::nodes`] (found
+    /// through `table`).
+    fn visit(self, table: PageTable<'_>, position: Vec3, visit: impl FnMut(usize, Vec3));
 }
 
 /// PIC/FLIP: the cubic B-spline gradients of eq. 39-40 over a 4³ stencil.
@@ -164,14 +165,17 @@ pub struct CubicGradient;
 
 impl ForceKernel for CubicGradient {
     #[inline(always)]
-    fn visit(self, layout: &GridLayout, position: Vec3, mut visit: impl FnMut(usize, Vec3)) {
-        let weights = cubic_weights(layout.to_grid(position));
-        let index = stencil_indices::<4>(layout, weights.base);
-        let inverse_h = 1.0 / layout.cell_size;
+    fn visit(self, table: PageTable<'_>, position: Vec3, mut visit: impl FnMut(usize, Vec3)) {
+        let weights = cubic_weights(table.layout.to_grid(position));
+        let stencil = table.stencil(weights.base);
+        let inverse_h = 1.0 / table.layout.cell_size;
         for i in 0..4 {
             for j in 0..4 {
                 for k in 0..4 {
-                    visit(index(i, j, k), weights.gradient(i, j, k) * inverse_h);
+                    visit(
+                        stencil.index(i, j, k),
+                        weights.gradient(i, j, k) * inverse_h,
+                    );
                 }
             }
         }
@@ -185,47 +189,24 @@ pub struct MlsGradient;
 
 impl ForceKernel for MlsGradient {
     #[inline(always)]
-    fn visit(self, layout: &GridLayout, position: Vec3, mut visit: impl FnMut(usize, Vec3)) {
-        let weights = quadratic_weights(layout.to_grid(position));
-        let index = stencil_indices::<3>(layout, weights.base);
+    fn visit(self, table: PageTable<'_>, position: Vec3, mut visit: impl FnMut(usize, Vec3)) {
+        let weights = quadratic_weights(table.layout.to_grid(position));
+        let stencil = table.stencil(weights.base);
         // (4/h²) times the offset in world units (cells · h).
-        let scale = 4.0 / layout.cell_size;
+        let scale = 4.0 / table.layout.cell_size;
         for i in 0..3 {
             for j in 0..3 {
                 for k in 0..3 {
                     let gradient = weights.node_offset(i, j, k) * (weights.weight(i, j, k) * scale);
-                    visit(index(i, j, k), gradient);
+                    visit(stencil.index(i, j, k), gradient);
                 }
             }
         }
     }
 }
 
-/// Maps grid nodes of the active blocks to a compact numbering: the nodes of
-/// active block number s (in [`Bins::active_blocks`]) are s·64 … s·64 + 63.
-#[derive(Clone, Debug, Default)]
-struct CompactNodes {
-    /// Block index → slot, `u32::MAX` for inactive blocks.
-    slots: Vec<u32>,
-}
-
-impl CompactNodes {
-    fn rebuild(&mut self, layout: &GridLayout, bins: &Bins) {
-        self.slots.clear();
-        self.slots.resize(layout.block_count(), u32::MAX);
-        for (slot, &block) in bins.active_blocks.iter().enumerate() {
-            self.slots[block as usize] = slot as u32;
-        }
-    }
-
-    /// Compact index of grid node `node` (a linear index into [`Grid::nodes`]).
-    #[inline(always)]
-    fn of(&self, node: usize) -> usize {
-        self.slots[node / BLOCK_NODES] as usize * BLOCK_NODES + node % BLOCK_NODES
-    }
-}
-
-/// One particle's stencil in compact node numbering, with its gradients.
+/// One particle's stencil as indices into the grid's node pool (which the
+/// solver's node vectors share), with its gradients.
 struct Stencil {
     len: usize,
     nodes: [u32; 64],
@@ -234,19 +215,14 @@ struct Stencil {
 
 impl Stencil {
     #[inline(always)]
-    fn new<K: ForceKernel>(
-        kernel: K,
-        layout: &GridLayout,
-        compact: &CompactNodes,
-        position: Vec3,
-    ) -> Stencil {
+    fn new<K: ForceKernel>(kernel: K, table: PageTable<'_>, position: Vec3) -> Stencil {
         let mut stencil = Stencil {
             len: 0,
             nodes: [0; 64],
             gradients: [Vec3::ZERO; 64],
         };
-        kernel.visit(layout, position, |node, gradient| {
-            stencil.nodes[stencil.len] = compact.of(node) as u32;
+        kernel.visit(table, position, |node, gradient| {
+            stencil.nodes[stencil.len] = node as u32;
             stencil.gradients[stencil.len] = gradient;
             stencil.len += 1;
         });
@@ -279,8 +255,7 @@ impl Stencil {
 /// Everything the matrix-free product with β Δt² H needs.
 struct HessianOperator<'a, K> {
     kernel: K,
-    layout: GridLayout,
-    compact: &'a CompactNodes,
+    table: PageTable<'a>,
     bins: &'a Bins,
     positions: &'a [Vec3],
     linearized: &'a [StressDifferential],
@@ -289,7 +264,7 @@ struct HessianOperator<'a, K> {
 }
 
 impl<K: ForceKernel> HessianOperator<'_, K> {
-    /// output = β Δt² H input, over compact node vectors: per particle,
+    /// output = β Δt² H input, over node vectors: per particle,
     /// δF_E = β Δt² (Σ_i input_i (∇w_ip)ᵀ) F_E, then output_i += A_p F_Eᵀ ∇w_ip
     /// with A_p = V_p^0 δP(δF_E).
     fn apply(&self, input: &[Vec3], output: &mut [Vec3]) {
@@ -300,8 +275,7 @@ impl<K: ForceKernel> HessianOperator<'_, K> {
         scatter_by_colour(output, self.bins, |block, writer| {
             for &p in block {
                 let p = p as usize;
-                let stencil =
-                    Stencil::new(self.kernel, &self.layout, self.compact, self.positions[p]);
+                let stencil = Stencil::new(self.kernel, self.table, self.positions[p]);
                 let linearized = &self.linearized[p];
                 let elastic = linearized.elastic();
                 let delta = stencil.velocity_gradient(input) * elastic * self.scale;
@@ -315,7 +289,8 @@ impl<K: ForceKernel> HessianOperator<'_, K> {
     }
 }
 
-/// Per-node data and Krylov vectors of the solve, in compact numbering.
+/// Per-node data and Krylov vectors of the solve, numbered like the grid's
+/// node pool.
 #[derive(Clone, Debug, Default)]
 struct NodeVectors {
     mass: Vec<f32>,
@@ -376,20 +351,19 @@ impl NodeVectors {
     /// Reads m_i and v_i* from the grid, applies the collisions (step 5) while
     /// recording which components they fix, and returns ‖M v*‖²_{M⁻¹} =
     /// Σ m_i |v_i*|², a reference for the relative residual.
-    fn load(&mut self, grid: &Grid, bins: &Bins, colliders: &[PlacedCollider]) -> f64 {
+    fn load(&mut self, grid: &Grid, colliders: &[PlacedCollider]) -> f64 {
         let layout = grid.layout;
         let partials = (
             blocks_mut(&mut self.mass),
             blocks_mut(&mut self.inverse_mass),
             blocks_mut(&mut self.constraint),
             blocks_mut(&mut self.x),
-            bins.active_blocks.par_iter(),
+            blocks(&grid.nodes),
+            grid.resident_blocks().par_iter(),
         )
             .into_par_iter()
-            .map(|(mass, inverse_mass, constraint, x, &block)| {
-                let block = block as usize;
-                let coord = layout.block_coord(block);
-                let nodes = &grid.nodes[block * BLOCK_NODES..(block + 1) * BLOCK_NODES];
+            .map(|(mass, inverse_mass, constraint, x, nodes, &block)| {
+                let coord = layout.block_coord(block as usize);
                 let mut sum = 0.0;
                 for (local, node) in nodes.iter().enumerate() {
                     mass[local] = node.mass;
@@ -580,7 +554,6 @@ pub struct ImplicitStep<'a> {
 /// substeps and accumulates [`SolverStats`].
 #[derive(Clone, Debug, Default)]
 pub struct ImplicitSolver {
-    compact: CompactNodes,
     linearized: Vec<StressDifferential>,
     nodes: NodeVectors,
     stats: SolverStats,
@@ -619,21 +592,19 @@ impl ImplicitSolver {
         particles: &Particles,
         step: &ImplicitStep,
     ) -> SolveReport {
-        self.compact.rebuild(&grid.layout, bins);
         self.linearize(particles, step.materials);
-        self.nodes.reset(bins.active_blocks.len() * BLOCK_NODES);
+        self.nodes.reset(grid.nodes.len());
         let operator = HessianOperator {
             kernel,
-            layout: grid.layout,
-            compact: &self.compact,
+            table: grid.page_table(),
             bins,
             positions: &particles.position,
             linearized: &self.linearized,
             scale: step.settings.beta * step.dt * step.dt,
         };
-        let momentum = self.nodes.load(grid, bins, step.colliders);
+        let momentum = self.nodes.load(grid, step.colliders);
         let report = conjugate_residual(&operator, &mut self.nodes, momentum, &step.settings);
-        self.store(grid, bins, step.colliders);
+        self.store(grid, step.colliders);
         report
     }
 
@@ -662,18 +633,19 @@ impl ImplicitSolver {
 
     /// Writes the solution into the grid's `velocity_new`, through the
     /// colliders once more.
-    fn store(&self, grid: &mut Grid, bins: &Bins, colliders: &[PlacedCollider]) {
+    fn store(&self, grid: &mut Grid, colliders: &[PlacedCollider]) {
         let layout = grid.layout;
-        let (compact, x) = (&self.compact, &self.nodes.x);
-        for_each_active_block(grid, bins, |coord, nodes| {
-            let first = compact.of(layout.block_index(coord) * BLOCK_NODES);
-            for (local, node) in nodes.iter_mut().enumerate() {
-                if node.mass > 0.0 {
-                    let position = layout.node_position(GridLayout::node_in_block(coord, local));
-                    node.velocity_new = collide_all(colliders, position, x[first + local]);
+        grid.par_blocks_mut()
+            .zip(blocks(&self.nodes.x))
+            .for_each(|((coord, nodes), x)| {
+                for (local, node) in nodes.iter_mut().enumerate() {
+                    if node.mass > 0.0 {
+                        let position =
+                            layout.node_position(GridLayout::node_in_block(coord, local));
+                        node.velocity_new = collide_all(colliders, position, x[local]);
+                    }
                 }
-            }
-        });
+            });
     }
 }
 
@@ -826,9 +798,8 @@ mod tests {
     /// A random deformed state: particles with random F_E, μ, λ, V0 in the
     /// middle of a unit grid, binned.
     struct State {
-        layout: GridLayout,
+        grid: Grid,
         bins: Bins,
-        compact: CompactNodes,
         positions: Vec<Vec3>,
         linearized: Vec<StressDifferential>,
         /// (F_E, μ, λ, V0) per particle, for the f64 reference.
@@ -836,7 +807,7 @@ mod tests {
     }
 
     fn random_state(random: &mut Random, count: usize, stretch: (f32, f32)) -> State {
-        let layout = GridLayout::new(Vec3::ZERO, Vec3::ONE, 0.1);
+        let mut grid = Grid::new(Vec3::ZERO, Vec3::ONE, 0.1);
         let positions: Vec<Vec3> = (0..count)
             .map(|_| Vec3::splat(0.5) + random.vector(0.2))
             .collect();
@@ -851,13 +822,11 @@ mod tests {
             .map(|&(f, mu, lambda, volume0)| StressDifferential::new(f, mu, lambda, volume0))
             .collect();
         let mut bins = Bins::default();
-        bins.rebuild(&layout, &positions);
-        let mut compact = CompactNodes::default();
-        compact.rebuild(&layout, &bins);
+        bins.rebuild(&grid.layout, &positions);
+        grid.allocate(&bins.active_blocks);
         State {
-            layout,
+            grid,
             bins,
-            compact,
             positions,
             linearized,
             parameters,
@@ -869,7 +838,7 @@ mod tests {
     fn forces<K: ForceKernel>(kernel: K, state: &State, displacement: &[DVec3]) -> Vec<DVec3> {
         let mut force = vec![DVec3::ZERO; displacement.len()];
         for (p, &(f, mu, lambda, volume0)) in state.parameters.iter().enumerate() {
-            let stencil = Stencil::new(kernel, &state.layout, &state.compact, state.positions[p]);
+            let stencil = Stencil::new(kernel, state.grid.page_table(), state.positions[p]);
             let f = f.as_dmat3();
             let mut moved = DMat3::IDENTITY;
             for (node, gradient) in stencil.iter() {
@@ -893,8 +862,7 @@ mod tests {
         fn operator<K: ForceKernel>(&self, kernel: K, scale: f32) -> HessianOperator<'_, K> {
             HessianOperator {
                 kernel,
-                layout: self.layout,
-                compact: &self.compact,
+                table: self.grid.page_table(),
                 bins: &self.bins,
                 positions: &self.positions,
                 linearized: &self.linearized,

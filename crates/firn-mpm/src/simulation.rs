@@ -195,6 +195,7 @@ impl Simulation {
     fn estimate_volumes(&mut self) {
         self.bins
             .rebuild(&self.grid.layout, &self.particles.position);
+        self.grid.allocate(&self.bins.active_blocks);
         match self.scene.solver.transfer {
             Transfer::PicFlip => {
                 transfer::scatter_mass(&mut self.grid, &self.bins, &self.particles, cubic_weights);
@@ -210,7 +211,7 @@ impl Simulation {
                 transfer::estimate_volumes(&self.grid, &mut self.particles, quadratic_weights);
             }
         }
-        transfer::clear_grid(&mut self.grid, &self.bins);
+        transfer::clear_grid(&mut self.grid);
     }
 
     fn initial_stats(&self) -> GatherStats {
@@ -266,6 +267,7 @@ impl Simulation {
             self.particles.permute(&self.bins.order);
         }
         self.bins.rebuild(&layout, &self.particles.position);
+        self.grid.allocate(&self.bins.active_blocks);
         clock.lap(&mut self.profile.binning);
         let transfer_scheme = self.scene.solver.transfer;
         match transfer_scheme {
@@ -290,7 +292,6 @@ impl Simulation {
         };
         transfer::update_grid(
             &mut self.grid,
-            &self.bins,
             forces,
             dt,
             self.scene.solver.gravity,
@@ -328,7 +329,7 @@ impl Simulation {
             Transfer::Apic => gather_apic(&self.grid, &mut self.particles, &context),
         };
         clock.lap(&mut self.profile.gather);
-        transfer::clear_grid(&mut self.grid, &self.bins);
+        transfer::clear_grid(&mut self.grid);
         clock.lap(&mut self.profile.clear);
         if let Some(problem) = stats.problem {
             return Err(self.instability(problem, dt));
@@ -497,9 +498,12 @@ impl Simulation {
         self.grid.layout
     }
 
-    /// Bytes held by the grid and the particles.
+    /// Bytes allocated for the grid (page table and the blocks near the snow),
+    /// the binning buffers and the particles.
     pub fn memory_bytes(&self) -> usize {
-        self.grid.memory_bytes() + self.particles.len() * Particles::bytes_per_particle()
+        self.grid.memory_bytes()
+            + self.bins.memory_bytes()
+            + self.particles.len() * Particles::bytes_per_particle()
     }
 
     /// Current density of every particle (kg/m³).

@@ -21,23 +21,23 @@ use firn_core::math::bspline::{StencilWeights, cubic_weights, quadratic_weights}
 use crate::binning::Bins;
 use crate::constitutive::{MaterialConstants, PlasticProjection, scaled_stress};
 use crate::contact::{PlacedCollider, collide_all};
-use crate::grid::{BLOCK_NODES, Grid, GridLayout, Node};
+use crate::grid::{Grid, GridLayout, Node};
 use crate::particles::Particles;
 
 /// Writes into grid nodes from several threads at once. The nodes are stored
-/// block-major, [`BLOCK_NODES`] per block: the grid's [`Node`]s, or the
+/// slot by slot, [`BLOCK_NODES`] per block: the grid's [`Node`]s, or the
 /// implicit solver's per-node vectors.
 ///
-/// Sound only because [`scatter_by_colour`] and [`for_each_active_block`] hand
-/// each thread a set of nodes no other thread touches at the same time (see
-/// [`crate::binning`] for why same-coloured blocks never share a node).
+/// Sound only because [`scatter_by_colour`] hands each thread a set of nodes
+/// no other thread touches at the same time (see [`crate::binning`] for why
+/// same-coloured blocks never share a node).
 pub(crate) struct NodeWriter<'a, T> {
     nodes: *mut T,
     len: usize,
     _grid: PhantomData<&'a mut [T]>,
 }
 
-// SAFETY: the writer is only shared across threads by the two drivers below,
+// SAFETY: the writer is only shared across threads by the driver below,
 // whose callers never touch the same node from two threads; the nodes
 // themselves may move between threads (`T: Send`).
 unsafe impl<T: Send> Sync for NodeWriter<'_, T> {}
@@ -59,19 +59,6 @@ impl<'a, T> NodeWriter<'a, T> {
         // now (the drivers' disjointness), and no reference outlives the call.
         change(unsafe { &mut *self.nodes.add(index) });
     }
-
-    /// Applies `visit` to the 64 nodes of block `block`.
-    #[inline(always)]
-    fn update_block(&self, block: usize, visit: impl FnOnce(&mut [T])) {
-        let first = block * BLOCK_NODES;
-        assert!(
-            first + BLOCK_NODES <= self.len,
-            "block {block} outside the grid"
-        );
-        // SAFETY: in bounds (checked above); the caller visits each block from
-        // one thread only, and the slice does not outlive the call.
-        visit(unsafe { std::slice::from_raw_parts_mut(self.nodes.add(first), BLOCK_NODES) });
-    }
 }
 
 /// Runs `scatter` on every occupied block, colour by colour; blocks of one
@@ -90,54 +77,33 @@ pub(crate) fn scatter_by_colour<T: Send>(
     }
 }
 
-/// Runs `visit` on the 64 nodes of every active block, blocks in parallel.
-pub(crate) fn for_each_active_block(
-    grid: &mut Grid,
-    bins: &Bins,
-    visit: impl Fn(IVec3, &mut [Node]) + Sync,
-) {
-    let layout = grid.layout;
-    let writer = NodeWriter::new(&mut grid.nodes);
-    bins.active_blocks
-        .par_iter()
+/// Runs `visit` on the 64 nodes of every block with storage (the active
+/// blocks of the last [`Grid::allocate`]), blocks in parallel.
+pub(crate) fn for_each_active_block(grid: &mut Grid, visit: impl Fn(IVec3, &mut [Node]) + Sync) {
+    grid.par_blocks_mut()
         .with_min_len(16)
-        .for_each(|&block| {
-            // Each active block appears once in the list: one thread per block.
-            writer.update_block(block as usize, |nodes| {
-                visit(layout.block_coord(block as usize), nodes)
-            });
-        });
-}
-
-/// Linear node indices of a particle's stencil, node (i, j, k) at
-/// `[(i * N + j) * N + k]`.
-#[inline(always)]
-pub(crate) fn stencil_indices<const N: usize>(
-    layout: &GridLayout,
-    base: IVec3,
-) -> impl Fn(usize, usize, usize) -> usize {
-    let layout = *layout;
-    move |i, j, k| layout.node_index(base + IVec3::new(i as i32, j as i32, k as i32))
+        .for_each(|(block, nodes)| visit(block, nodes));
 }
 
 /// Steps 1 and 3 for PIC/FLIP: mass, momentum and elastic force on the grid.
 pub fn scatter_pic_flip(grid: &mut Grid, bins: &Bins, particles: &Particles) {
-    let layout = grid.layout;
+    let (table, nodes) = grid.parts_mut();
+    let layout = table.layout;
     let inverse_h = 1.0 / layout.cell_size;
-    scatter_by_colour(&mut grid.nodes, bins, |block, writer| {
+    scatter_by_colour(nodes, bins, |block, writer| {
         for &p in block {
             let p = p as usize;
             let weights = cubic_weights(layout.to_grid(particles.position[p]));
             let mass = particles.mass[p];
             let momentum = particles.velocity[p] * mass;
             let stress = particles.stress[p];
-            let index = stencil_indices::<4>(&layout, weights.base);
+            let stencil = table.stencil(weights.base);
             for i in 0..4 {
                 for j in 0..4 {
                     for k in 0..4 {
                         let w = weights.weight(i, j, k);
                         let force = -(stress * (weights.gradient(i, j, k) * inverse_h));
-                        writer.update(index(i, j, k), |node| {
+                        writer.update(stencil.index(i, j, k), |node| {
                             node.mass += mass * w;
                             node.velocity += momentum * w;
                             node.velocity_new += force;
@@ -151,10 +117,11 @@ pub fn scatter_pic_flip(grid: &mut Grid, bins: &Bins, particles: &Particles) {
 
 /// Steps 1 and 3 for APIC: mass and affine momentum including the force impulse.
 pub fn scatter_apic(grid: &mut Grid, bins: &Bins, particles: &Particles, dt: f32) {
-    let layout = grid.layout;
+    let (table, nodes) = grid.parts_mut();
+    let layout = table.layout;
     let h = layout.cell_size;
     let inverse_inertia = 4.0 / (h * h);
-    scatter_by_colour(&mut grid.nodes, bins, |block, writer| {
+    scatter_by_colour(nodes, bins, |block, writer| {
         for &p in block {
             let p = p as usize;
             let weights = quadratic_weights(layout.to_grid(particles.position[p]));
@@ -164,13 +131,13 @@ pub fn scatter_apic(grid: &mut Grid, bins: &Bins, particles: &Particles, dt: f32
             let affine = (particles.velocity_gradient[p] * mass
                 - particles.stress[p] * (dt * inverse_inertia))
                 * h;
-            let index = stencil_indices::<3>(&layout, weights.base);
+            let stencil = table.stencil(weights.base);
             for i in 0..3 {
                 for j in 0..3 {
                     for k in 0..3 {
                         let w = weights.weight(i, j, k);
                         let node_momentum = (momentum + affine * weights.node_offset(i, j, k)) * w;
-                        writer.update(index(i, j, k), |node| {
+                        writer.update(stencil.index(i, j, k), |node| {
                             node.mass += mass * w;
                             node.velocity += node_momentum;
                         });
@@ -188,17 +155,18 @@ pub fn scatter_mass<const N: usize>(
     particles: &Particles,
     weights_at: fn(Vec3) -> StencilWeights<N>,
 ) {
-    let layout = grid.layout;
-    scatter_by_colour(&mut grid.nodes, bins, |block, writer| {
+    let (table, nodes) = grid.parts_mut();
+    let layout = table.layout;
+    scatter_by_colour(nodes, bins, |block, writer| {
         for &p in block {
             let p = p as usize;
             let weights = weights_at(layout.to_grid(particles.position[p]));
-            let index = stencil_indices::<N>(&layout, weights.base);
+            let stencil = table.stencil(weights.base);
             for i in 0..N {
                 for j in 0..N {
                     for k in 0..N {
                         let mass = particles.mass[p] * weights.weight(i, j, k);
-                        writer.update(index(i, j, k), |node| node.mass += mass);
+                        writer.update(stencil.index(i, j, k), |node| node.mass += mass);
                     }
                 }
             }
@@ -213,7 +181,8 @@ pub fn estimate_volumes<const N: usize>(
     particles: &mut Particles,
     weights_at: fn(Vec3) -> StencilWeights<N>,
 ) {
-    let layout = grid.layout;
+    let table = grid.page_table();
+    let layout = table.layout;
     let cell_volume = layout.cell_size.powi(3);
     let (positions, masses) = (&particles.position, &particles.mass);
     particles
@@ -222,12 +191,13 @@ pub fn estimate_volumes<const N: usize>(
         .enumerate()
         .for_each(|(p, volume)| {
             let weights = weights_at(layout.to_grid(positions[p]));
-            let index = stencil_indices::<N>(&layout, weights.base);
+            let stencil = table.stencil(weights.base);
             let mut density = 0.0;
             for i in 0..N {
                 for j in 0..N {
                     for k in 0..N {
-                        density += grid.nodes[index(i, j, k)].mass * weights.weight(i, j, k);
+                        density +=
+                            grid.nodes[stencil.index(i, j, k)].mass * weights.weight(i, j, k);
                     }
                 }
             }
@@ -248,14 +218,13 @@ pub enum GridForces {
 /// collisions, on every node with mass.
 pub fn update_grid(
     grid: &mut Grid,
-    bins: &Bins,
     forces: GridForces,
     dt: f32,
     gravity: Vec3,
     colliders: &[PlacedCollider],
 ) {
     let layout = grid.layout;
-    for_each_active_block(grid, bins, |block, nodes| {
+    for_each_active_block(grid, |block, nodes| {
         for (local, node) in nodes.iter_mut().enumerate() {
             if node.mass <= 0.0 {
                 continue;
@@ -272,9 +241,10 @@ pub fn update_grid(
     });
 }
 
-/// Zeroes every node the last scatter could have touched.
-pub fn clear_grid(grid: &mut Grid, bins: &Bins) {
-    for_each_active_block(grid, bins, |_, nodes| nodes.fill(Node::default()));
+/// Zeroes every node with storage, which includes every node the last
+/// scatter could have touched.
+pub fn clear_grid(grid: &mut Grid) {
+    for_each_active_block(grid, |_, nodes| nodes.fill(Node::default()));
 }
 
 /// What the gather learned about the particles, for the next Δt and for
@@ -465,19 +435,20 @@ pub fn gather_pic_flip(
     flip: f32,
     context: &UpdateContext,
 ) -> GatherStats {
-    let layout = grid.layout;
+    let table = grid.page_table();
+    let layout = table.layout;
     let inverse_h = 1.0 / layout.cell_size;
     let nodes = &grid.nodes;
     gather_with(particles, context, |position, velocity| {
         let weights = cubic_weights(layout.to_grid(position));
-        let index = stencil_indices::<4>(&layout, weights.base);
+        let stencil = table.stencil(weights.base);
         let mut pic = Vec3::ZERO;
         let mut change = Vec3::ZERO;
         let mut gradient = Mat3::ZERO;
         for i in 0..4 {
             for j in 0..4 {
                 for k in 0..4 {
-                    let node = &nodes[index(i, j, k)];
+                    let node = &nodes[stencil.index(i, j, k)];
                     let w = weights.weight(i, j, k);
                     let grad_w = weights.gradient(i, j, k) * inverse_h;
                     pic += node.velocity_new * w;
@@ -493,20 +464,21 @@ pub fn gather_pic_flip(
 /// Steps 7-10 for APIC: v_p = Σ w_ip v_i, C_p = (4/h²) Σ w_ip v_i (x_i − x_p)ᵀ,
 /// and ∇v_p = C_p.
 pub fn gather_apic(grid: &Grid, particles: &mut Particles, context: &UpdateContext) -> GatherStats {
-    let layout = grid.layout;
+    let table = grid.page_table();
+    let layout = table.layout;
     // (4/h²) times the offset in world units (cells · h).
     let affine_scale = 4.0 / layout.cell_size;
     let nodes = &grid.nodes;
     gather_with(particles, context, |position, _| {
         let weights = quadratic_weights(layout.to_grid(position));
-        let index = stencil_indices::<3>(&layout, weights.base);
+        let stencil = table.stencil(weights.base);
         let mut velocity = Vec3::ZERO;
         let mut affine = Mat3::ZERO;
         for i in 0..3 {
             for j in 0..3 {
                 for k in 0..3 {
                     let node_velocity =
-                        nodes[index(i, j, k)].velocity_new * weights.weight(i, j, k);
+                        nodes[stencil.index(i, j, k)].velocity_new * weights.weight(i, j, k);
                     velocity += node_velocity;
                     affine += outer(node_velocity, weights.node_offset(i, j, k));
                 }

@@ -6,7 +6,7 @@ use firn_core::scene::Transfer;
 use firn_mpm::Particles;
 use firn_mpm::binning::Bins;
 use firn_mpm::constitutive::MaterialConstants;
-use firn_mpm::grid::Grid;
+use firn_mpm::grid::{Grid, GridLayout};
 use firn_mpm::simulation::diagnostics;
 use firn_mpm::transfer::{self, GridForces, UpdateContext};
 use glam::{DVec3, Mat3, Vec3};
@@ -51,19 +51,15 @@ fn particles(count: usize, apic: bool) -> Particles {
 /// nodes holding velocities (after the grid update).
 fn grid_totals(grid: &Grid) -> (f64, DVec3, DVec3) {
     let layout = grid.layout;
-    let dims = layout.node_dims().as_ivec3();
     let (mut mass, mut momentum, mut angular) = (0.0, DVec3::ZERO, DVec3::ZERO);
-    for x in 0..dims.x {
-        for y in 0..dims.y {
-            for z in 0..dims.z {
-                let node_coord = glam::IVec3::new(x, y, z);
-                let node = grid.nodes[layout.node_index(node_coord)];
-                let m = node.mass as f64;
-                let p = node.velocity_new.as_dvec3() * m;
-                mass += m;
-                momentum += p;
-                angular += layout.node_position(node_coord).as_dvec3().cross(p);
-            }
+    for (block, nodes) in grid.blocks() {
+        for (local, node) in nodes.iter().enumerate() {
+            let node_coord = GridLayout::node_in_block(block, local);
+            let m = node.mass as f64;
+            let p = node.velocity_new.as_dvec3() * m;
+            mass += m;
+            momentum += p;
+            angular += layout.node_position(node_coord).as_dvec3().cross(p);
         }
     }
     (mass, momentum, angular)
@@ -80,6 +76,7 @@ fn round_trip(transfer_scheme: Transfer) {
     let mut grid = Grid::new(Vec3::ZERO, Vec3::ONE, H);
     let mut bins = Bins::default();
     bins.rebuild(&grid.layout, &particles.position);
+    grid.allocate(&bins.active_blocks);
     // No stress and Δt = 0: a pure transfer, no forces, no motion.
     match transfer_scheme {
         Transfer::PicFlip => transfer::scatter_pic_flip(&mut grid, &bins, &particles),
@@ -90,7 +87,7 @@ fn round_trip(transfer_scheme: Transfer) {
     } else {
         GridForces::Separate
     };
-    transfer::update_grid(&mut grid, &bins, forces, 0.0, Vec3::ZERO, &[]);
+    transfer::update_grid(&mut grid, forces, 0.0, Vec3::ZERO, &[]);
     let (grid_mass, grid_momentum, grid_angular) = grid_totals(&grid);
     let momentum = DVec3::from_array(before.momentum);
     let angular = DVec3::from_array(before.angular_momentum);
@@ -178,6 +175,7 @@ fn density_estimate_recovers_the_rest_density() {
         let mut grid = Grid::new(Vec3::ZERO, Vec3::ONE, H);
         let mut bins = Bins::default();
         bins.rebuild(&grid.layout, &particles.position);
+        grid.allocate(&bins.active_blocks);
         if is_cubic {
             transfer::scatter_mass(&mut grid, &bins, &particles, cubic_weights);
             transfer::estimate_volumes(&grid, &mut particles, cubic_weights);

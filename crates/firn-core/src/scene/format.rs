@@ -48,8 +48,10 @@ pub const FORMAT_VERSION: i64 = 1;
 /// Largest number of grid cells allowed along one axis.
 pub const MAX_CELLS_PER_AXIS: u64 = 1024;
 
-/// Largest total number of grid cells allowed (2^28).
-pub const MAX_CELLS: u64 = 1 << 28;
+/// Largest total number of grid cells allowed (2^30, a 1024³ box). The
+/// solver's grid is sparse: the box costs a page table of 4 bytes per 4³
+/// block (64 MiB at 1024³), node storage follows the snow.
+pub const MAX_CELLS: u64 = 1 << 30;
 
 /// Largest `particles_per_cell` a body may ask for.
 pub const MAX_PARTICLES_PER_CELL: u32 = 64;
@@ -1923,7 +1925,7 @@ fn check_domain(domain: &Domain) -> Check {
         return Err(Issue::new(
             path.key("cell_size"),
             format!(
-                "the grid would have {total} cells ({} x {} x {}; the limit is 2^28 = {MAX_CELLS})",
+                "the grid would have {total} cells ({} x {} x {}; the limit is 2^30 = {MAX_CELLS})",
                 cells[0], cells[1], cells[2]
             ),
             "use a larger cell_size or a smaller domain",
