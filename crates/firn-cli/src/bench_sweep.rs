@@ -510,13 +510,7 @@ fn measure_size(
             ball.radius, ball.particles_per_cell
         ));
     }
-    let available = match budget {
-        Some(bytes) => Some((bytes, " (--memory-budget)")),
-        None => {
-            procfs::available_bytes().map(|bytes| ((bytes as f64 * MEMORY_HEADROOM) as u64, ""))
-        }
-    };
-    match available {
+    match memory_limit(budget) {
         Some((limit, source)) if needed > limit => {
             record.fits = false;
             record.note = format!(
@@ -548,18 +542,42 @@ fn measure_size(
         notes.push("peak is the process' so far (clear_refs not writable)".into());
     }
     let particles = simulation.particles().len() as u64;
-    record.particles = Some(particles);
-    record.substeps = substeps;
-    if substeps > 0 {
-        record.seconds = Some(seconds);
-        record.substeps_per_second = Some(substeps as f64 / seconds);
-        let per_particle_substep = 1e9 / (substeps as f64 * particles.max(1) as f64);
-        record.ns_per_particle_substep = Some(seconds * per_particle_substep);
-        record.cpu_seconds = cpu;
-        record.cpu_ns_per_particle_substep = cpu.map(|cpu| cpu * per_particle_substep);
-    }
+    record_timing(&mut record, particles, substeps, seconds, cpu);
     record.note = notes.join("; ");
     Ok(record)
+}
+
+/// The memory a size may use and where that figure comes from: the
+/// `--memory-budget`, else what the machine has available less headroom.
+fn memory_limit(budget: Option<u64>) -> Option<(u64, &'static str)> {
+    match budget {
+        Some(bytes) => Some((bytes, " (--memory-budget)")),
+        None => {
+            procfs::available_bytes().map(|bytes| ((bytes as f64 * MEMORY_HEADROOM) as u64, ""))
+        }
+    }
+}
+
+/// Fills in the speed figures of `substeps` timed substeps of `particles`
+/// particles that took `seconds` of wall clock and `cpu` seconds of CPU.
+fn record_timing(
+    record: &mut SweepRecord,
+    particles: u64,
+    substeps: u32,
+    seconds: f64,
+    cpu: Option<f64>,
+) {
+    record.particles = Some(particles);
+    record.substeps = substeps;
+    if substeps == 0 {
+        return;
+    }
+    record.seconds = Some(seconds);
+    record.substeps_per_second = Some(substeps as f64 / seconds);
+    let per_particle_substep = 1e9 / (substeps as f64 * particles.max(1) as f64);
+    record.ns_per_particle_substep = Some(seconds * per_particle_substep);
+    record.cpu_seconds = cpu;
+    record.cpu_ns_per_particle_substep = cpu.map(|cpu| cpu * per_particle_substep);
 }
 
 /// "4.3 GiB" from a gibibyte on, else "512.0 MiB".
