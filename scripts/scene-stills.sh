@@ -22,6 +22,7 @@ stills=(
   "snowball-wall-d 30 points"
   "snowball-wall-e 30 points"
   "bunny 9 points"
+  "snow-on-bunny 15 points"
   "tower 27 points"
   "dry-vs-wet 15 points"
   "curl-noise-demo 60 trails"

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 use firn_core::Scene;
-use firn_core::scene::{FlowSettings, Shape, TimeStep};
+use firn_core::scene::{Domain, FlowSettings, Shape, TimeStep};
 use firn_flow::FlowSimulation;
 use firn_mpm::Simulation;
 
@@ -40,13 +40,8 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
     let nodes = layout.node_dims();
     println!("scene       {}", scene.name);
     println!(
-        "domain      [{}, {}, {}] to [{}, {}, {}] m, h = {} m",
-        scene.domain.min.x,
-        scene.domain.min.y,
-        scene.domain.min.z,
-        scene.domain.max.x,
-        scene.domain.max.y,
-        scene.domain.max.z,
+        "domain      {} m, h = {} m",
+        box_text(&scene.domain),
         scene.domain.cell_size
     );
     println!(
@@ -119,21 +114,22 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
     Ok(())
 }
 
+/// The domain's corners as `[x, y, z] to [x, y, z]`.
+fn box_text(domain: &Domain) -> String {
+    let (min, max) = (domain.min, domain.max);
+    format!(
+        "[{}, {}, {}] to [{}, {}, {}]",
+        min.x, min.y, min.z, max.x, max.y, max.z
+    )
+}
+
 /// The summary of a curl-noise flow scene: particles at time 0, the field's
 /// parameters, emitters and obstacles.
 fn check_flow(scene: &Scene, flow: &FlowSettings) -> Result<(), Failure> {
     let simulation = FlowSimulation::new(scene.clone())
         .map_err(|error| Failure::BadInput(format!("error: {error}")))?;
     println!("scene       {} (curl-noise flow)", scene.name);
-    println!(
-        "domain      [{}, {}, {}] to [{}, {}, {}]",
-        scene.domain.min.x,
-        scene.domain.min.y,
-        scene.domain.min.z,
-        scene.domain.max.x,
-        scene.domain.max.y,
-        scene.domain.max.z
-    );
+    println!("domain      {}", box_text(&scene.domain));
     println!(
         "field       noise share {}, strength {}, length scale {}, background {} along [{}, {}, {}], curl {:?}",
         flow.noise_share,

@@ -4,14 +4,10 @@
 
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
-fn firn(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_firn"))
-        .args(args)
-        .output()
-        .expect("firn runs")
-}
+mod common;
+use common::firn;
 
 fn scenes_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes")
@@ -51,6 +47,7 @@ fn the_thesis_scenes_are_all_bundled() {
         "snowball-wall-d",
         "snowball-wall-e",
         "bunny",
+        "snow-on-bunny",
         "tower",
         "dry-vs-wet",
         "curl-noise-demo",

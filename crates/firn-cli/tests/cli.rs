@@ -2,8 +2,11 @@
 //! error with exit code 2 and nothing written for every kind of bad input.
 
 use std::fs;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
+use std::process::Output;
+
+mod common;
+use common::{firn, manifest, text, write_scene};
 
 const SMALL_SCENE: &str = r#"format = 1
 name = "small"
@@ -23,23 +26,6 @@ radius = 0.08
 velocity = [2.0, -1.0, 0.0]
 "#;
 
-fn firn(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_firn"))
-        .args(args)
-        .output()
-        .expect("firn runs")
-}
-
-fn write_scene(dir: &Path, name: &str, text: &str) -> PathBuf {
-    let path = dir.join(name);
-    fs::write(&path, text).unwrap();
-    path
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
-
 /// `firn run SCENE --out OUT --quiet`.
 fn run_into(scene: &Path, out: &Path) -> Output {
     firn(&[
@@ -49,11 +35,6 @@ fn run_into(scene: &Path, out: &Path) -> Output {
         out.to_str().unwrap(),
         "--quiet",
     ])
-}
-
-/// The run manifest in `out`, as JSON.
-fn manifest(out: &Path) -> serde_json::Value {
-    serde_json::from_str(&fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap()
 }
 
 fn run_small(dir: &Path, out: &str, extra: &[&str]) -> Output {

@@ -3,7 +3,10 @@
 
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
+
+mod common;
+use common::{firn, stderr, write_scene};
 
 /// A small ball of snow dropped in a small box; `{name}`, `{center}` and
 /// `{extra}` are filled in per scene.
@@ -36,12 +39,6 @@ fn scene_text(name: &str, center: &str, extra: &str) -> String {
         .replace("{extra}", extra)
 }
 
-fn write_scene(dir: &Path, file: &str, text: &str) -> PathBuf {
-    let path = dir.join(file);
-    fs::write(&path, text).expect("scene written");
-    path
-}
-
 /// The two scenes of the grid's rows: balls in different places.
 fn two_scenes(dir: &Path) -> [PathBuf; 2] {
     [
@@ -60,17 +57,6 @@ fn two_scenes(dir: &Path) -> [PathBuf; 2] {
             ),
         ),
     ]
-}
-
-fn firn(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_firn"))
-        .args(args)
-        .output()
-        .expect("firn runs")
-}
-
-fn stderr(output: &Output) -> String {
-    String::from_utf8_lossy(&output.stderr).into_owned()
 }
 
 fn path_text(path: &Path) -> &str {

@@ -4,7 +4,10 @@
 
 use std::fs;
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Command;
+
+mod common;
+use common::{firn, manifest, stderr};
 
 const SCENE: &str = r#"format = 1
 name = "tiny"
@@ -26,17 +29,6 @@ radius = 0.08
 size = [96, 64]
 "#;
 
-fn firn(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_firn"))
-        .args(args)
-        .output()
-        .expect("firn runs")
-}
-
-fn stderr(output: &Output) -> String {
-    String::from_utf8_lossy(&output.stderr).into_owned()
-}
-
 /// Runs the tiny scene into `dir/run` with extra arguments; returns the run directory.
 fn run_tiny(dir: &Path, extra: &[&str]) -> std::path::PathBuf {
     let scene = dir.join("tiny.toml");
@@ -53,11 +45,6 @@ fn run_tiny(dir: &Path, extra: &[&str]) -> std::path::PathBuf {
     let output = firn(&args);
     assert!(output.status.success(), "{}", stderr(&output));
     out
-}
-
-fn manifest(out: &Path) -> serde_json::Value {
-    let text = fs::read_to_string(out.join("manifest.json")).expect("manifest");
-    serde_json::from_str(&text).expect("manifest is JSON")
 }
 
 #[test]

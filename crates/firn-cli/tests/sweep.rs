@@ -5,7 +5,6 @@
 use std::collections::HashSet;
 use std::fs;
 use std::path::Path;
-use std::process::{Command, Output};
 
 // The chart code itself, to check what it plots without reading pixels.
 #[allow(dead_code)]
@@ -14,16 +13,8 @@ mod charts;
 
 use charts::{CHART_SIZE, Sample, build_series};
 
-fn firn(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_firn"))
-        .args(args)
-        .output()
-        .expect("firn runs")
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
+mod common;
+use common::{firn, text};
 
 /// `firn bench --sweep KIND --transfer apic --sweep-out OUT` plus `extra`;
 /// asserts it succeeded and returns its standard output.

@@ -43,8 +43,8 @@ impl MeshDiagnostics {
         let mut warnings = Vec::new();
         if self.boundary_edges > 0 {
             warnings.push(format!(
-                "the mesh has {} boundary edges (holes); it is filled by its generalized winding \
-                 number, which closes small holes",
+                "the mesh has {} boundary edges (holes); its inside is taken from its generalized \
+                 winding number, which closes small holes",
                 self.boundary_edges
             ));
         }

@@ -154,39 +154,25 @@ impl Stage {
         origin: Vec3,
         direction: Vec3,
     ) -> Option<SurfaceHit> {
+        // Solids share one look: a glossy rigid body.
+        let solid = |(distance, normal): (f32, Vec3)| SurfaceHit {
+            distance,
+            normal,
+            albedo: COLLIDER_ALBEDO,
+            shininess: 48.0,
+            is_ground: false,
+        };
         match *collider {
             ColliderGeometry::Sphere { center, radius } => {
                 let distance = intersect_sphere(origin, direction, center, radius)?;
                 let normal = (origin + direction * distance - center).normalize();
-                Some(SurfaceHit {
-                    distance,
-                    normal,
-                    albedo: COLLIDER_ALBEDO,
-                    shininess: 48.0,
-                    is_ground: false,
-                })
+                Some(solid((distance, normal)))
             }
             ColliderGeometry::Box { center, size } => {
-                let (distance, normal) =
-                    intersect_box(origin, direction, center - 0.5 * size, center + 0.5 * size)?;
-                Some(SurfaceHit {
-                    distance,
-                    normal,
-                    albedo: COLLIDER_ALBEDO,
-                    shininess: 48.0,
-                    is_ground: false,
-                })
+                intersect_box(origin, direction, center - 0.5 * size, center + 0.5 * size)
+                    .map(solid)
             }
-            ColliderGeometry::Mesh(ref mesh) => {
-                let (distance, normal) = march_mesh(mesh, origin, direction)?;
-                Some(SurfaceHit {
-                    distance,
-                    normal,
-                    albedo: COLLIDER_ALBEDO,
-                    shininess: 32.0,
-                    is_ground: false,
-                })
-            }
+            ColliderGeometry::Mesh(ref mesh) => march_mesh(mesh, origin, direction).map(solid),
             ColliderGeometry::HalfPlane { point, normal } => {
                 let distance = intersect_plane(origin, direction, point, normal)?;
                 let hit = origin + direction * distance;

@@ -25,8 +25,8 @@ fn a_missing_face_leaves_four_boundary_edges() {
     assert_eq!(
         diagnostics.warnings(),
         [
-            "the mesh has 4 boundary edges (holes); it is filled by its generalized winding number, \
-          which closes small holes"
+            "the mesh has 4 boundary edges (holes); its inside is taken from its generalized \
+             winding number, which closes small holes"
         ]
     );
 }
