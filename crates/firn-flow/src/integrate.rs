@@ -30,56 +30,7 @@ pub(crate) const LANES: usize = 8;
 /// The widest batch (AVX-512); chunks of particles are multiples of it.
 pub(crate) const MAX_LANES: usize = 16;
 
-/// The instruction set the batches run on.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Simd {
-    /// Portable code: whatever the build targets (SSE2 on plain x86-64).
-    Portable,
-    /// 256-bit AVX2 registers (8 particles at once), chosen at run time where
-    /// the CPU has them.
-    Avx2,
-    /// 512-bit AVX-512 registers (16 particles at once), chosen at run time
-    /// where the CPU has them.
-    Avx512,
-}
-
-impl Simd {
-    /// The best the running CPU offers.
-    pub fn detect() -> Simd {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx512f") {
-                return Simd::Avx512;
-            }
-            if std::arch::is_x86_feature_detected!("avx2") {
-                return Simd::Avx2;
-            }
-        }
-        Simd::Portable
-    }
-
-    /// Whether the running CPU can run this code path.
-    pub fn is_available(self) -> bool {
-        match self {
-            Simd::Portable => true,
-            #[cfg(target_arch = "x86_64")]
-            Simd::Avx2 => std::arch::is_x86_feature_detected!("avx2"),
-            #[cfg(target_arch = "x86_64")]
-            Simd::Avx512 => std::arch::is_x86_feature_detected!("avx512f"),
-            #[cfg(not(target_arch = "x86_64"))]
-            _ => false,
-        }
-    }
-
-    /// A short name for reports.
-    pub fn name(self) -> &'static str {
-        match self {
-            Simd::Portable => "portable",
-            Simd::Avx2 => "avx2",
-            Simd::Avx512 => "avx512",
-        }
-    }
-}
+pub use firn_core::math::lanes::Simd;
 
 /// A lane type a batch of particles is evaluated in.
 trait Batch: Real {

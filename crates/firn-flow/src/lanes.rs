@@ -12,6 +12,9 @@
 
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
+pub use firn_core::math::lanes::{F32s, U32s};
+use firn_core::math::lanes::{map1, map2, mask_bits};
+
 /// Inputs of `floor_int` are clamped to ±this (2³⁰), so the integer
 /// conversion is always defined.
 pub const FLOOR_LIMIT: f64 = 1_073_741_824.0;
@@ -194,80 +197,6 @@ impl Real for f64 {
     }
 }
 
-/// `N` lanes of `f32`, operated on together.
-#[derive(Clone, Copy, Debug, PartialEq)]
-#[repr(transparent)]
-pub struct F32s<const N: usize>(pub [f32; N]);
-
-/// `N` lanes of `u32`: integers, or masks (all bits set where true).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[repr(transparent)]
-pub struct U32s<const N: usize>(pub [u32; N]);
-
-impl<const N: usize> F32s<N> {
-    /// Lane `i`.
-    #[inline(always)]
-    pub fn lane(self, i: usize) -> f32 {
-        self.0[i]
-    }
-}
-
-/// Lane-wise map of one array (a plain loop: it inlines and vectorises
-/// reliably, unlike `std::array::from_fn`).
-#[inline(always)]
-fn map1<T: Copy, U: Copy + Default, const N: usize>(a: [T; N], f: impl Fn(T) -> U) -> [U; N] {
-    let mut out = [U::default(); N];
-    for (o, x) in out.iter_mut().zip(a) {
-        *o = f(x);
-    }
-    out
-}
-
-/// Lane-wise map of two arrays.
-#[inline(always)]
-fn map2<T: Copy, U: Copy + Default, const N: usize>(
-    a: [T; N],
-    b: [T; N],
-    f: impl Fn(T, T) -> U,
-) -> [U; N] {
-    let mut out = [U::default(); N];
-    for ((o, x), y) in out.iter_mut().zip(a).zip(b) {
-        *o = f(x, y);
-    }
-    out
-}
-
-macro_rules! lane_op {
-    ($trait:ident, $method:ident, $op:tt) => {
-        impl<const N: usize> $trait for F32s<N> {
-            type Output = F32s<N>;
-            #[inline(always)]
-            fn $method(self, other: F32s<N>) -> F32s<N> {
-                F32s(map2(self.0, other.0, |a, b| a $op b))
-            }
-        }
-    };
-}
-
-lane_op!(Add, add, +);
-lane_op!(Sub, sub, -);
-lane_op!(Mul, mul, *);
-lane_op!(Div, div, /);
-
-impl<const N: usize> Neg for F32s<N> {
-    type Output = F32s<N>;
-    #[inline(always)]
-    fn neg(self) -> F32s<N> {
-        F32s(map1(self.0, |a| -a))
-    }
-}
-
-/// All bits set for true, none for false.
-#[inline(always)]
-fn mask_bits(b: bool) -> u32 {
-    (b as u32).wrapping_neg()
-}
-
 impl<const N: usize> Real for F32s<N> {
     type Mask = U32s<N>;
     type Int = U32s<N>;
@@ -297,31 +226,27 @@ impl<const N: usize> Real for F32s<N> {
     }
     #[inline(always)]
     fn lt(self, other: F32s<N>) -> U32s<N> {
-        U32s(map2(self.0, other.0, |a, b| mask_bits(a < b)))
+        F32s::lt(self, other)
     }
     #[inline(always)]
     fn le(self, other: F32s<N>) -> U32s<N> {
-        U32s(map2(self.0, other.0, |a, b| mask_bits(a <= b)))
+        F32s::le(self, other)
     }
     #[inline(always)]
     fn select(mask: U32s<N>, yes: F32s<N>, no: F32s<N>) -> F32s<N> {
-        let mut out = no.0;
-        for ((o, y), m) in out.iter_mut().zip(yes.0).zip(mask.0) {
-            *o = f32::from_bits((y.to_bits() & m) | (o.to_bits() & !m));
-        }
-        F32s(out)
+        F32s::select(mask, yes, no)
     }
     #[inline(always)]
     fn min(self, other: F32s<N>) -> F32s<N> {
-        F32s(map2(self.0, other.0, |a, b| if a < b { a } else { b }))
+        F32s::min(self, other)
     }
     #[inline(always)]
     fn max(self, other: F32s<N>) -> F32s<N> {
-        F32s(map2(self.0, other.0, |a, b| if a > b { a } else { b }))
+        F32s::max(self, other)
     }
     #[inline(always)]
     fn sqrt(self) -> F32s<N> {
-        F32s(map1(self.0, f32::sqrt))
+        F32s::sqrt(self)
     }
     #[inline(always)]
     fn and(a: U32s<N>, b: U32s<N>) -> U32s<N> {
@@ -337,11 +262,7 @@ impl<const N: usize> Real for F32s<N> {
     }
     #[inline(always)]
     fn any(a: U32s<N>) -> bool {
-        let mut any = 0;
-        for lane in a.0 {
-            any |= lane;
-        }
-        any != 0
+        a.any()
     }
     #[inline(always)]
     fn mask_bits(a: U32s<N>) -> u32 {

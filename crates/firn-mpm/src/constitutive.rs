@@ -3,8 +3,8 @@
 //! values of the elastic deformation gradient (eq. 41-43).
 
 use firn_core::Material;
-use firn_core::math::svd::{Svd3, svd3};
-use glam::{Mat3, Vec3};
+use firn_core::math::lanes::{F32s, Mat3s, Vec3s, map2};
+use firn_core::math::svd::{Svd3s, svd3_lanes};
 
 /// Per-material constants the hot loops need, precomputed once.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -40,99 +40,184 @@ impl MaterialConstants {
     /// Hardening factor e^{ξ(1 − J_P)} (eq. 35).
     #[inline(always)]
     pub fn hardening_factor(&self, plastic_j: f32) -> f32 {
-        (self.hardening * (1.0 - plastic_j)).exp()
+        hardening_factor(self.hardening, plastic_j)
     }
 }
 
-/// Result of the plasticity step for one particle.
-#[derive(Clone, Copy, Debug)]
-pub struct PlasticProjection {
-    /// SVD of the trial elastic gradient F̂_E = U Σ Vᵀ.
-    pub trial: Svd3,
-    /// Clamped singular values Σc.
-    pub clamped: Vec3,
+/// e^{ξ(1 − J_P)} (eq. 35): how much compaction has stiffened the snow.
+#[inline(always)]
+fn hardening_factor(hardening: f32, plastic_j: f32) -> f32 {
+    (hardening * (1.0 - plastic_j)).exp()
 }
 
-impl PlasticProjection {
+/// [`MaterialConstants`] of `N` particles, lane by lane.
+#[derive(Clone, Copy, Debug)]
+pub struct MaterialLanes<const N: usize> {
+    /// μ0 per lane.
+    pub mu0: F32s<N>,
+    /// λ0 per lane.
+    pub lambda0: F32s<N>,
+    /// ξ per lane.
+    pub hardening: F32s<N>,
+    /// 1 − θc per lane.
+    pub min_stretch: F32s<N>,
+    /// 1 + θs per lane.
+    pub max_stretch: F32s<N>,
+}
+
+impl<const N: usize> MaterialLanes<N> {
+    /// The same material in every lane.
+    pub fn splat(constants: &MaterialConstants) -> MaterialLanes<N> {
+        MaterialLanes {
+            mu0: F32s::splat(constants.mu0),
+            lambda0: F32s::splat(constants.lambda0),
+            hardening: F32s::splat(constants.hardening),
+            min_stretch: F32s::splat(constants.min_stretch),
+            max_stretch: F32s::splat(constants.max_stretch),
+        }
+    }
+
+    /// Stores `constants` in lane `i`.
+    #[inline(always)]
+    pub fn set_lane(&mut self, i: usize, constants: &MaterialConstants) {
+        self.mu0.0[i] = constants.mu0;
+        self.lambda0.0[i] = constants.lambda0;
+        self.hardening.0[i] = constants.hardening;
+        self.min_stretch.0[i] = constants.min_stretch;
+        self.max_stretch.0[i] = constants.max_stretch;
+    }
+
+    /// Hardening factor e^{ξ(1 − J_P)} (eq. 35), lane by lane.
+    #[inline(always)]
+    pub fn hardening_factor(&self, plastic_j: F32s<N>) -> F32s<N> {
+        F32s(map2(self.hardening.0, plastic_j.0, hardening_factor))
+    }
+}
+
+/// Result of the plasticity step for `N` particles.
+#[derive(Clone, Copy, Debug)]
+pub struct PlasticProjection<const N: usize> {
+    /// SVD of the trial elastic gradient F̂_E = U Σ Vᵀ.
+    pub trial: Svd3s<N>,
+    /// Clamped singular values Σc.
+    pub clamped: Vec3s<N>,
+}
+
+impl<const N: usize> PlasticProjection<N> {
     /// Clamps the singular values of the trial F̂_E = (I + Δt ∇v_p) F_E into
     /// [1 − θc, 1 + θs] (eq. 41-42).
     #[inline(always)]
-    pub fn new(trial_elastic: Mat3, constants: &MaterialConstants) -> PlasticProjection {
-        let trial = svd3(trial_elastic);
-        let clamped = trial.sigma.clamp(
-            Vec3::splat(constants.min_stretch),
-            Vec3::splat(constants.max_stretch),
-        );
+    pub fn new(trial_elastic: &Mat3s<N>, materials: &MaterialLanes<N>) -> PlasticProjection<N> {
+        let trial = svd3_lanes(trial_elastic);
+        let clamp = |s: F32s<N>| s.max(materials.min_stretch).min(materials.max_stretch);
+        let sigma = trial.sigma;
+        let clamped = Vec3s::new(clamp(sigma.x), clamp(sigma.y), clamp(sigma.z));
         PlasticProjection { trial, clamped }
     }
 
     /// The new elastic gradient F_E = U Σc Vᵀ.
     #[inline(always)]
-    pub fn elastic(&self) -> Mat3 {
-        self.trial.u * Mat3::from_diagonal(self.clamped) * self.trial.v.transpose()
+    pub fn elastic(&self) -> Mat3s<N> {
+        let u = &self.trial.u;
+        let scaled = Mat3s::from_cols(
+            u.x_axis.scale(self.clamped.x),
+            u.y_axis.scale(self.clamped.y),
+            u.z_axis.scale(self.clamped.z),
+        );
+        scaled.mul_mat(&self.trial.v.transpose())
     }
 
     /// The rotation R_E = U Vᵀ of the polar decomposition of the new F_E.
     #[inline(always)]
-    pub fn rotation(&self) -> Mat3 {
-        self.trial.u * self.trial.v.transpose()
+    pub fn rotation(&self) -> Mat3s<N> {
+        self.trial.u.mul_mat(&self.trial.v.transpose())
     }
 
     /// det F_P_new / det F_P_old = Π σ / Π σc: what the clamp moved into F_P.
     #[inline(always)]
-    pub fn plastic_j_ratio(&self) -> f32 {
-        let s = self.trial.sigma;
-        let c = self.clamped;
+    pub fn plastic_j_ratio(&self) -> F32s<N> {
+        let (s, c) = (self.trial.sigma, self.clamped);
         (s.x / c.x) * (s.y / c.y) * (s.z / c.z)
     }
 
-    /// The factor that multiplies F_P: F_P_new = V Σc⁻¹ Σ Vᵀ F_P_old (eq. 43),
-    /// so that F_E_new F_P_new = F̂_E F_P_old.
-    pub fn plastic_increment(&self) -> Mat3 {
-        let ratio = self.trial.sigma / self.clamped;
-        self.trial.v * Mat3::from_diagonal(ratio) * self.trial.v.transpose()
+    /// J_E = Π σc, the volume ratio of the new F_E.
+    #[inline(always)]
+    pub fn elastic_j(&self) -> F32s<N> {
+        let c = self.clamped;
+        c.x * c.y * c.z
     }
 }
 
 /// Kirchhoff stress τ = ∂Ψ/∂F_E F_Eᵀ = 2μ (F_E − R_E) F_Eᵀ + λ (J_E − 1) J_E I
 /// of the fixed-corotated energy with hardened μ, λ (eq. 34-36).
 #[inline(always)]
-pub fn kirchhoff_stress(
-    elastic: Mat3,
-    rotation: Mat3,
-    elastic_j: f32,
-    mu: f32,
-    lambda: f32,
-) -> Mat3 {
-    (elastic - rotation) * elastic.transpose() * (2.0 * mu)
-        + Mat3::from_diagonal(Vec3::splat(lambda * (elastic_j - 1.0) * elastic_j))
+pub fn kirchhoff_stress<const N: usize>(
+    elastic: &Mat3s<N>,
+    rotation: &Mat3s<N>,
+    elastic_j: F32s<N>,
+    mu: F32s<N>,
+    lambda: F32s<N>,
+) -> Mat3s<N> {
+    let one = F32s::splat(1.0);
+    let shear = elastic
+        .sub(rotation)
+        .mul_mat(&elastic.transpose())
+        .scale(F32s::splat(2.0) * mu);
+    let pressure = lambda * (elastic_j - one) * elastic_j;
+    shear.add(&Mat3s::from_diagonal(Vec3s::new(
+        pressure, pressure, pressure,
+    )))
 }
 
-/// V_p^0 τ_p for a particle after its plasticity step.
-#[inline(always)]
-pub fn scaled_stress(
-    projection: &PlasticProjection,
-    elastic: Mat3,
-    plastic_j: f32,
-    volume0: f32,
-    constants: &MaterialConstants,
-) -> Mat3 {
-    let factor = constants.hardening_factor(plastic_j);
-    let c = projection.clamped;
-    let elastic_j = c.x * c.y * c.z;
-    let tau = kirchhoff_stress(
-        elastic,
-        projection.rotation(),
-        elastic_j,
-        constants.mu0 * factor,
-        constants.lambda0 * factor,
-    );
-    tau * volume0
+/// Plasticity and stress of `N` particles after the F_E update (steps 7 and
+/// 9 of the algorithm; eq. 34-43).
+#[derive(Clone, Copy, Debug)]
+pub struct ElasticUpdate<const N: usize> {
+    /// The new elastic gradient F_E.
+    pub elastic: Mat3s<N>,
+    /// The new J_P.
+    pub plastic_j: F32s<N>,
+    /// V_p^0 τ_p for the next scatter.
+    pub stress: Mat3s<N>,
+    /// e^{ξ(1 − J_P)} at the new J_P.
+    pub hardening_factor: F32s<N>,
+}
+
+impl<const N: usize> ElasticUpdate<N> {
+    /// Projects the trial F̂_E, moves the clamped part into J_P and computes
+    /// V_p^0 τ_p with the hardened Lamé parameters.
+    #[inline(always)]
+    pub fn new(
+        trial_elastic: &Mat3s<N>,
+        plastic_j: F32s<N>,
+        volume0: F32s<N>,
+        materials: &MaterialLanes<N>,
+    ) -> ElasticUpdate<N> {
+        let projection = PlasticProjection::new(trial_elastic, materials);
+        let elastic = projection.elastic();
+        let plastic_j = plastic_j * projection.plastic_j_ratio();
+        let factor = materials.hardening_factor(plastic_j);
+        let tau = kirchhoff_stress(
+            &elastic,
+            &projection.rotation(),
+            projection.elastic_j(),
+            materials.mu0 * factor,
+            materials.lambda0 * factor,
+        );
+        ElasticUpdate {
+            elastic,
+            plastic_j,
+            stress: tau.scale(volume0),
+            hardening_factor: factor,
+        }
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use firn_core::math::svd::svd3;
+    use glam::{Mat3, Vec3};
     use proptest::prelude::*;
 
     fn thesis_constants() -> MaterialConstants {
@@ -141,6 +226,18 @@ mod tests {
 
     fn matrix(values: [f32; 9]) -> Mat3 {
         Mat3::from_cols_array(&values)
+    }
+
+    fn one(m: Mat3) -> Mat3s<1> {
+        Mat3s::splat(m)
+    }
+
+    /// The factor that multiplies F_P: F_P_new = V Σc⁻¹ Σ Vᵀ F_P_old (eq. 43),
+    /// so that F_E_new F_P_new = F̂_E F_P_old.
+    fn plastic_increment(projection: &PlasticProjection<1>) -> Mat3 {
+        let v = projection.trial.v.lane(0);
+        let ratio = projection.trial.sigma.lane(0) / projection.clamped.lane(0);
+        v * Mat3::from_diagonal(ratio) * v.transpose()
     }
 
     proptest! {
@@ -152,28 +249,32 @@ mod tests {
             let constants = thesis_constants();
             let trial = Mat3::IDENTITY + matrix(noise);
             let plastic_old = Mat3::IDENTITY + matrix(plastic_noise);
-            let projection = PlasticProjection::new(trial, &constants);
-            let elastic = projection.elastic();
+            let projection = PlasticProjection::new(&one(trial), &MaterialLanes::splat(&constants));
+            let elastic = projection.elastic().lane(0);
             let sigma = svd3(elastic).sigma;
             for s in sigma.to_array() {
                 prop_assert!(s >= constants.min_stretch - 1e-5 && s <= constants.max_stretch + 1e-5,
                     "singular value {s} outside [{}, {}]", constants.min_stretch, constants.max_stretch);
             }
-            let plastic_new = projection.plastic_increment() * plastic_old;
+            let plastic_new = plastic_increment(&projection) * plastic_old;
             let total_before = trial * plastic_old;
             let total_after = elastic * plastic_new;
             prop_assert!((total_after - total_before).abs().to_cols_array().iter().all(|e| *e < 2e-5),
                 "F_E F_P changed: {total_before} vs {total_after}");
             let expected_j = plastic_new.determinant() / plastic_old.determinant();
-            prop_assert!((projection.plastic_j_ratio() - expected_j).abs() < 1e-4 * expected_j.abs().max(1.0));
+            let ratio = projection.plastic_j_ratio().lane(0);
+            prop_assert!((ratio - expected_j).abs() < 1e-4 * expected_j.abs().max(1.0));
         }
+    }
+
+    fn update(trial: Mat3, plastic_j: f32) -> ElasticUpdate<1> {
+        let materials = MaterialLanes::splat(&thesis_constants());
+        ElasticUpdate::new(&one(trial), F32s([plastic_j]), F32s([1.0]), &materials)
     }
 
     #[test]
     fn undeformed_snow_has_no_stress() {
-        let constants = thesis_constants();
-        let projection = PlasticProjection::new(Mat3::IDENTITY, &constants);
-        let stress = scaled_stress(&projection, projection.elastic(), 1.0, 1.0, &constants);
+        let stress = update(Mat3::IDENTITY, 1.0).stress.lane(0);
         assert!(stress.abs().to_cols_array().iter().all(|e| *e < 1e-3));
     }
 
@@ -181,14 +282,18 @@ mod tests {
     fn compression_gives_pressure_and_hardening_stiffens() {
         let constants = thesis_constants();
         let squeeze = Mat3::from_diagonal(Vec3::splat(0.99));
-        let projection = PlasticProjection::new(squeeze, &constants);
-        let soft = scaled_stress(&projection, projection.elastic(), 1.0, 1.0, &constants);
-        let hard = scaled_stress(&projection, projection.elastic(), 0.5, 1.0, &constants);
+        let soft = update(squeeze, 1.0);
+        let hard = update(squeeze, 0.5);
+        let (soft_stress, hard_stress) = (soft.stress.lane(0), hard.stress.lane(0));
         // Compressed: negative normal stress, no shear.
-        assert!(soft.x_axis.x < 0.0);
-        assert!(soft.y_axis.x.abs() < 1e-2 * soft.x_axis.x.abs());
+        assert!(soft_stress.x_axis.x < 0.0);
+        assert!(soft_stress.y_axis.x.abs() < 1e-2 * soft_stress.x_axis.x.abs());
         // Hardening by e^{ξ(1 − J_P)} with J_P = 0.5.
         let factor = (constants.hardening * 0.5).exp();
-        assert!((hard.x_axis.x / soft.x_axis.x - factor).abs() < 1e-4);
+        assert_eq!(
+            hard.hardening_factor.lane(0),
+            constants.hardening_factor(0.5)
+        );
+        assert!((hard_stress.x_axis.x / soft_stress.x_axis.x - factor).abs() < 1e-4);
     }
 }

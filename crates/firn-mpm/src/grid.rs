@@ -10,7 +10,7 @@
 //! history), the pool stays in the same order a dense grid would have, and a
 //! 1024³-cell box costs a 64 MiB page table plus the blocks near the snow.
 
-use glam::{IVec3, UVec3, Vec3};
+use glam::{IVec3, UVec3, Vec3, Vec4};
 use rayon::prelude::*;
 
 /// Nodes per block edge. Particle blocks use the same width; it must be at
@@ -31,14 +31,38 @@ pub const PADDING_NODES: i32 = 3;
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[repr(C)]
 pub struct Node {
+    /// xyz: Σ m_p v_p w_ip, then v_i; w: m_i. Momentum and mass share one
+    /// SIMD register, so the scatter adds both with one instruction.
+    pub velocity_mass: Vec4,
+    /// xyz: f_i (PIC/FLIP) or zero (APIC), then v_i^{n+1}; w: always zero,
+    /// so the gather can weight all four lanes at once.
+    pub velocity_new: Vec4,
+}
+
+impl Node {
     /// m_i.
-    pub mass: f32,
-    /// Σ m_p v_p w_ip, then v_i.
-    pub velocity: Vec3,
-    /// f_i (PIC/FLIP) or unused (APIC), then v_i^{n+1}.
-    pub velocity_new: Vec3,
-    /// Pads the node to 32 bytes.
-    pub padding: f32,
+    #[inline(always)]
+    pub fn mass(&self) -> f32 {
+        self.velocity_mass.w
+    }
+
+    /// The momentum sum, or v_i after the grid update.
+    #[inline(always)]
+    pub fn velocity(&self) -> Vec3 {
+        self.velocity_mass.truncate()
+    }
+
+    /// The force sum, or v_i^{n+1} after the grid update.
+    #[inline(always)]
+    pub fn velocity_new(&self) -> Vec3 {
+        self.velocity_new.truncate()
+    }
+
+    /// Stores v_i^{n+1}.
+    #[inline(always)]
+    pub fn set_velocity_new(&mut self, velocity: Vec3) {
+        self.velocity_new = velocity.extend(0.0);
+    }
 }
 
 /// Where the grid lies and how its nodes are numbered; small and `Copy`, so
@@ -200,6 +224,37 @@ impl StencilIndex {
         // `& 7` keeps the index provably in bounds; the offsets are 0 or 1.
         let slot = self.slots[((block.x * 4 + block.y * 2 + block.z) & 7) as usize];
         slot as usize * BLOCK_NODES + GridLayout::local_index(node)
+    }
+
+    /// Indices of the whole `N`³ stencil, `[i][j][k]` as in [`Self::index`];
+    /// the per-axis part of the arithmetic is done once per axis, not per node.
+    #[inline(always)]
+    pub fn indices<const N: usize>(&self) -> [[[usize; N]; N]; N] {
+        let width = BLOCK_WIDTH as usize;
+        let mut block_bits = [[0usize; N]; 3];
+        let mut local = [[0usize; N]; 3];
+        let weights = [width * width, width, 1];
+        for axis in 0..3 {
+            for a in 0..N {
+                let node = self.base[axis] + a as i32;
+                let block = ((node >> 2) - self.first_block[axis]) as usize;
+                block_bits[axis][a] = block << (2 - axis);
+                local[axis][a] = (node & (BLOCK_WIDTH - 1)) as usize * weights[axis];
+            }
+        }
+        let mut out = [[[0usize; N]; N]; N];
+        for (i, plane) in out.iter_mut().enumerate() {
+            for (j, row) in plane.iter_mut().enumerate() {
+                for (k, index) in row.iter_mut().enumerate() {
+                    let block = (block_bits[0][i] + block_bits[1][j] + block_bits[2][k]) & 7;
+                    *index = self.slots[block] as usize * BLOCK_NODES
+                        + local[0][i]
+                        + local[1][j]
+                        + local[2][k];
+                }
+            }
+        }
+        out
     }
 }
 
@@ -372,6 +427,7 @@ mod tests {
             for (i, j, k) in (0..64).map(|n| (n / 16, n / 4 % 4, n % 4)) {
                 let node = base + IVec3::new(i as i32, j as i32, k as i32);
                 assert_eq!(stencil.index(i, j, k), table.node_index(node));
+                assert_eq!(stencil.indices::<4>()[i][j][k], table.node_index(node));
             }
         }
     }

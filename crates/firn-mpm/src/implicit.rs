@@ -366,18 +366,18 @@ impl NodeVectors {
                 let coord = layout.block_coord(block as usize);
                 let mut sum = 0.0;
                 for (local, node) in nodes.iter().enumerate() {
-                    mass[local] = node.mass;
-                    if node.mass <= 0.0 {
+                    mass[local] = node.mass();
+                    if node.mass() <= 0.0 {
                         constraint[local] = Constraint::Fixed;
                         continue;
                     }
-                    inverse_mass[local] = 1.0 / node.mass;
+                    inverse_mass[local] = 1.0 / node.mass();
                     let position = layout.node_position(GridLayout::node_in_block(coord, local));
                     let (velocity, fixed) =
-                        collide_all_constrained(colliders, position, node.velocity_new);
+                        collide_all_constrained(colliders, position, node.velocity_new());
                     x[local] = velocity;
                     constraint[local] = fixed;
-                    sum += f64::from(node.mass * velocity.length_squared());
+                    sum += f64::from(node.mass() * velocity.length_squared());
                 }
                 sum
             })
@@ -639,10 +639,10 @@ impl ImplicitSolver {
             .zip(blocks(&self.nodes.x))
             .for_each(|((coord, nodes), x)| {
                 for (local, node) in nodes.iter_mut().enumerate() {
-                    if node.mass > 0.0 {
+                    if node.mass() > 0.0 {
                         let position =
                             layout.node_position(GridLayout::node_in_block(coord, local));
-                        node.velocity_new = collide_all(colliders, position, x[local]);
+                        node.set_velocity_new(collide_all(colliders, position, x[local]));
                     }
                 }
             });

@@ -28,6 +28,7 @@ pub mod particles;
 pub mod profile;
 pub mod simulation;
 pub mod transfer;
+pub mod update;
 
 pub use implicit::SolverStats;
 pub use particles::Particles;

@@ -2,6 +2,7 @@
 //! colliders, and advances them substep by substep (thesis §3.4, Figure 5).
 
 use firn_core::math::bspline::{cubic_weights, quadratic_weights};
+use firn_core::math::lanes::Simd;
 use firn_core::scene::sampling::sample_bodies;
 use firn_core::scene::{Integrator, Scene, TimeStep, Transfer};
 use glam::{Mat3, Vec3};
@@ -13,10 +14,8 @@ use crate::grid::{Grid, GridLayout};
 use crate::implicit::{ImplicitSolver, ImplicitStep, SolverStats};
 use crate::particles::Particles;
 use crate::profile::{PhaseClock, PhaseTimes};
-use crate::transfer::{
-    self, GatherStats, GridForces, ParticleProblem, ProblemKind, UpdateContext, gather_apic,
-    gather_pic_flip,
-};
+use crate::transfer::{self, GridForces, gather_apic, gather_pic_flip};
+use crate::update::{GatherStats, ParticleProblem, ProblemKind, UpdateContext};
 
 /// Particles are physically reordered by block every this many substeps, so
 /// that the scatter and gather stream through memory.
@@ -103,6 +102,8 @@ pub struct Simulation {
     implicit: Option<ImplicitSolver>,
     /// Wall-clock time per phase since the last reset.
     profile: PhaseTimes,
+    /// The instruction set of the batched particle update.
+    simd: Simd,
 }
 
 impl Simulation {
@@ -187,6 +188,7 @@ impl Simulation {
                 Integrator::SemiImplicit(_) => Some(ImplicitSolver::default()),
             },
             profile: PhaseTimes::default(),
+            simd: Simd::detect(),
             scene,
         }
     }
@@ -325,8 +327,9 @@ impl Simulation {
                 &mut self.particles,
                 self.scene.solver.flip_blend,
                 &context,
+                self.simd,
             ),
-            Transfer::Apic => gather_apic(&self.grid, &mut self.particles, &context),
+            Transfer::Apic => gather_apic(&self.grid, &mut self.particles, &context, self.simd),
         };
         clock.lap(&mut self.profile.gather);
         transfer::clear_grid(&mut self.grid);
@@ -338,6 +341,13 @@ impl Simulation {
         self.steps += 1;
         self.stats = stats;
         Ok(dt)
+    }
+
+    /// Chooses the instruction set of the batched particle update (the best
+    /// the CPU has by default; one it lacks falls back to portable code).
+    /// Every choice gives the same bits; this exists to show that.
+    pub fn set_simd(&mut self, simd: Simd) {
+        self.simd = simd;
     }
 
     /// Wall-clock seconds spent in each phase of the substeps since the last

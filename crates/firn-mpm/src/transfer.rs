@@ -13,16 +13,17 @@
 
 use std::marker::PhantomData;
 
-use glam::{IVec3, Mat3, Vec3};
+use glam::{IVec3, Mat3, Vec3, Vec4};
 use rayon::prelude::*;
 
 use firn_core::math::bspline::{StencilWeights, cubic_weights, quadratic_weights};
+use firn_core::math::lanes::Simd;
 
 use crate::binning::Bins;
-use crate::constitutive::{MaterialConstants, PlasticProjection, scaled_stress};
 use crate::contact::{PlacedCollider, collide_all};
-use crate::grid::{Grid, GridLayout, Node};
+use crate::grid::{Grid, GridLayout, Node, PageTable};
 use crate::particles::Particles;
+use crate::update::{GatherStats, UpdateContext, gather_with};
 
 /// Writes into grid nodes from several threads at once. The nodes are stored
 /// slot by slot, [`BLOCK_NODES`] per block: the grid's [`Node`]s, or the
@@ -95,18 +96,17 @@ pub fn scatter_pic_flip(grid: &mut Grid, bins: &Bins, particles: &Particles) {
             let p = p as usize;
             let weights = cubic_weights(layout.to_grid(particles.position[p]));
             let mass = particles.mass[p];
-            let momentum = particles.velocity[p] * mass;
+            let momentum_mass = (particles.velocity[p] * mass).extend(mass);
             let stress = particles.stress[p];
-            let stencil = table.stencil(weights.base);
-            for i in 0..4 {
-                for j in 0..4 {
-                    for k in 0..4 {
+            let indices = table.stencil(weights.base).indices::<4>();
+            for (i, plane) in indices.iter().enumerate() {
+                for (j, row) in plane.iter().enumerate() {
+                    for (k, &index) in row.iter().enumerate() {
                         let w = weights.weight(i, j, k);
                         let force = -(stress * (weights.gradient(i, j, k) * inverse_h));
-                        writer.update(stencil.index(i, j, k), |node| {
-                            node.mass += mass * w;
-                            node.velocity += momentum * w;
-                            node.velocity_new += force;
+                        writer.update(index, |node| {
+                            node.velocity_mass += momentum_mass * w;
+                            node.velocity_new += force.extend(0.0);
                         });
                     }
                 }
@@ -126,20 +126,25 @@ pub fn scatter_apic(grid: &mut Grid, bins: &Bins, particles: &Particles, dt: f32
             let p = p as usize;
             let weights = quadratic_weights(layout.to_grid(particles.position[p]));
             let mass = particles.mass[p];
-            let momentum = particles.velocity[p] * mass;
             // Maps a node offset in cells to momentum: (m C − Δt M⁻¹ V0 τ) h.
             let affine = (particles.velocity_gradient[p] * mass
                 - particles.stress[p] * (dt * inverse_inertia))
                 * h;
-            let stencil = table.stencil(weights.base);
-            for i in 0..3 {
-                for j in 0..3 {
-                    for k in 0..3 {
-                        let w = weights.weight(i, j, k);
-                        let node_momentum = (momentum + affine * weights.node_offset(i, j, k)) * w;
-                        writer.update(stencil.index(i, j, k), |node| {
-                            node.mass += mass * w;
-                            node.velocity += node_momentum;
+            // Node (i, j, k) gets w (m v + affine ((i, j, k) − offset), m):
+            // the affine part grows by one column per stencil step.
+            let at_base = (particles.velocity[p] * mass - affine * weights.offset).extend(mass);
+            let step = |column: Vec3, n: usize| column.extend(0.0) * n as f32;
+            let indices = table.stencil(weights.base).indices::<3>();
+            for (i, plane) in indices.iter().enumerate() {
+                let at_i = at_base + step(affine.x_axis, i);
+                for (j, row) in plane.iter().enumerate() {
+                    let at_ij = at_i + step(affine.y_axis, j);
+                    let wxy = weights.values[i].x * weights.values[j].y;
+                    for (k, &index) in row.iter().enumerate() {
+                        let contribution =
+                            (at_ij + step(affine.z_axis, k)) * (wxy * weights.values[k].z);
+                        writer.update(index, |node| {
+                            node.velocity_mass += contribution;
                         });
                     }
                 }
@@ -166,7 +171,7 @@ pub fn scatter_mass<const N: usize>(
                 for j in 0..N {
                     for k in 0..N {
                         let mass = particles.mass[p] * weights.weight(i, j, k);
-                        writer.update(stencil.index(i, j, k), |node| node.mass += mass);
+                        writer.update(stencil.index(i, j, k), |node| node.velocity_mass.w += mass);
                     }
                 }
             }
@@ -197,7 +202,7 @@ pub fn estimate_volumes<const N: usize>(
                 for j in 0..N {
                     for k in 0..N {
                         density +=
-                            grid.nodes[stencil.index(i, j, k)].mass * weights.weight(i, j, k);
+                            grid.nodes[stencil.index(i, j, k)].mass() * weights.weight(i, j, k);
                     }
                 }
             }
@@ -226,17 +231,23 @@ pub fn update_grid(
     let layout = grid.layout;
     for_each_active_block(grid, |block, nodes| {
         for (local, node) in nodes.iter_mut().enumerate() {
-            if node.mass <= 0.0 {
+            let mass = node.mass();
+            if mass <= 0.0 {
                 continue;
             }
-            let inverse_mass = 1.0 / node.mass;
-            node.velocity *= inverse_mass;
+            let inverse_mass = 1.0 / mass;
+            let velocity = node.velocity() * inverse_mass;
             let acceleration = match forces {
-                GridForces::Separate => node.velocity_new * inverse_mass + gravity,
+                GridForces::Separate => node.velocity_new() * inverse_mass + gravity,
                 GridForces::InMomentum => gravity,
             };
             let position = layout.node_position(GridLayout::node_in_block(block, local));
-            node.velocity_new = collide_all(colliders, position, node.velocity + acceleration * dt);
+            node.velocity_mass = velocity.extend(mass);
+            node.set_velocity_new(collide_all(
+                colliders,
+                position,
+                velocity + acceleration * dt,
+            ));
         }
     });
 }
@@ -247,185 +258,6 @@ pub fn clear_grid(grid: &mut Grid) {
     for_each_active_block(grid, |_, nodes| nodes.fill(Node::default()));
 }
 
-/// What the gather learned about the particles, for the next Δt and for
-/// catching a simulation that blows up.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct GatherStats {
-    /// Largest |v_p|².
-    pub max_speed_squared: f32,
-    /// Largest squared elastic wave speed, hardening included.
-    pub max_wave_speed_squared: f32,
-    /// The first (lowest-index) particle in trouble, if any.
-    pub problem: Option<ParticleProblem>,
-}
-
-/// A particle whose state went wrong.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ParticleProblem {
-    /// Particle index.
-    pub particle: usize,
-    /// What went wrong.
-    pub kind: ProblemKind,
-    /// Where the particle was.
-    pub position: Vec3,
-}
-
-/// Kinds of particle trouble.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ProblemKind {
-    /// Position, velocity or deformation became NaN or infinite.
-    NonFinite,
-    /// The particle moved outside the domain.
-    LeftDomain,
-}
-
-impl GatherStats {
-    /// Combines two partial results; order-independent, hence deterministic.
-    fn merge(self, other: GatherStats) -> GatherStats {
-        let problem = match (self.problem, other.problem) {
-            (Some(a), Some(b)) => Some(if a.particle <= b.particle { a } else { b }),
-            (a, b) => a.or(b),
-        };
-        GatherStats {
-            max_speed_squared: self.max_speed_squared.max(other.max_speed_squared),
-            max_wave_speed_squared: self
-                .max_wave_speed_squared
-                .max(other.max_wave_speed_squared),
-            problem,
-        }
-    }
-}
-
-/// Everything the particle update needs besides the particle itself.
-#[derive(Clone, Copy)]
-pub struct UpdateContext<'a> {
-    /// Substep Δt.
-    pub dt: f32,
-    /// Materials by index.
-    pub materials: &'a [MaterialConstants],
-    /// Colliders at the end of the step.
-    pub colliders: &'a [PlacedCollider],
-    /// Lower domain corner, widened by the tolerance for leaving.
-    pub lower: Vec3,
-    /// Upper domain corner, widened likewise.
-    pub upper: Vec3,
-}
-
-/// One particle's mutable state during the gather.
-struct ParticleUpdate<'a> {
-    position: &'a mut Vec3,
-    velocity: &'a mut Vec3,
-    elastic: &'a mut Mat3,
-    plastic_j: &'a mut f32,
-    stress: &'a mut Mat3,
-    velocity_gradient: &'a mut Mat3,
-    volume0: f32,
-    material: u16,
-}
-
-impl ParticleUpdate<'_> {
-    /// Steps 7, 9 and 10 for a particle whose new grid velocity and velocity
-    /// gradient are known: plasticity (eq. 41-43), the stress for the next
-    /// scatter, particle collisions at the predicted position, advection.
-    #[inline(always)]
-    fn finish(
-        self,
-        index: usize,
-        velocity_gradient: Mat3,
-        velocity: Vec3,
-        context: &UpdateContext,
-    ) -> GatherStats {
-        let constants = &context.materials[self.material as usize];
-        let trial = (Mat3::IDENTITY + velocity_gradient * context.dt) * *self.elastic;
-        let projection = PlasticProjection::new(trial, constants);
-        let elastic = projection.elastic();
-        let plastic_j = *self.plastic_j * projection.plastic_j_ratio();
-        *self.stress = scaled_stress(&projection, elastic, plastic_j, self.volume0, constants);
-        *self.elastic = elastic;
-        *self.plastic_j = plastic_j;
-        *self.velocity_gradient = velocity_gradient;
-
-        let predicted = *self.position + velocity * context.dt;
-        let velocity = collide_all(context.colliders, predicted, velocity);
-        *self.velocity = velocity;
-        *self.position += velocity * context.dt;
-
-        let position = *self.position;
-        let wave_speed_squared =
-            constants.wave_speed_squared * constants.hardening_factor(plastic_j);
-        let finite = position.is_finite()
-            && velocity.is_finite()
-            && elastic.is_finite()
-            && wave_speed_squared.is_finite();
-        let inside = position.cmpge(context.lower).all() && position.cmple(context.upper).all();
-        let problem = match (finite, inside) {
-            (false, _) => Some(ProblemKind::NonFinite),
-            (true, false) => Some(ProblemKind::LeftDomain),
-            (true, true) => None,
-        };
-        GatherStats {
-            max_speed_squared: velocity.length_squared(),
-            max_wave_speed_squared: wave_speed_squared,
-            problem: problem.map(|kind| ParticleProblem {
-                particle: index,
-                kind,
-                position,
-            }),
-        }
-    }
-}
-
-/// Steps 7-10 for every particle in parallel: `interpolate` reads the grid at a
-/// particle (position, old velocity) and returns its new velocity and ∇v_p.
-fn gather_with(
-    particles: &mut Particles,
-    context: &UpdateContext,
-    interpolate: impl Fn(Vec3, Vec3) -> (Vec3, Mat3) + Sync,
-) -> GatherStats {
-    (
-        particles.position.par_iter_mut(),
-        particles.velocity.par_iter_mut(),
-        particles.elastic.par_iter_mut(),
-        particles.plastic_j.par_iter_mut(),
-        particles.stress.par_iter_mut(),
-        particles.velocity_gradient.par_iter_mut(),
-        particles.volume0.par_iter(),
-        particles.material.par_iter(),
-    )
-        .into_par_iter()
-        .enumerate()
-        .with_min_len(512)
-        .map(
-            |(
-                p,
-                (
-                    position,
-                    velocity,
-                    elastic,
-                    plastic_j,
-                    stress,
-                    velocity_gradient,
-                    volume0,
-                    material,
-                ),
-            )| {
-                let (new_velocity, gradient) = interpolate(*position, *velocity);
-                let update = ParticleUpdate {
-                    position,
-                    velocity,
-                    elastic,
-                    plastic_j,
-                    stress,
-                    velocity_gradient,
-                    volume0: *volume0,
-                    material: *material,
-                };
-                update.finish(p, gradient, new_velocity, context)
-            },
-        )
-        .reduce(GatherStats::default, GatherStats::merge)
-}
-
 /// Steps 7-10 for PIC/FLIP with FLIP share `flip`:
 /// v_p = (1 − α) Σ w_ip v_i^{n+1} + α (v_p + Σ w_ip (v_i^{n+1} − v_i)) and
 /// ∇v_p = Σ v_i^{n+1} (∇w_ip)ᵀ.
@@ -434,26 +266,27 @@ pub fn gather_pic_flip(
     particles: &mut Particles,
     flip: f32,
     context: &UpdateContext,
+    simd: Simd,
 ) -> GatherStats {
     let table = grid.page_table();
     let layout = table.layout;
     let inverse_h = 1.0 / layout.cell_size;
     let nodes = &grid.nodes;
-    gather_with(particles, context, |position, velocity| {
+    gather_with(particles, context, simd, |position, velocity| {
         let weights = cubic_weights(layout.to_grid(position));
-        let stencil = table.stencil(weights.base);
+        let indices = table.stencil(weights.base).indices::<4>();
         let mut pic = Vec3::ZERO;
         let mut change = Vec3::ZERO;
         let mut gradient = Mat3::ZERO;
         for i in 0..4 {
             for j in 0..4 {
                 for k in 0..4 {
-                    let node = &nodes[stencil.index(i, j, k)];
+                    let node = &nodes[indices[i][j][k]];
                     let w = weights.weight(i, j, k);
                     let grad_w = weights.gradient(i, j, k) * inverse_h;
-                    pic += node.velocity_new * w;
-                    change += (node.velocity_new - node.velocity) * w;
-                    gradient += outer(node.velocity_new, grad_w);
+                    pic += node.velocity_new() * w;
+                    change += (node.velocity_new() - node.velocity()) * w;
+                    gradient += outer(node.velocity_new(), grad_w);
                 }
             }
         }
@@ -463,29 +296,54 @@ pub fn gather_pic_flip(
 
 /// Steps 7-10 for APIC: v_p = Σ w_ip v_i, C_p = (4/h²) Σ w_ip v_i (x_i − x_p)ᵀ,
 /// and ∇v_p = C_p.
-pub fn gather_apic(grid: &Grid, particles: &mut Particles, context: &UpdateContext) -> GatherStats {
+pub fn gather_apic(
+    grid: &Grid,
+    particles: &mut Particles,
+    context: &UpdateContext,
+    simd: Simd,
+) -> GatherStats {
     let table = grid.page_table();
     let layout = table.layout;
     // (4/h²) times the offset in world units (cells · h).
     let affine_scale = 4.0 / layout.cell_size;
     let nodes = &grid.nodes;
-    gather_with(particles, context, |position, _| {
-        let weights = quadratic_weights(layout.to_grid(position));
-        let stencil = table.stencil(weights.base);
-        let mut velocity = Vec3::ZERO;
-        let mut affine = Mat3::ZERO;
-        for i in 0..3 {
-            for j in 0..3 {
-                for k in 0..3 {
-                    let node_velocity =
-                        nodes[stencil.index(i, j, k)].velocity_new * weights.weight(i, j, k);
-                    velocity += node_velocity;
-                    affine += outer(node_velocity, weights.node_offset(i, j, k));
-                }
-            }
-        }
+    gather_with(particles, context, simd, |position, _| {
+        let (velocity, affine) = interpolate_apic(&table, nodes, position);
         (velocity, affine * affine_scale)
     })
+}
+
+/// v_p = Σ w_ip v_i and Σ w_ip v_i (x_i − x_p)ᵀ in cells, for one particle.
+#[inline(always)]
+fn interpolate_apic(table: &PageTable, nodes: &[Node], position: Vec3) -> (Vec3, Mat3) {
+    let layout = table.layout;
+    let weights = quadratic_weights(layout.to_grid(position));
+    let indices = table.stencil(weights.base).indices::<3>();
+    // Weighted velocities summed per x-slab, y-row and z-column of the
+    // stencil: their totals give v_p, their first moments C_p.
+    let (mut slabs, mut rows, mut columns) = ([Vec4::ZERO; 3], [Vec4::ZERO; 3], [Vec4::ZERO; 3]);
+    for i in 0..3 {
+        for j in 0..3 {
+            let wxy = weights.values[i].x * weights.values[j].y;
+            for k in 0..3 {
+                let weighted = nodes[indices[i][j][k]].velocity_new * (wxy * weights.values[k].z);
+                slabs[i] += weighted;
+                rows[j] += weighted;
+                columns[k] += weighted;
+            }
+        }
+    }
+    let velocity = slabs[0] + slabs[1] + slabs[2];
+    // Σ w v (n − offset) along one axis, from the sums at n = 0, 1, 2.
+    let moment =
+        |sums: [Vec4; 3], offset: f32| (sums[1] + sums[2] * 2.0 - velocity * offset).truncate();
+    let offset = weights.offset;
+    let affine = Mat3::from_cols(
+        moment(slabs, offset.x),
+        moment(rows, offset.y),
+        moment(columns, offset.z),
+    );
+    (velocity.truncate(), affine)
 }
 
 /// The outer product a bᵀ.

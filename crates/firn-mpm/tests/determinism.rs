@@ -1,12 +1,18 @@
-//! The same scene gives the same bits for any thread count, and a run
-//! continued from a snapshot gives the same bits as an uninterrupted one.
+//! The same scene gives the same bits for any thread count and any SIMD
+//! instruction set, and a run continued from a snapshot gives the same bits
+//! as an uninterrupted one.
 
 mod common;
 
+use firn_core::math::lanes::Simd;
 use firn_mpm::{Particles, Simulation};
 use glam::Vec3;
 
 fn run_with_threads(threads: usize, transfer: firn_core::scene::Transfer) -> Particles {
+    run_with(threads, Simd::detect(), transfer)
+}
+
+fn run_with(threads: usize, simd: Simd, transfer: firn_core::scene::Transfer) -> Particles {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -19,6 +25,7 @@ fn run_with_threads(threads: usize, transfer: firn_core::scene::Transfer) -> Par
             transfer,
         );
         let mut simulation = Simulation::new(scene).unwrap();
+        simulation.set_simd(simd);
         simulation.advance_to(0.08).unwrap();
         simulation.particles().clone()
     })
@@ -71,6 +78,27 @@ fn results_are_bit_identical_across_thread_counts() {
             bits(&reference) == bits(&again),
             "{transfer:?}: two runs differ"
         );
+    }
+}
+
+/// The batched SVD and plasticity give the same bits in portable code, AVX2
+/// and AVX-512 (each where the CPU has it; CI's machines have AVX2 at least).
+#[test]
+fn results_are_bit_identical_across_instruction_sets() {
+    for transfer in common::TRANSFERS {
+        let portable = run_with(2, Simd::Portable, transfer);
+        for simd in [Simd::Avx2, Simd::Avx512] {
+            if !simd.is_available() {
+                eprintln!("{} not on this CPU; compared where it is", simd.name());
+                continue;
+            }
+            let other = run_with(2, simd, transfer);
+            assert!(
+                bits(&portable) == bits(&other),
+                "{transfer:?}: {} differs from portable code",
+                simd.name()
+            );
+        }
     }
 }
 

@@ -1,7 +1,8 @@
 //! The sparse grid changes where node data lives, not what the solver
-//! computes: these scenes must give exactly the bits recorded with the dense
-//! grid that preceded it, and a huge mostly empty domain must cost memory in
-//! proportion to the snow, not to the box.
+//! computes: these scenes must give exactly the recorded bits (see
+//! `results_match_the_dense_grid_bit_for_bit` for their history), and a
+//! huge mostly empty domain must cost memory in proportion to the snow, not
+//! to the box.
 
 mod common;
 
@@ -60,7 +61,11 @@ fn fingerprint_after(mut simulation: Simulation, substeps: usize) -> u64 {
     fingerprint(simulation.particles())
 }
 
-/// Hashes recorded with the dense grid (commit f2d7377).
+/// The sparse grid reproduced, bit for bit, the hashes recorded with the
+/// dense grid (commit f2d7377). The batched SIMD snow model and the
+/// factorised APIC transfers that followed round differently (the grid code
+/// did not change), so the hashes were recorded again then: they now guard
+/// against any unintended change of the results.
 #[test]
 fn results_match_the_dense_grid_bit_for_bit() {
     let semi_implicit = Integrator::SemiImplicit(ImplicitSettings::DEFAULT);
@@ -69,25 +74,25 @@ fn results_match_the_dense_grid_bit_for_bit() {
             "PIC/FLIP explicit",
             thrown_snowball(Transfer::PicFlip, Integrator::Explicit, 5e-4),
             120,
-            0x21ef35b31981c6d3,
+            0xae03f6a05ff0ab03,
         ),
         (
             "APIC explicit",
             thrown_snowball(Transfer::Apic, Integrator::Explicit, 5e-4),
             120,
-            0xf9824aa32b5aa3bb,
+            0xdc002c98abd58117,
         ),
         (
             "APIC semi-implicit",
             thrown_snowball(Transfer::Apic, semi_implicit, 1e-3),
             60,
-            0xf29bd5c7f74d0483,
+            0x5f5b7fc5e3e1a4d4,
         ),
         (
             "PIC/FLIP semi-implicit",
             thrown_snowball(Transfer::PicFlip, semi_implicit, 1e-3),
             60,
-            0x0845409b4b118959,
+            0x4628eb9eae9a03f4,
         ),
     ];
     let mut failures = Vec::new();

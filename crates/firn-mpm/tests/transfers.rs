@@ -2,13 +2,15 @@
 //! momentum and, with APIC, angular momentum.
 
 use firn_core::math::bspline::{cubic_weights, quadratic_weights};
+use firn_core::math::lanes::Simd;
 use firn_core::scene::Transfer;
 use firn_mpm::Particles;
 use firn_mpm::binning::Bins;
 use firn_mpm::constitutive::MaterialConstants;
 use firn_mpm::grid::{Grid, GridLayout};
 use firn_mpm::simulation::diagnostics;
-use firn_mpm::transfer::{self, GridForces, UpdateContext};
+use firn_mpm::transfer::{self, GridForces};
+use firn_mpm::update::UpdateContext;
 use glam::{DVec3, Mat3, Vec3};
 
 const H: f32 = 0.05;
@@ -55,8 +57,8 @@ fn grid_totals(grid: &Grid) -> (f64, DVec3, DVec3) {
     for (block, nodes) in grid.blocks() {
         for (local, node) in nodes.iter().enumerate() {
             let node_coord = GridLayout::node_in_block(block, local);
-            let m = node.mass as f64;
-            let p = node.velocity_new.as_dvec3() * m;
+            let m = node.mass() as f64;
+            let p = node.velocity_new().as_dvec3() * m;
             mass += m;
             momentum += p;
             angular += layout.node_position(node_coord).as_dvec3().cross(p);
@@ -119,8 +121,10 @@ fn round_trip(transfer_scheme: Transfer) {
     };
     let stats = match transfer_scheme {
         // α = 0: pure PIC, so particle velocities are the interpolated grid ones.
-        Transfer::PicFlip => transfer::gather_pic_flip(&grid, &mut particles, 0.0, &context),
-        Transfer::Apic => transfer::gather_apic(&grid, &mut particles, &context),
+        Transfer::PicFlip => {
+            transfer::gather_pic_flip(&grid, &mut particles, 0.0, &context, Simd::detect())
+        }
+        Transfer::Apic => transfer::gather_apic(&grid, &mut particles, &context, Simd::detect()),
     };
     assert!(stats.problem.is_none());
     let after = diagnostics(&particles, H, transfer_scheme);

@@ -102,11 +102,20 @@ impl<const N: usize> StencilWeights<N> {
     }
 }
 
+/// ⌊x⌋ per component without a libm call (plain x86-64 lacks SSE4.1's
+/// rounding instruction): truncate, then step down where truncation rounded
+/// up. Exact for |x| < 2³¹, far beyond any grid.
+#[inline(always)]
+fn floor(x: Vec3) -> Vec3 {
+    let truncated = x.as_ivec3().as_vec3();
+    truncated - Vec3::select(truncated.cmpgt(x), Vec3::ONE, Vec3::ZERO)
+}
+
 /// Cubic B-spline weights over the 4x4x4 stencil of a particle at grid
 /// coordinate `x` (nodes ⌊x⌋−1 … ⌊x⌋+2 per axis).
 #[inline(always)]
 pub fn cubic_weights(x: Vec3) -> StencilWeights<4> {
-    let base_node = x.floor() - Vec3::ONE;
+    let base_node = floor(x) - Vec3::ONE;
     let offset = x - base_node;
     let mut values = [Vec3::ZERO; 4];
     let mut slopes = [Vec3::ZERO; 4];
@@ -132,7 +141,7 @@ pub fn cubic_weights(x: Vec3) -> StencilWeights<4> {
 /// coordinate `x` (nodes ⌊x − ½⌋ … ⌊x − ½⌋+2 per axis).
 #[inline(always)]
 pub fn quadratic_weights(x: Vec3) -> StencilWeights<3> {
-    let base_node = (x - Vec3::splat(0.5)).floor();
+    let base_node = floor(x - Vec3::splat(0.5));
     let offset = x - base_node;
     let mut values = [Vec3::ZERO; 3];
     let mut slopes = [Vec3::ZERO; 3];
@@ -202,6 +211,12 @@ mod tests {
         }
 
         #[test]
+        fn floor_matches_the_library_floor(x in -1e6f32..1e6, y in -3.0f32..3.0, z in -1.0f32..1.0) {
+            let v = Vec3::new(x, y, z);
+            prop_assert_eq!(floor(v), v.floor());
+        }
+
+        #[test]
         fn derivatives_match_finite_differences(x in -2.5f32..2.5) {
             let h = 1e-3;
             let fd_cubic = (cubic(x + h) - cubic(x - h)) / (2.0 * h);
@@ -227,5 +242,8 @@ mod tests {
         assert_eq!(w.base, IVec3::new(4, 6, -1));
         let q = quadratic_weights(Vec3::new(5.3, 7.0, 0.49));
         assert_eq!(q.base, IVec3::new(4, 6, -1));
+        for x in [-2.0, -1.5, -0.0, 0.0, 3.0, 1e-8, -1e-8] {
+            assert_eq!(floor(Vec3::splat(x)), Vec3::splat(x).floor(), "{x}");
+        }
     }
 }

@@ -1,4 +1,5 @@
-//! Math helpers shared by the solvers: interpolation kernels and the 3x3 SVD.
+//! Math helpers shared by the solvers: interpolation kernels, SIMD lanes and the 3x3 SVD.
 
 pub mod bspline;
+pub mod lanes;
 pub mod svd;

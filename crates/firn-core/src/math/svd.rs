@@ -19,11 +19,12 @@
 //!    relative to this normalised matrix.
 //! 2. Cyclic Jacobi eigen-analysis of the symmetric `A = FᵀF`: four sweeps over the
 //!    planes (x,y), (y,z), (z,x). Each step applies the exact Jacobi rotation (inner
-//!    angle, |θ| <= π/4) that zeroes the plane's off-diagonal entry, and accumulates `V`
-//!    as a product of quaternions, so `V` is a rotation up to rounding once the
-//!    quaternion is normalised. Steps whose off-diagonal entry is already below 1e-12
-//!    are skipped; this keeps converged entries from decaying into denormals, which are
-//!    very slow on x86.
+//!    angle, |θ| <= π/4) that zeroes the plane's off-diagonal entry, and applies the
+//!    same rotation to two columns of `V`. Each step takes two square roots and one
+//!    division (its tangent comes from the same quantities, not from a second
+//!    division). Steps whose off-diagonal entry is already below 1e-12 are skipped;
+//!    this keeps converged entries from decaying into denormals, which are very slow
+//!    on x86.
 //! 3. `B = F V` has (nearly) orthogonal columns whose norms are the singular values.
 //!    The columns are sorted by decreasing norm; each swap negates one of the two
 //!    columns (of `B` and of `V`) so that `V` stays a proper rotation.
@@ -40,23 +41,30 @@
 //!
 //! The code is straight-line with a fixed operation count: no allocation, no loops
 //! that depend on the data, and the few data-dependent choices (skips, swaps, zero
-//! guards) are simple selects. Zero pivots are guarded, so rank-deficient and zero
+//! guards) are simple selects. It is written once, over `N` lanes
+//! ([`svd3_lanes`] on [`F32s`]): [`svd3`] is the one-lane case, and the solver
+//! decomposes 16 matrices per call in SIMD registers, each lane getting exactly the
+//! bits it would get alone. Zero pivots are guarded, so rank-deficient and zero
 //! matrices give finite singular values and proper rotations, and no finite input can
 //! produce a NaN.
 //!
 //! # Accuracy and cost
 //!
-//! Over millions of random, graded, rank-deficient, clustered, near-identity and
-//! rescaled (1e-30 to 1e30) matrices, the relative reconstruction error
-//! `|U Σ Vᵀ − F| / |F|` (Frobenius) stayed below 1e-6 and `U`, `V` were orthonormal to
-//! 2e-6. Three sweeps leave a tail of errors near 1e-5; a fifth sweep changes nothing
+//! Over random, graded, rank-deficient, clustered, near-identity and rescaled (1e-30
+//! to 1e30) matrices (the property tests below), the relative reconstruction error
+//! `|U Σ Vᵀ − F| / |F|` (Frobenius) stays below 2e-6 and `U`, `V` are orthonormal to
+//! 4e-6. Three sweeps leave a tail of errors near 1e-5; a fifth sweep changes nothing
 //! measurable. The singular values are accurate to about 1e-6 `|F|` in absolute terms
 //! (tiny ones are not accurate relative to themselves, as with any method that
-//! works on `FᵀF`). One call takes about 0.3 µs on an x86-64 server core, dominated
-//! by the chain of square roots and divisions through the twelve dependent Jacobi
-//! steps.
+//! works on `FᵀF`). One matrix alone takes about 0.3 µs on an x86-64 server core,
+//! bound by the latency of the square roots and divisions through the twelve
+//! dependent Jacobi steps; sixteen in one AVX-512 batch share that latency, and the
+//! snow model's whole batched update (SVD, clamp, stress) costs about 40 ns per
+//! particle on one core (`firn bench --phases`, see docs/benchmarks.md).
 
-use glam::{BVec3, Mat3, Quat, Vec3};
+use glam::{Mat3, Vec3};
+
+use crate::math::lanes::{F32s, Mat3s, U32s, Vec3s};
 
 /// U Σ Vᵀ with U, V proper rotations (det +1).
 #[derive(Clone, Copy, Debug)]
@@ -76,6 +84,17 @@ impl Svd3 {
     }
 }
 
+/// [`Svd3`] of `N` matrices at once, lane by lane.
+#[derive(Clone, Copy, Debug)]
+pub struct Svd3s<const N: usize> {
+    /// Left singular vectors as columns.
+    pub u: Mat3s<N>,
+    /// Singular values, sorted and signed as in [`Svd3`].
+    pub sigma: Vec3s<N>,
+    /// Right singular vectors as columns.
+    pub v: Mat3s<N>,
+}
+
 /// Number of cyclic Jacobi sweeps over FᵀF (three rotations each).
 const JACOBI_SWEEPS: usize = 4;
 
@@ -90,74 +109,94 @@ const TINY: f32 = 1.0e-18;
 
 /// Singular values sorted by decreasing absolute value; sigma.x >= sigma.y >= |sigma.z|; sigma.z carries the sign of det F (negative for inverted/reflected F). u and v are rotations.
 pub fn svd3(f: Mat3) -> Svd3 {
-    // 1. Exact power-of-two normalisation.
-    let max_abs = f
-        .x_axis
-        .abs()
-        .max(f.y_axis.abs())
-        .max(f.z_axis.abs())
-        .max_element();
-    let (scale, unscale) = power_of_two_scale(max_abs);
-    let f = f * scale;
-
-    // 2. Jacobi eigen-analysis of the symmetric A = FᵀF.
-    let (f0, f1, f2) = (f.x_axis, f.y_axis, f.z_axis);
-    let (mut a00, mut a11, mut a22) = (f0.dot(f0), f1.dot(f1), f2.dot(f2));
-    let (mut a01, mut a02, mut a12) = (f0.dot(f1), f0.dot(f2), f1.dot(f2));
-    let mut q = Quat::IDENTITY;
-    for _ in 0..JACOBI_SWEEPS {
-        // A rotation about axis k acts in the plane (k + 1, k + 2), indices mod 3, and
-        // turns axis k + 1 towards axis k + 2.
-        let (ch, sh) = jacobi_step(&mut a00, &mut a11, &mut a01, &mut a02, &mut a12);
-        q *= Quat::from_xyzw(0.0, 0.0, sh, ch);
-        let (ch, sh) = jacobi_step(&mut a11, &mut a22, &mut a12, &mut a01, &mut a02);
-        q *= Quat::from_xyzw(sh, 0.0, 0.0, ch);
-        let (ch, sh) = jacobi_step(&mut a22, &mut a00, &mut a02, &mut a12, &mut a01);
-        q *= Quat::from_xyzw(0.0, sh, 0.0, ch);
+    let mut lanes = Mat3s::<1>::splat(Mat3::ZERO);
+    lanes.set_lane(0, f);
+    let svd = svd3_lanes(&lanes);
+    Svd3 {
+        u: svd.u.lane(0),
+        sigma: svd.sigma.lane(0),
+        v: svd.v.lane(0),
     }
-    let v = Mat3::from_quat(q.normalize());
+}
+
+/// [`svd3`] of `N` matrices at once. Each lane gets exactly the bits [`svd3`]
+/// gives for its matrix alone.
+#[inline(always)]
+pub fn svd3_lanes<const N: usize>(f: &Mat3s<N>) -> Svd3s<N> {
+    // 1. Exact power-of-two normalisation.
+    let max_abs = f.max_abs();
+    let scale = max_abs.map(|m| power_of_two_scale(m).0);
+    let unscale = max_abs.map(|m| power_of_two_scale(m).1);
+    let f = f.scale(scale);
+
+    // 2. Jacobi eigen-analysis of the symmetric A = FᵀF; V collects the rotations.
+    let (f0, f1, f2) = (f.x_axis, f.y_axis, f.z_axis);
+    let mut a = Symmetric {
+        d: [f0.dot(f0), f1.dot(f1), f2.dot(f2)],
+        off: [f1.dot(f2), f2.dot(f0), f0.dot(f1)],
+    };
+    let mut v = [
+        Vec3s::splat(Vec3::X),
+        Vec3s::splat(Vec3::Y),
+        Vec3s::splat(Vec3::Z),
+    ];
+    for _ in 0..JACOBI_SWEEPS {
+        for (p, q) in [(0, 1), (1, 2), (2, 0)] {
+            let (c, s) = a.jacobi_step(p, q);
+            let (vp, vq) = rotate(v[p], v[q], c, s);
+            (v[p], v[q]) = (vp, vq);
+        }
+    }
 
     // 3. B = F V, with its columns sorted by decreasing norm.
-    let column = |v: Vec3| {
-        let b = f * v;
+    let column = |v: Vec3s<N>| {
+        let b = f.mul_vec(v);
         Column {
             b,
             v,
             norm2: b.length_squared(),
         }
     };
-    let (mut k0, mut k1, mut k2) = (column(v.x_axis), column(v.y_axis), column(v.z_axis));
+    let (mut k0, mut k1, mut k2) = (column(v[0]), column(v[1]), column(v[2]));
     order(&mut k0, &mut k1);
     order(&mut k0, &mut k2);
     order(&mut k1, &mut k2);
 
     // 4. One-sided Jacobi rotation decoupling the two trailing columns of B.
-    let gram = (k1.b.length_squared(), k2.b.length_squared(), k1.b.dot(k2.b));
-    let (c, s, _) = jacobi_rotation(gram.0, gram.1, gram.2, TINY);
-    rotate(&mut k1.b, &mut k2.b, c, s);
-    rotate(&mut k1.v, &mut k2.v, c, s);
+    let (c, s, _) = jacobi_rotation(
+        k1.b.length_squared(),
+        k2.b.length_squared(),
+        k1.b.dot(k2.b),
+        TINY,
+    );
+    (k1.b, k2.b) = rotate(k1.b, k2.b, c, s);
+    (k1.v, k2.v) = rotate(k1.v, k2.v, c, s);
 
     // 5. QR of B by Givens rotations acting on its rows; U accumulates their
     // transposes, which act on its columns the same way.
     let (b0, b1, b2) = (k0.b, k1.b, k2.b);
-    let mut r0 = Vec3::new(b0.x, b1.x, b2.x);
-    let mut r1 = Vec3::new(b0.y, b1.y, b2.y);
-    let mut r2 = Vec3::new(b0.z, b1.z, b2.z);
-    let (mut u0, mut u1, mut u2) = (Vec3::X, Vec3::Y, Vec3::Z);
+    let mut r0 = Vec3s::new(b0.x, b1.x, b2.x);
+    let mut r1 = Vec3s::new(b0.y, b1.y, b2.y);
+    let mut r2 = Vec3s::new(b0.z, b1.z, b2.z);
+    let (mut u0, mut u1, mut u2) = (
+        Vec3s::splat(Vec3::X),
+        Vec3s::splat(Vec3::Y),
+        Vec3s::splat(Vec3::Z),
+    );
     // The two rotations clearing the first column only depend on b0, so both are
     // computed up front.
     let rho = (b0.x * b0.x + b0.y * b0.y).sqrt();
-    let norm0 = b0.length();
+    let norm0 = b0.length_squared().sqrt();
     let (c, s) = givens(b0.x, b0.y, rho);
-    rotate(&mut r0, &mut r1, c, s);
-    rotate(&mut u0, &mut u1, c, s);
+    (r0, r1) = rotate(r0, r1, c, s);
+    (u0, u1) = rotate(u0, u1, c, s);
     let (c, s) = givens(rho, b0.z, norm0);
-    rotate(&mut r0, &mut r2, c, s);
-    rotate(&mut u0, &mut u2, c, s);
+    (_, r2) = rotate(r0, r2, c, s);
+    (u0, u2) = rotate(u0, u2, c, s);
     let rho1 = (r1.y * r1.y + r2.y * r2.y).sqrt();
     let (c, s) = givens(r1.y, r2.y, rho1);
-    rotate(&mut r1, &mut r2, c, s);
-    rotate(&mut u1, &mut u2, c, s);
+    (_, r2) = rotate(r1, r2, c, s);
+    (u1, u2) = rotate(u1, u2, c, s);
 
     // The diagonal of R. The first two are the norms the rotations produce (the
     // rotated entries equal them up to rounding); the last one is signed. The sorted
@@ -165,10 +204,10 @@ pub fn svd3(f: Mat3) -> Svd3 {
     let sigma_z = r2.z;
     let sigma_y = rho1.max(sigma_z.abs());
     let sigma_x = norm0.max(sigma_y);
-    Svd3 {
-        u: Mat3::from_cols(u0, u1, u2),
-        sigma: Vec3::new(sigma_x, sigma_y, sigma_z) * unscale,
-        v: Mat3::from_cols(k0.v, k1.v, k2.v),
+    Svd3s {
+        u: Mat3s::from_cols(u0, u1, u2),
+        sigma: Vec3s::new(sigma_x, sigma_y, sigma_z).scale(unscale),
+        v: Mat3s::from_cols(k0.v, k1.v, k2.v),
     }
 }
 
@@ -196,101 +235,118 @@ fn power_of_two_scale(max_abs: f32) -> (f32, f32) {
     )
 }
 
-/// The Jacobi rotation for the symmetric block `[[app, apq], [apq, aqq]]`:
-/// `(cos θ, sin θ, tan θ)` of the angle, |θ| <= π/4, by which turning axis p towards
-/// axis q zeroes the off-diagonal entry. The identity when `|apq| < skip`.
-#[inline(always)]
-fn jacobi_rotation(app: f32, aqq: f32, apq: f32, skip: f32) -> (f32, f32, f32) {
-    // tan 2θ = 2 apq / (app − aqq). The vector (|d|, 2 apq sgn d) points along 2θ;
-    // adding its length to the first component halves the angle: (x1, y) points
-    // along θ.
-    let d = app - aqq;
-    let x0 = d.abs();
-    let y = 2.0 * apq * 1.0f32.copysign(d);
-    let r0 = (x0 * x0 + y * y).sqrt();
-    let x1 = x0 + r0;
-    // |(x1, y)|² = x1² + y² = 2 r0 x1.
-    let inv_len = 1.0 / (2.0 * r0 * x1).sqrt();
-    if apq.abs() < skip {
-        (1.0, 0.0, 0.0)
-    } else {
-        (x1 * inv_len, y * inv_len, y / x1)
+/// The symmetric A = FᵀF during the Jacobi sweeps: its diagonal, and its
+/// off-diagonal entries indexed by the axis they do not involve (`off[k]`
+/// couples the other two axes).
+struct Symmetric<const N: usize> {
+    d: [F32s<N>; 3],
+    off: [F32s<N>; 3],
+}
+
+impl<const N: usize> Symmetric<N> {
+    /// One Jacobi step A ← Gᵀ A G in the plane (p, q) that zeroes A_pq; returns
+    /// the rotation `(cos θ, sin θ)` turning axis p towards axis q.
+    #[inline(always)]
+    fn jacobi_step(&mut self, p: usize, q: usize) -> (F32s<N>, F32s<N>) {
+        let k = 3 - p - q;
+        let (pp, qq, pq) = (self.d[p], self.d[q], self.off[k]);
+        let (pk, qk) = (self.off[q], self.off[p]);
+        let (c, s, t) = jacobi_rotation(pp, qq, pq, JACOBI_SKIP);
+        self.d[p] = pp + t * pq;
+        self.d[q] = qq - t * pq;
+        self.off[k] = F32s::splat(0.0);
+        self.off[q] = c * pk + s * qk;
+        self.off[p] = c * qk - s * pk;
+        (c, s)
     }
 }
 
-/// One Jacobi step A ← Gᵀ A G on the symmetric matrix A in the plane (p, q), k being
-/// the third axis. Returns `(cos θ/2, sin θ/2)`, the quaternion of G.
+/// The Jacobi rotation for the symmetric block `[[app, apq], [apq, aqq]]`:
+/// `(cos θ, sin θ, tan θ)` of the angle, |θ| <= π/4, by which turning axis p towards
+/// axis q zeroes the off-diagonal entry. The identity when `|apq| < skip`. Two
+/// square roots and one division: the throughput limit of the batched SVD.
 #[inline(always)]
-fn jacobi_step(
-    app: &mut f32,
-    aqq: &mut f32,
-    apq: &mut f32,
-    apk: &mut f32,
-    aqk: &mut f32,
-) -> (f32, f32) {
-    let (pp, qq, pq, pk, qk) = (*app, *aqq, *apq, *apk, *aqk);
-    let (c, s, t) = jacobi_rotation(pp, qq, pq, JACOBI_SKIP);
-    *app = pp + t * pq;
-    *aqq = qq - t * pq;
-    *apq = 0.0;
-    *apk = c * pk + s * qk;
-    *aqk = c * qk - s * pk;
-    // Half angle for the quaternion, off the critical path. c >= 1/√2, so ch >= 0.92.
-    let ch = ((1.0 + c) * 0.5).sqrt();
-    (ch, 0.5 * s / ch)
+fn jacobi_rotation<const N: usize>(
+    app: F32s<N>,
+    aqq: F32s<N>,
+    apq: F32s<N>,
+    skip: f32,
+) -> (F32s<N>, F32s<N>, F32s<N>) {
+    // tan 2θ = 2 apq / (app − aqq). The vector (|d|, 2 apq sgn d) points along 2θ;
+    // adding its length to the first component halves the angle: (x1, y) points
+    // along θ.
+    let two = F32s::splat(2.0);
+    let d = app - aqq;
+    let x0 = d.abs();
+    let y = two * apq * d.sign();
+    let r0 = (x0 * x0 + y * y).sqrt();
+    let x1 = x0 + r0;
+    // |(x1, y)|² = x1² + y² = 2 r0 x1, so 1 / x1 = 2 r0 / |(x1, y)|².
+    let inv_len = F32s::splat(1.0) / (two * r0 * x1).sqrt();
+    let skipped = apq.abs().lt(F32s::splat(skip));
+    let zero = F32s::splat(0.0);
+    (
+        F32s::select(skipped, F32s::splat(1.0), x1 * inv_len),
+        F32s::select(skipped, zero, y * inv_len),
+        F32s::select(skipped, zero, y * (two * r0) * (inv_len * inv_len)),
+    )
 }
 
-/// `(a, b) ← (c a + s b, c b − s a)`: a plane rotation applied to a pair of columns of
-/// B, V or U, or of rows of R.
+/// `(c a + s b, c b − s a)`: a plane rotation applied to a pair of columns of B, V
+/// or U, or of rows of R.
 #[inline(always)]
-fn rotate(a: &mut Vec3, b: &mut Vec3, c: f32, s: f32) {
-    let (x, y) = (*a, *b);
-    *a = c * x + s * y;
-    *b = c * y - s * x;
+fn rotate<const N: usize>(
+    a: Vec3s<N>,
+    b: Vec3s<N>,
+    c: F32s<N>,
+    s: F32s<N>,
+) -> (Vec3s<N>, Vec3s<N>) {
+    (a.scale(c) + b.scale(s), b.scale(c) - a.scale(s))
 }
 
 /// Givens rotation `(c, s)` with `c a + s b = hypot` and `c b − s a = 0`, given
 /// `hypot = √(a² + b²)`; the identity when `(a, b)` is negligible.
 #[inline(always)]
-fn givens(a: f32, b: f32, hypot: f32) -> (f32, f32) {
-    let inv = 1.0 / hypot.max(TINY);
-    if hypot < TINY {
-        (1.0, 0.0)
-    } else {
-        (a * inv, b * inv)
-    }
+fn givens<const N: usize>(a: F32s<N>, b: F32s<N>, hypot: F32s<N>) -> (F32s<N>, F32s<N>) {
+    let tiny = F32s::splat(TINY);
+    let inv = F32s::splat(1.0) / hypot.max(tiny);
+    let negligible = hypot.lt(tiny);
+    (
+        F32s::select(negligible, F32s::splat(1.0), a * inv),
+        F32s::select(negligible, F32s::splat(0.0), b * inv),
+    )
 }
 
 /// A column of B = F V, the matching column of V, and its squared norm.
 #[derive(Clone, Copy)]
-struct Column {
-    b: Vec3,
-    v: Vec3,
-    norm2: f32,
+struct Column<const N: usize> {
+    b: Vec3s<N>,
+    v: Vec3s<N>,
+    norm2: F32s<N>,
 }
 
 /// Orders two columns by decreasing norm. A swap negates the column that moves back,
 /// so V keeps det +1 (and B = F V stays consistent).
 #[inline(always)]
-fn order(first: &mut Column, second: &mut Column) {
+fn order<const N: usize>(first: &mut Column<N>, second: &mut Column<N>) {
     let (x, y) = (*first, *second);
-    let swap = y.norm2 > x.norm2;
-    let mask = BVec3::splat(swap);
+    let swap: U32s<N> = x.norm2.lt(y.norm2);
     *first = Column {
-        b: Vec3::select(mask, y.b, x.b),
-        v: Vec3::select(mask, y.v, x.v),
-        norm2: if swap { y.norm2 } else { x.norm2 },
+        b: Vec3s::select(swap, y.b, x.b),
+        v: Vec3s::select(swap, y.v, x.v),
+        norm2: F32s::select(swap, y.norm2, x.norm2),
     };
     *second = Column {
-        b: Vec3::select(mask, -x.b, y.b),
-        v: Vec3::select(mask, -x.v, y.v),
-        norm2: if swap { x.norm2 } else { y.norm2 },
+        b: Vec3s::select(swap, -x.b, y.b),
+        v: Vec3s::select(swap, -x.v, y.v),
+        norm2: F32s::select(swap, x.norm2, y.norm2),
     };
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Quat;
     use proptest::prelude::*;
     use proptest::test_runner::TestCaseError;
 
@@ -679,5 +735,26 @@ mod tests {
         let (r, s) = polar(f);
         assert!(distance(r, q * p.transpose()) <= 1e-5);
         assert!(det(s) < 0.0);
+    }
+
+    proptest! {
+        #![proptest_config(config(200))]
+        #[test]
+        fn a_batch_gives_each_lane_the_scalar_bits(
+            entries in prop::collection::vec(-4.0f32..4.0, 16 * 9),
+        ) {
+            let matrices: Vec<Mat3> = entries.chunks(9).map(Mat3::from_cols_slice).collect();
+            let mut batch = Mat3s::<16>::splat(Mat3::ZERO);
+            for (lane, m) in matrices.iter().enumerate() {
+                batch.set_lane(lane, *m);
+            }
+            let svd = svd3_lanes(&batch);
+            for (lane, m) in matrices.iter().enumerate() {
+                let alone = svd3(*m);
+                prop_assert_eq!(svd.u.lane(lane).to_cols_array().map(f32::to_bits), alone.u.to_cols_array().map(f32::to_bits));
+                prop_assert_eq!(svd.sigma.lane(lane).to_array().map(f32::to_bits), alone.sigma.to_array().map(f32::to_bits));
+                prop_assert_eq!(svd.v.lane(lane).to_cols_array().map(f32::to_bits), alone.v.to_cols_array().map(f32::to_bits));
+            }
+        }
     }
 }
