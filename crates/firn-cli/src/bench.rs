@@ -12,11 +12,13 @@ use std::time::Instant;
 
 use clap::{Args, ValueEnum};
 use firn_core::Material;
+use firn_core::math::lanes::Simd;
 use firn_core::scene::{
     Body, CacheFormat, Camera, Contact, ContactMode, Domain, ImplicitSettings, Integrator,
     OutputSettings, RenderSettings, Scene, SceneKind, Shape, SolverSettings, TimeSettings,
     TimeStep, Transfer,
 };
+use firn_mpm::update::preferred_simd;
 use firn_mpm::{PhaseTimes, Simulation};
 use glam::Vec3;
 use serde::Serialize;
@@ -90,6 +92,45 @@ pub struct BenchArgs {
     /// `--sweep particles|grid` and its options; see bench_sweep.rs.
     #[command(flatten)]
     pub sweep: SweepArgs,
+    /// The instruction set of the snow model's batched particle update on
+    /// the benchmark snowball (default: the solver's own choice, AVX2 where
+    /// the CPU has it). All give the same bits; this compares their speed.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub simd: SimdChoice,
+}
+
+/// Instruction sets for `--simd`.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum SimdChoice {
+    /// The solver's choice ([`firn_mpm::update::preferred_simd`]).
+    Auto,
+    /// Portable code (SSE on x86-64).
+    Portable,
+    /// 256-bit AVX2 registers.
+    Avx2,
+    /// 512-bit AVX-512 registers.
+    Avx512,
+}
+
+impl SimdChoice {
+    /// The instruction set, or an error when the CPU lacks it.
+    pub fn resolve(self) -> Result<Simd, Failure> {
+        let simd = match self {
+            SimdChoice::Auto => preferred_simd(),
+            SimdChoice::Portable => Simd::Portable,
+            SimdChoice::Avx2 => Simd::Avx2,
+            SimdChoice::Avx512 => Simd::Avx512,
+        };
+        if simd.is_available() {
+            Ok(simd)
+        } else {
+            Err(Failure::BadInput(format!(
+                "error: --simd {}: this CPU does not have it\n  fix: pick one it has (the widest here: {}), or leave --simd out",
+                simd.name(),
+                Simd::detect().name()
+            )))
+        }
+    }
 }
 
 /// Time integrators for `--scene`.
@@ -153,6 +194,8 @@ struct BenchRecord {
     substeps_per_second: f64,
     memory_mib: f64,
     threads: usize,
+    /// Instruction set of the batched particle update.
+    simd: &'static str,
     center_of_mass_y: f64,
     /// Nanoseconds per particle-substep in each phase of the step.
     phases_ns_per_particle_substep: Vec<PhaseRecord>,
@@ -251,7 +294,7 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
             for &transfer in transfers {
                 let record = measure(snowball_drop(particles, grid, transfer), grid, &args)?;
                 println!(
-                    "firn transfer={} particles={} grid={} steps={} seconds={:.3} ns_per_particle_step={:.2} substeps_per_s={:.2} memory_mib={:.1} threads={}",
+                    "firn transfer={} particles={} grid={} steps={} seconds={:.3} ns_per_particle_step={:.2} substeps_per_s={:.2} memory_mib={:.1} threads={} simd={}",
                     transfer_name(transfer),
                     record.particles,
                     grid,
@@ -260,7 +303,8 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
                     record.ns_per_particle_substep,
                     record.substeps_per_second,
                     record.memory_mib,
-                    record.threads
+                    record.threads,
+                    record.simd
                 );
                 if args.phases {
                     print_phases(&record.phases_ns_per_particle_substep);
@@ -378,8 +422,10 @@ fn measure(scene: Scene, grid: u32, args: &BenchArgs) -> Result<BenchRecord, Fai
         TimeStep::Adaptive { max_dt, .. } => max_dt,
     };
     let transfer = scene.solver.transfer;
+    let simd = args.simd.resolve()?;
     let mut simulation =
         Simulation::new(scene).map_err(|error| Failure::Failed(format!("error: {error}")))?;
+    simulation.set_simd(simd);
     let (_, seconds) = time_substeps(&mut simulation, args.warmup, args.steps, None)?;
     let particles = simulation.particles().len();
     let phases = phase_records(simulation.phase_times(), args.steps, particles);
@@ -394,6 +440,7 @@ fn measure(scene: Scene, grid: u32, args: &BenchArgs) -> Result<BenchRecord, Fai
         substeps_per_second: args.steps as f64 / seconds,
         memory_mib: simulation.memory_bytes() as f64 / (1024.0 * 1024.0),
         threads: rayon::current_num_threads(),
+        simd: simd.name(),
         center_of_mass_y: simulation.diagnostics().center_of_mass[1],
         phases_ns_per_particle_substep: phases,
     })

@@ -490,3 +490,41 @@ fn bench_phases_split_each_substep_into_the_steps_of_the_algorithm() {
         "the phases ({phase_ns} ns) lie within the substeps ({total_ns} ns)"
     );
 }
+
+#[test]
+fn bench_simd_choices_are_recorded_and_agree_to_the_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |simd: &str| {
+        let json = dir.path().join(format!("bench-{simd}.json"));
+        let output = firn(&[
+            "bench",
+            "--particles",
+            "2000",
+            "--grid",
+            "32",
+            "--transfer",
+            "apic",
+            "--steps",
+            "4",
+            "--warmup",
+            "1",
+            "--simd",
+            simd,
+            "--json",
+            json.to_str().unwrap(),
+        ]);
+        assert!(output.status.success(), "{}", text(&output.stderr));
+        let records: serde_json::Value =
+            serde_json::from_str(&fs::read_to_string(&json).unwrap()).unwrap();
+        (text(&output.stdout), records[0].clone())
+    };
+    let (stdout, portable) = run("portable");
+    assert!(stdout.contains("simd=portable"), "{stdout}");
+    assert_eq!(portable["simd"], "portable");
+    let (_, chosen) = run("auto");
+    assert_eq!(
+        portable["center_of_mass_y"], chosen["center_of_mass_y"],
+        "{} and portable code must give the same bits",
+        chosen["simd"]
+    );
+}

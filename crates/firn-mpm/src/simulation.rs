@@ -15,7 +15,7 @@ use crate::implicit::{ImplicitSolver, ImplicitStep, SolverStats};
 use crate::particles::Particles;
 use crate::profile::{PhaseClock, PhaseTimes};
 use crate::transfer::{self, GridForces, gather_apic, gather_pic_flip};
-use crate::update::{GatherStats, ParticleProblem, ProblemKind, UpdateContext};
+use crate::update::{GatherStats, ParticleProblem, ProblemKind, UpdateContext, preferred_simd};
 
 /// Particles are physically reordered by block every this many substeps, so
 /// that the scatter and gather stream through memory.
@@ -188,7 +188,7 @@ impl Simulation {
                 Integrator::SemiImplicit(_) => Some(ImplicitSolver::default()),
             },
             profile: PhaseTimes::default(),
-            simd: Simd::detect(),
+            simd: preferred_simd(),
             scene,
         }
     }
@@ -343,8 +343,9 @@ impl Simulation {
         Ok(dt)
     }
 
-    /// Chooses the instruction set of the batched particle update (the best
-    /// the CPU has by default; one it lacks falls back to portable code).
+    /// Chooses the instruction set of the batched particle update
+    /// ([`preferred_simd`] by default; one the CPU lacks falls back to
+    /// portable code).
     /// Every choice gives the same bits; this exists to show that.
     pub fn set_simd(&mut self, simd: Simd) {
         self.simd = simd;

@@ -152,6 +152,19 @@ fn elastic_update_avx2(batch: &Interpolated) -> ElasticUpdate<BATCH> {
     elastic_update_portable(batch)
 }
 
+/// The instruction set the solver uses unless told otherwise: AVX2 where the
+/// CPU has it, even beside AVX-512. The batched SVD is a chain of dependent
+/// square roots and divisions; with AVX2 a batch of 16 is two independent
+/// 8-lane chains that overlap in the pipeline, while one 16-lane AVX-512 chain
+/// waits out every latency (`firn bench --simd avx2|avx512` measures both:
+/// about 5 % apart on the 2-core Xeon of docs/benchmarks.md).
+pub fn preferred_simd() -> Simd {
+    match Simd::detect() {
+        Simd::Avx512 | Simd::Avx2 => Simd::Avx2,
+        Simd::Portable => Simd::Portable,
+    }
+}
+
 /// `simd` where the running CPU has it, else portable code.
 fn checked_simd(simd: Simd) -> Simd {
     if simd.is_available() {

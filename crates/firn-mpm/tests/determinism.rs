@@ -5,11 +5,12 @@
 mod common;
 
 use firn_core::math::lanes::Simd;
+use firn_mpm::update::preferred_simd;
 use firn_mpm::{Particles, Simulation};
 use glam::Vec3;
 
 fn run_with_threads(threads: usize, transfer: firn_core::scene::Transfer) -> Particles {
-    run_with(threads, Simd::detect(), transfer)
+    run_with(threads, preferred_simd(), transfer)
 }
 
 fn run_with(threads: usize, simd: Simd, transfer: firn_core::scene::Transfer) -> Particles {
