@@ -157,7 +157,7 @@ fn elastic_update_avx2(batch: &Interpolated) -> ElasticUpdate<BATCH> {
 /// square roots and divisions; with AVX2 a batch of 16 is two independent
 /// 8-lane chains that overlap in the pipeline, while one 16-lane AVX-512 chain
 /// waits out every latency (`firn bench --simd avx2|avx512` measures both:
-/// about 5 % apart on the 2-core Xeon of docs/benchmarks.md).
+/// AVX2 was 1 to 5 % faster on the 2-core Xeon of docs/benchmarks.md).
 pub fn preferred_simd() -> Simd {
     match Simd::detect() {
         Simd::Avx512 | Simd::Avx2 => Simd::Avx2,

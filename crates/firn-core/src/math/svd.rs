@@ -58,9 +58,9 @@
 //! (tiny ones are not accurate relative to themselves, as with any method that
 //! works on `FᵀF`). One matrix alone takes about 0.3 µs on an x86-64 server core,
 //! bound by the latency of the square roots and divisions through the twelve
-//! dependent Jacobi steps; sixteen in one AVX-512 batch share that latency, and the
-//! snow model's whole batched update (SVD, clamp, stress) costs about 40 ns per
-//! particle on one core (`firn bench --phases`, see docs/benchmarks.md).
+//! dependent Jacobi steps; a batch of sixteen in SIMD lanes shares that latency, and
+//! the snow model's whole batched update (SVD, clamp, stress) costs about 40 ns per
+//! particle on one core (`perf` of `firn bench`, see docs/benchmarks.md).
 
 use glam::{Mat3, Vec3};
 
