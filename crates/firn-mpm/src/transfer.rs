@@ -19,9 +19,9 @@ use rayon::prelude::*;
 use firn_core::math::bspline::{StencilWeights, cubic_weights, quadratic_weights};
 use firn_core::math::lanes::Simd;
 
-use crate::binning::Bins;
+use crate::binning::{Bins, OccupiedBlock};
 use crate::contact::{PlacedCollider, collide_all};
-use crate::grid::{Grid, GridLayout, Node, PageTable};
+use crate::grid::{BLOCK_WIDTH, Grid, GridLayout, Node, PageTable};
 use crate::particles::Particles;
 use crate::update::{GatherStats, UpdateContext, gather_with};
 
@@ -70,11 +70,79 @@ pub(crate) fn scatter_by_colour<T: Send>(
     bins: &Bins,
     scatter: impl Fn(&[u32], &NodeWriter<T>) + Sync,
 ) {
+    scatter_blocks_by_colour(nodes, bins, |block, writer| {
+        scatter(bins.particles_of(block), writer)
+    });
+}
+
+/// [`scatter_by_colour`], handing over the occupied block itself.
+fn scatter_blocks_by_colour<T: Send>(
+    nodes: &mut [T],
+    bins: &Bins,
+    scatter: impl Fn(&OccupiedBlock, &NodeWriter<T>) + Sync,
+) {
     let writer = NodeWriter::new(nodes);
     for colour in &bins.colours {
         colour
             .par_iter()
-            .for_each(|&block| scatter(bins.particles_of(&bins.occupied[block as usize]), &writer));
+            .for_each(|&block| scatter(&bins.occupied[block as usize], &writer));
+    }
+}
+
+/// Nodes per axis that the particles of one block reach: from one before
+/// the block to two past it (see [`crate::binning`]).
+const REACH: i32 = BLOCK_WIDTH + 3;
+
+/// The scatter's sums for the nodes around one block, in a dense local
+/// array: particles add to it at fixed offsets from their stencil's corner,
+/// with no page-table lookups, and the sums go to the grid once per block.
+struct LocalNodes {
+    /// Grid coordinate of `sums[0]`.
+    first_node: IVec3,
+    /// Sums over the block's particles, x-major.
+    sums: [Node; (REACH * REACH * REACH) as usize],
+}
+
+impl LocalNodes {
+    /// Empty sums around `block`.
+    fn around(block: IVec3) -> LocalNodes {
+        LocalNodes {
+            first_node: block * BLOCK_WIDTH - IVec3::ONE,
+            sums: [Node::default(); (REACH * REACH * REACH) as usize],
+        }
+    }
+
+    /// Index in `sums` of an `N`-wide stencil's first node `base`; its node
+    /// (i, j, k) is `(i REACH + j) REACH + k` further. Binning puts the
+    /// stencil of every particle of the block inside (panics otherwise).
+    #[inline(always)]
+    fn corner<const N: usize>(&self, base: IVec3) -> usize {
+        let corner = base - self.first_node;
+        assert!(
+            corner.cmpge(IVec3::ZERO).all() && corner.cmple(IVec3::splat(REACH - N as i32)).all(),
+            "a particle's stencil at {base} leaves the reach of its block"
+        );
+        ((corner.x * REACH + corner.y) * REACH + corner.z) as usize
+    }
+
+    /// Adds the sums into the grid's nodes (those a particle reached: every
+    /// reached node has mass, and only they are sure to exist).
+    fn add_to(&self, table: &PageTable, writer: &NodeWriter<Node>) {
+        for (local, sum) in self.sums.iter().enumerate() {
+            if sum.mass() == 0.0 {
+                continue;
+            }
+            let local = local as i32;
+            let offset = IVec3::new(
+                local / (REACH * REACH),
+                local / REACH % REACH,
+                local % REACH,
+            );
+            writer.update(table.node_index(self.first_node + offset), |node| {
+                node.velocity_mass += sum.velocity_mass;
+                node.velocity_new += sum.velocity_new;
+            });
+        }
     }
 }
 
@@ -86,43 +154,47 @@ pub(crate) fn for_each_active_block(grid: &mut Grid, visit: impl Fn(IVec3, &mut 
         .for_each(|(block, nodes)| visit(block, nodes));
 }
 
-/// Steps 1 and 3 for PIC/FLIP: mass, momentum and elastic force on the grid.
+/// Steps 1 and 3 for PIC/FLIP: mass, momentum and elastic force on the
+/// grid, summed per block in [`LocalNodes`].
 pub fn scatter_pic_flip(grid: &mut Grid, bins: &Bins, particles: &Particles) {
     let (table, nodes) = grid.parts_mut();
     let layout = table.layout;
     let inverse_h = 1.0 / layout.cell_size;
-    scatter_by_colour(nodes, bins, |block, writer| {
-        for &p in block {
+    scatter_blocks_by_colour(nodes, bins, |block, writer| {
+        let mut local = LocalNodes::around(block.coord);
+        for &p in bins.particles_of(block) {
             let p = p as usize;
             let weights = cubic_weights(layout.to_grid(particles.position[p]));
             let mass = particles.mass[p];
             let momentum_mass = (particles.velocity[p] * mass).extend(mass);
             let stress = particles.stress[p];
-            let indices = table.stencil(weights.base).indices::<4>();
-            for (i, plane) in indices.iter().enumerate() {
-                for (j, row) in plane.iter().enumerate() {
-                    for (k, &index) in row.iter().enumerate() {
+            let corner = local.corner::<4>(weights.base);
+            for i in 0..4 {
+                for j in 0..4 {
+                    let row = corner + (i * REACH as usize + j) * REACH as usize;
+                    for (k, sum) in local.sums[row..row + 4].iter_mut().enumerate() {
                         let w = weights.weight(i, j, k);
                         let force = -(stress * (weights.gradient(i, j, k) * inverse_h));
-                        writer.update(index, |node| {
-                            node.velocity_mass += momentum_mass * w;
-                            node.velocity_new += force.extend(0.0);
-                        });
+                        sum.velocity_mass += momentum_mass * w;
+                        sum.velocity_new += force.extend(0.0);
                     }
                 }
             }
         }
+        local.add_to(&table, writer);
     });
 }
 
-/// Steps 1 and 3 for APIC: mass and affine momentum including the force impulse.
+/// Steps 1 and 3 for APIC: mass and affine momentum including the force
+/// impulse, summed per block in [`LocalNodes`].
 pub fn scatter_apic(grid: &mut Grid, bins: &Bins, particles: &Particles, dt: f32) {
     let (table, nodes) = grid.parts_mut();
     let layout = table.layout;
     let h = layout.cell_size;
     let inverse_inertia = 4.0 / (h * h);
-    scatter_by_colour(nodes, bins, |block, writer| {
-        for &p in block {
+    scatter_blocks_by_colour(nodes, bins, |block, writer| {
+        let mut local = LocalNodes::around(block.coord);
+        for &p in bins.particles_of(block) {
             let p = p as usize;
             let weights = quadratic_weights(layout.to_grid(particles.position[p]));
             let mass = particles.mass[p];
@@ -134,22 +206,21 @@ pub fn scatter_apic(grid: &mut Grid, bins: &Bins, particles: &Particles, dt: f32
             // the affine part grows by one column per stencil step.
             let at_base = (particles.velocity[p] * mass - affine * weights.offset).extend(mass);
             let step = |column: Vec3, n: usize| column.extend(0.0) * n as f32;
-            let indices = table.stencil(weights.base).indices::<3>();
-            for (i, plane) in indices.iter().enumerate() {
+            let corner = local.corner::<3>(weights.base);
+            for i in 0..3 {
                 let at_i = at_base + step(affine.x_axis, i);
-                for (j, row) in plane.iter().enumerate() {
+                for j in 0..3 {
                     let at_ij = at_i + step(affine.y_axis, j);
                     let wxy = weights.values[i].x * weights.values[j].y;
-                    for (k, &index) in row.iter().enumerate() {
-                        let contribution =
+                    let row = corner + (i * REACH as usize + j) * REACH as usize;
+                    for (k, sum) in local.sums[row..row + 3].iter_mut().enumerate() {
+                        sum.velocity_mass +=
                             (at_ij + step(affine.z_axis, k)) * (wxy * weights.values[k].z);
-                        writer.update(index, |node| {
-                            node.velocity_mass += contribution;
-                        });
                     }
                 }
             }
         }
+        local.add_to(&table, writer);
     });
 }
 
