@@ -441,11 +441,12 @@ fn check_summarises_a_flow_scene() {
     assert!(stdout.contains("obstacles   1"), "{stdout}");
 }
 
-#[test]
-fn bench_phases_split_each_substep_into_the_steps_of_the_algorithm() {
+/// `firn bench` on a 2000-particle APIC snowball for 4 substeps with `extra`
+/// arguments: its standard output and its JSON record.
+fn small_bench(extra: &[&str]) -> (String, serde_json::Value) {
     let dir = tempfile::tempdir().unwrap();
     let json = dir.path().join("bench.json");
-    let output = firn(&[
+    let mut args = vec![
         "bench",
         "--particles",
         "2000",
@@ -457,12 +458,20 @@ fn bench_phases_split_each_substep_into_the_steps_of_the_algorithm() {
         "4",
         "--warmup",
         "1",
-        "--phases",
         "--json",
         json.to_str().unwrap(),
-    ]);
+    ];
+    args.extend_from_slice(extra);
+    let output = firn(&args);
     assert!(output.status.success(), "{}", text(&output.stderr));
-    let stdout = text(&output.stdout);
+    let records: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(&json).unwrap()).unwrap();
+    (text(&output.stdout), records[0].clone())
+}
+
+#[test]
+fn bench_phases_split_each_substep_into_the_steps_of_the_algorithm() {
+    let (stdout, record) = small_bench(&["--phases"]);
     for phase in [
         "binning",
         "scatter",
@@ -473,9 +482,6 @@ fn bench_phases_split_each_substep_into_the_steps_of_the_algorithm() {
     ] {
         assert!(stdout.contains(phase), "{phase} missing from\n{stdout}");
     }
-    let records: serde_json::Value =
-        serde_json::from_str(&fs::read_to_string(&json).unwrap()).unwrap();
-    let record = &records[0];
     let phases = record["phases_ns_per_particle_substep"].as_array().unwrap();
     assert_eq!(phases.len(), 6);
     let share: f64 = phases.iter().map(|p| p["share"].as_f64().unwrap()).sum();
@@ -493,35 +499,10 @@ fn bench_phases_split_each_substep_into_the_steps_of_the_algorithm() {
 
 #[test]
 fn bench_simd_choices_are_recorded_and_agree_to_the_bit() {
-    let dir = tempfile::tempdir().unwrap();
-    let run = |simd: &str| {
-        let json = dir.path().join(format!("bench-{simd}.json"));
-        let output = firn(&[
-            "bench",
-            "--particles",
-            "2000",
-            "--grid",
-            "32",
-            "--transfer",
-            "apic",
-            "--steps",
-            "4",
-            "--warmup",
-            "1",
-            "--simd",
-            simd,
-            "--json",
-            json.to_str().unwrap(),
-        ]);
-        assert!(output.status.success(), "{}", text(&output.stderr));
-        let records: serde_json::Value =
-            serde_json::from_str(&fs::read_to_string(&json).unwrap()).unwrap();
-        (text(&output.stdout), records[0].clone())
-    };
-    let (stdout, portable) = run("portable");
+    let (stdout, portable) = small_bench(&["--simd", "portable"]);
     assert!(stdout.contains("simd=portable"), "{stdout}");
     assert_eq!(portable["simd"], "portable");
-    let (_, chosen) = run("auto");
+    let (_, chosen) = small_bench(&["--simd", "auto"]);
     assert_eq!(
         portable["center_of_mass_y"], chosen["center_of_mass_y"],
         "{} and portable code must give the same bits",
