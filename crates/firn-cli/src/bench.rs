@@ -92,9 +92,10 @@ pub struct BenchArgs {
     /// `--sweep particles|grid` and its options; see bench_sweep.rs.
     #[command(flatten)]
     pub sweep: SweepArgs,
-    /// The instruction set of the snow model's batched particle update on
-    /// the benchmark snowball (default: the solver's own choice, AVX2 where
-    /// the CPU has it). All give the same bits; this compares their speed.
+    /// The instruction set of the snow model's batched particle update, for
+    /// the snowball, --scene and --sweep runs (default: the solver's own
+    /// choice, AVX2 where the CPU has it). All give the same bits; this
+    /// compares their speed.
     #[arg(long, value_enum, default_value = "auto")]
     pub simd: SimdChoice,
 }
@@ -255,6 +256,8 @@ struct SceneRecord {
     unconverged_solves: Option<u64>,
     worst_solver_residual: Option<f32>,
     threads: usize,
+    /// Instruction set of the batched particle update.
+    simd: &'static str,
 }
 
 /// Runs every configuration and writes the JSON record.
@@ -353,8 +356,7 @@ fn measure_scene(path: &std::path::Path, args: &BenchArgs) -> Result<SceneRecord
     let scene = bench_scene(path, args)?;
     let (duration, time_step) = (scene.time.duration, scene.time.step.clone());
     let (transfer, integrator) = (scene.solver.transfer, scene.solver.integrator);
-    let mut simulation =
-        Simulation::new(scene).map_err(|error| Failure::Failed(format!("error: {error}")))?;
+    let mut simulation = bench_simulation(scene, args)?;
     let started = Instant::now();
     simulation
         .advance_to(duration)
@@ -383,6 +385,7 @@ fn measure_scene(path: &std::path::Path, args: &BenchArgs) -> Result<SceneRecord
         unconverged_solves: solver.map(|stats| stats.unconverged_steps),
         worst_solver_residual: solver.map(|stats| stats.worst_residual),
         threads: rayon::current_num_threads(),
+        simd: simulation.simd().name(),
     };
     let iterations = match (record.mean_solver_iterations, record.max_solver_iterations) {
         (Some(mean), Some(max)) => format!(
@@ -392,7 +395,7 @@ fn measure_scene(path: &std::path::Path, args: &BenchArgs) -> Result<SceneRecord
         _ => String::new(),
     };
     println!(
-        "firn scene={} integrator={} transfer={} particles={} simulated_s={} substeps={} mean_dt={:.3e} wall_s={:.3} wall_s_per_simulated_s={:.2} ns_per_particle_step={:.1}{iterations} threads={}",
+        "firn scene={} integrator={} transfer={} particles={} simulated_s={} substeps={} mean_dt={:.3e} wall_s={:.3} wall_s_per_simulated_s={:.2} ns_per_particle_step={:.1}{iterations} threads={} simd={}",
         record.scene,
         record.integrator,
         transfer_name(transfer),
@@ -403,7 +406,8 @@ fn measure_scene(path: &std::path::Path, args: &BenchArgs) -> Result<SceneRecord
         wall_seconds,
         record.wall_seconds_per_simulated_second,
         record.ns_per_particle_substep,
-        record.threads
+        record.threads,
+        record.simd
     );
     Ok(record)
 }
@@ -422,10 +426,7 @@ fn measure(scene: Scene, grid: u32, args: &BenchArgs) -> Result<BenchRecord, Fai
         TimeStep::Adaptive { max_dt, .. } => max_dt,
     };
     let transfer = scene.solver.transfer;
-    let simd = args.simd.resolve()?;
-    let mut simulation =
-        Simulation::new(scene).map_err(|error| Failure::Failed(format!("error: {error}")))?;
-    simulation.set_simd(simd);
+    let mut simulation = bench_simulation(scene, args)?;
     let (_, seconds) = time_substeps(&mut simulation, args.warmup, args.steps, None)?;
     let particles = simulation.particles().len();
     let phases = phase_records(simulation.phase_times(), args.steps, particles);
@@ -440,10 +441,19 @@ fn measure(scene: Scene, grid: u32, args: &BenchArgs) -> Result<BenchRecord, Fai
         substeps_per_second: args.steps as f64 / seconds,
         memory_mib: simulation.memory_bytes() as f64 / (1024.0 * 1024.0),
         threads: rayon::current_num_threads(),
-        simd: simd.name(),
+        simd: simulation.simd().name(),
         center_of_mass_y: simulation.diagnostics().center_of_mass[1],
         phases_ns_per_particle_substep: phases,
     })
+}
+
+/// The simulation of `scene` on the instruction set of `--simd`.
+pub fn bench_simulation(scene: Scene, args: &BenchArgs) -> Result<Simulation, Failure> {
+    let simd = args.simd.resolve()?;
+    let mut simulation =
+        Simulation::new(scene).map_err(|error| Failure::Failed(format!("error: {error}")))?;
+    simulation.set_simd(simd);
+    Ok(simulation)
 }
 
 /// Runs `warmup` untimed substeps, then `steps` timed ones, or fewer once

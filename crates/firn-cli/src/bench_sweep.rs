@@ -30,8 +30,8 @@ use std::time::Duration;
 
 use clap::{Args, ValueEnum};
 use firn_core::scene::{Scene, Shape, Transfer};
+use firn_mpm::Particles;
 use firn_mpm::grid::{BLOCK_NODES, BLOCK_WIDTH, GridLayout, Node};
-use firn_mpm::{Particles, Simulation};
 use glam::{Mat3, UVec3, Vec3};
 use serde::Serialize;
 
@@ -525,11 +525,11 @@ fn measure_size(
         None => notes.push("available memory unknown".into()),
     }
     let peak_reset = procfs::reset_peak();
-    let mut simulation = Simulation::new(scene).map_err(|error| error.to_string())?;
-    let budget = Duration::from_secs_f64(args.sweep.sweep_seconds);
     let message = |failure| match failure {
         Failure::BadInput(message) | Failure::Failed(message) => message,
     };
+    let mut simulation = crate::bench::bench_simulation(scene, args).map_err(message)?;
+    let budget = Duration::from_secs_f64(args.sweep.sweep_seconds);
     time_substeps(&mut simulation, args.warmup, 0, None).map_err(message)?;
     let cpu_before = procfs::cpu_seconds();
     let (substeps, seconds) =
@@ -859,6 +859,7 @@ mod tests {
 
     #[test]
     fn the_estimate_follows_the_ball_and_covers_the_simulation() {
+        use firn_mpm::Simulation;
         let cells = UVec3::splat(64);
         let ball = Ball::new(1 << 12, cells);
         let scene = sweep_scene(cells, &ball, Transfer::Apic);

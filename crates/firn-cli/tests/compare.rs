@@ -6,38 +6,9 @@ use std::path::{Path, PathBuf};
 use std::process::Output;
 
 mod common;
-use common::{firn, stderr, write_scene};
-
-/// A small ball of snow dropped in a small box; `{name}`, `{center}` and
-/// `{extra}` are filled in per scene.
-const SCENE: &str = r#"format = 1
-name = "{name}"
-
-[domain]
-max = [0.4, 0.4, 0.4]
-cell_size = 0.05
-
-[time]
-duration = 0.075
-fps = 40
-
-[[bodies]]
-shape = "sphere"
-center = {center}
-radius = 0.08
-{extra}
-[render]
-size = [96, 64]
-"#;
+use common::{firn, stderr, tiny_ball_scene, write_scene};
 
 const TIMES: &str = "0.02,0.05,0.1";
-
-fn scene_text(name: &str, center: &str, extra: &str) -> String {
-    SCENE
-        .replace("{name}", name)
-        .replace("{center}", center)
-        .replace("{extra}", extra)
-}
 
 /// The two scenes of the grid's rows: balls in different places.
 fn two_scenes(dir: &Path) -> [PathBuf; 2] {
@@ -45,12 +16,12 @@ fn two_scenes(dir: &Path) -> [PathBuf; 2] {
         write_scene(
             dir,
             "left.toml",
-            &scene_text("left-ball", "[0.14, 0.22, 0.2]", ""),
+            &tiny_ball_scene("left-ball", "[0.14, 0.22, 0.2]", ""),
         ),
         write_scene(
             dir,
             "right.toml",
-            &scene_text(
+            &tiny_ball_scene(
                 "right-ball",
                 "[0.26, 0.16, 0.2]",
                 "velocity = [0.0, 1.0, 0.0]\n",
@@ -244,7 +215,7 @@ fn a_bad_scene_is_located_and_nothing_is_written() {
     let bad = write_scene(
         dir.path(),
         "bad.toml",
-        &scene_text("bad", "[0.2, 0.2, 0.2]", "").replace("radius = 0.08", "radus = 0.08"),
+        &tiny_ball_scene("bad", "[0.2, 0.2, 0.2]", "").replace("radius = 0.08", "radus = 0.08"),
     );
     let out = dir.path().join("figures/grid.png");
     let output = compare(&[&left, &bad], TIMES, &out, &["--quiet"]);
@@ -268,7 +239,7 @@ fn a_missing_scene_file_is_named() {
 fn a_blow_up_names_the_scene_and_writes_no_picture() {
     let dir = tempfile::tempdir().expect("temp dir");
     let [left, _] = two_scenes(dir.path());
-    let unstable = scene_text("brittle", "[0.2, 0.2, 0.2]", "material = \"stiff\"\n")
+    let unstable = tiny_ball_scene("brittle", "[0.2, 0.2, 0.2]", "material = \"stiff\"\n")
         .replace("fps = 40", "fps = 40\nstep = \"fixed\"\ndt = 0.01")
         + "\n[materials.stiff]\nyoungs_modulus = 1e9\n";
     let unstable = write_scene(dir.path(), "unstable.toml", &unstable);

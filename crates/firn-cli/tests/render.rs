@@ -7,32 +7,17 @@ use std::path::Path;
 use std::process::Command;
 
 mod common;
-use common::{firn, manifest, stderr};
+use common::{firn, manifest, stderr, tiny_ball_scene};
 
-const SCENE: &str = r#"format = 1
-name = "tiny"
-
-[domain]
-max = [0.4, 0.4, 0.4]
-cell_size = 0.05
-
-[time]
-duration = 0.075
-fps = 40
-
-[[bodies]]
-shape = "sphere"
-center = [0.2, 0.2, 0.2]
-radius = 0.08
-
-[render]
-size = [96, 64]
-"#;
+/// The scene every test here runs.
+fn tiny_scene() -> String {
+    tiny_ball_scene("tiny", "[0.2, 0.2, 0.2]", "")
+}
 
 /// Runs the tiny scene into `dir/run` with extra arguments; returns the run directory.
 fn run_tiny(dir: &Path, extra: &[&str]) -> std::path::PathBuf {
     let scene = dir.join("tiny.toml");
-    fs::write(&scene, SCENE).expect("scene written");
+    fs::write(&scene, tiny_scene()).expect("scene written");
     let out = dir.join("run");
     let mut args = vec![
         "run",
@@ -171,7 +156,7 @@ fn render_rejects_a_bad_size_and_a_directory_without_a_run() {
 fn without_ffmpeg_the_run_says_plainly_that_no_mp4_was_written() {
     let dir = tempfile::tempdir().expect("temp dir");
     let scene = dir.path().join("tiny.toml");
-    fs::write(&scene, SCENE).expect("scene written");
+    fs::write(&scene, tiny_scene()).expect("scene written");
     let empty_path = dir.path().join("no-tools");
     fs::create_dir(&empty_path).expect("dir");
     let output = Command::new(env!("CARGO_BIN_EXE_firn"))

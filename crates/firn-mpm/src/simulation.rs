@@ -351,6 +351,11 @@ impl Simulation {
         self.simd = simd;
     }
 
+    /// The instruction set of the batched particle update.
+    pub fn simd(&self) -> Simd {
+        self.simd
+    }
+
     /// Wall-clock seconds spent in each phase of the substeps since the last
     /// [`Simulation::reset_phase_times`] (or since the start).
     pub fn phase_times(&self) -> PhaseTimes {

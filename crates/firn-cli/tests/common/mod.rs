@@ -37,3 +37,30 @@ pub fn manifest(out: &Path) -> serde_json::Value {
     let contents = fs::read_to_string(out.join("manifest.json")).expect("manifest");
     serde_json::from_str(&contents).expect("manifest is JSON")
 }
+
+/// A small ball of snow (radius 0.08 m) dropped in a 0.4 m box for 0.075 s,
+/// pictured at 96x64: scene `name` with the ball at `center` (a TOML array)
+/// and `extra` lines added to the body.
+pub fn tiny_ball_scene(name: &str, center: &str, extra: &str) -> String {
+    format!(
+        r#"format = 1
+name = "{name}"
+
+[domain]
+max = [0.4, 0.4, 0.4]
+cell_size = 0.05
+
+[time]
+duration = 0.075
+fps = 40
+
+[[bodies]]
+shape = "sphere"
+center = {center}
+radius = 0.08
+{extra}
+[render]
+size = [96, 64]
+"#
+    )
+}

@@ -8,6 +8,22 @@ use glam::{DVec3, Vec3};
 /// The bunny shipped with firn.
 pub const BUNNY: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../assets/meshes/bunny.obj");
 
+/// The faces of a cube whose corner i is at (i & 1, i & 2, i & 4) ≠ 0 per
+/// axis, as outward-facing quads.
+pub const CUBE_QUADS: [[usize; 4]; 6] = [
+    [0, 2, 3, 1],
+    [4, 5, 7, 6],
+    [0, 1, 5, 4],
+    [2, 6, 7, 3],
+    [0, 4, 6, 2],
+    [1, 3, 7, 5],
+];
+
+/// A quad split into two triangles around its first corner.
+pub fn fan(quad: [usize; 4]) -> [[usize; 3]; 2] {
+    [[quad[0], quad[1], quad[2]], [quad[0], quad[2], quad[3]]]
+}
+
 /// The cube [lo, hi]³ with outward-facing triangles.
 pub fn cube(lo: f32, hi: f32) -> TriangleMesh {
     let vertices = (0..8)
@@ -19,17 +35,10 @@ pub fn cube(lo: f32, hi: f32) -> TriangleMesh {
             )
         })
         .collect();
-    let quads = [
-        [0, 2, 3, 1],
-        [4, 5, 7, 6],
-        [0, 1, 5, 4],
-        [2, 6, 7, 3],
-        [0, 4, 6, 2],
-        [1, 3, 7, 5],
-    ];
-    let triangles = quads
-        .iter()
-        .flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]])
+    let triangles = CUBE_QUADS
+        .into_iter()
+        .flat_map(fan)
+        .map(|triangle| triangle.map(|corner| corner as u32))
         .collect();
     TriangleMesh {
         vertices,

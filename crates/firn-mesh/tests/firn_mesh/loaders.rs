@@ -3,6 +3,8 @@ use std::path::{Path, PathBuf};
 use firn_mesh::{MeshError, TriangleMesh, load_mesh};
 use glam::Vec3;
 
+use crate::common::{CUBE_QUADS, fan};
+
 /// A unit cube as six quads (fan-triangulated by every writer below).
 const CORNERS: [[f32; 3]; 8] = [
     [0.0, 0.0, 0.0],
@@ -14,19 +16,6 @@ const CORNERS: [[f32; 3]; 8] = [
     [0.0, 1.0, 1.0],
     [1.0, 1.0, 1.0],
 ];
-const QUADS: [[usize; 4]; 6] = [
-    [0, 2, 3, 1],
-    [4, 5, 7, 6],
-    [0, 1, 5, 4],
-    [2, 6, 7, 3],
-    [0, 4, 6, 2],
-    [1, 3, 7, 5],
-];
-
-fn fan(quad: [usize; 4]) -> [[usize; 3]; 2] {
-    [[quad[0], quad[1], quad[2]], [quad[0], quad[2], quad[3]]]
-}
-
 fn write(dir: &Path, name: &str, bytes: impl AsRef<[u8]>) -> PathBuf {
     let path = dir.join(name);
     std::fs::write(&path, bytes).unwrap();
@@ -39,7 +28,7 @@ fn obj() -> String {
     for [x, y, z] in CORNERS {
         text += &format!("v {x} {y} {z}\n");
     }
-    for (f, quad) in QUADS.iter().enumerate() {
+    for (f, quad) in CUBE_QUADS.iter().enumerate() {
         let corners: Vec<String> = match f {
             0 => quad.iter().map(|&i| format!("{}/1/1", i + 1)).collect(),
             1 => quad.iter().map(|&i| format!("{}//1", i + 1)).collect(),
@@ -53,7 +42,7 @@ fn obj() -> String {
 
 fn ascii_stl() -> String {
     let mut text = String::from("solid cube\n");
-    for triangle in QUADS.into_iter().flat_map(fan) {
+    for triangle in CUBE_QUADS.into_iter().flat_map(fan) {
         text += "  facet normal 0 0 0\n    outer loop\n";
         for i in triangle {
             let [x, y, z] = CORNERS[i];
@@ -68,7 +57,7 @@ fn binary_stl() -> Vec<u8> {
     let mut bytes = b"solid binary, despite the name".to_vec();
     bytes.resize(80, 0);
     bytes.extend(12u32.to_le_bytes());
-    for triangle in QUADS.into_iter().flat_map(fan) {
+    for triangle in CUBE_QUADS.into_iter().flat_map(fan) {
         bytes.extend([0u8; 12]);
         for i in triangle {
             CORNERS[i]
@@ -90,7 +79,7 @@ fn ascii_ply() -> String {
         text += &format!("{x} {y} {z} 200 2 0.5 0.25\n");
     }
     text += "0 1\n";
-    for quad in QUADS {
+    for quad in CUBE_QUADS {
         text += &format!("7 4 {} {} {} {}\n", quad[0], quad[1], quad[2], quad[3]);
     }
     text
@@ -120,7 +109,7 @@ fn binary_ply(big_endian: bool) -> Vec<u8> {
     }
     push(1i32.to_le_bytes().to_vec());
     push(2i32.to_le_bytes().to_vec());
-    for quad in QUADS {
+    for quad in CUBE_QUADS {
         push(7i32.to_le_bytes().to_vec());
         push(vec![4]);
         for i in quad {
