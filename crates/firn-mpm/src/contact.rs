@@ -172,6 +172,11 @@ impl ColliderSet {
         ColliderSet { colliders: all }
     }
 
+    /// The colliders, scene ones first, then the walls.
+    pub fn colliders(&self) -> &[Collider] {
+        &self.colliders
+    }
+
     /// Every collider placed at time `time`.
     pub fn placed_at(&self, time: f64) -> Vec<PlacedCollider> {
         self.colliders

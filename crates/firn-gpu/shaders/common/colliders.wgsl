@@ -1,0 +1,157 @@
+// Rigid colliders and the domain walls (thesis section 3.4 steps 5 and 9,
+// Quellcode 12), as in firn_mpm::contact: placed at a time from their
+// motion, then the contact law applied in the collider's own frame.
+
+const SHAPE_HALF_PLANE: u32 = 0u;
+const SHAPE_SPHERE: u32 = 1u;
+const SHAPE_BOX: u32 = 2u;
+
+const CONTACT_STICKY: u32 = 0u;
+const CONTACT_SEPARATE: u32 = 1u;
+const CONTACT_SLIP: u32 = 2u;
+
+const MOTION_STATIC: u32 = 0u;
+const MOTION_LINEAR: u32 = 1u;
+const MOTION_KEYFRAMED: u32 = 2u;
+
+struct Collider {
+    shape: u32,
+    contact: u32,
+    friction: f32,
+    motion: u32,
+    first_key: u32,
+    key_count: u32,
+    pad0: u32,
+    pad1: u32,
+    // Plane point or centre at t = 0; w: sphere radius.
+    reference: vec4<f32>,
+    // Plane normal (out of the solid) or box edge lengths.
+    extent: vec4<f32>,
+    // Velocity of linear motion.
+    velocity: vec4<f32>,
+}
+
+// Where a collider's reference point is at one instant, and how fast it moves.
+struct Placement {
+    position: vec3<f32>,
+    velocity: vec3<f32>,
+}
+
+// Signed distance (negative inside) and outward unit normal.
+struct SurfacePoint {
+    distance: f32,
+    normal: vec3<f32>,
+}
+
+// Piecewise-linear motion through keys (xyz: position, w: time); rests at
+// the first and last key outside their times.
+fn keyframe_placement(first: u32, count: u32, t: f32) -> Placement {
+    let a = collider_keys[first];
+    let z = collider_keys[first + count - 1u];
+    if t <= a.w {
+        return Placement(a.xyz, vec3<f32>(0.0));
+    }
+    if t >= z.w {
+        return Placement(z.xyz, vec3<f32>(0.0));
+    }
+    var next = first + 1u;
+    while collider_keys[next].w <= t {
+        next++;
+    }
+    let start = collider_keys[next - 1u];
+    let end = collider_keys[next];
+    let span = end.w - start.w;
+    let s = (t - start.w) / span;
+    return Placement(mix(start.xyz, end.xyz, s), (end.xyz - start.xyz) / span);
+}
+
+fn placement(collider: Collider, t: f32) -> Placement {
+    switch collider.motion {
+        case MOTION_LINEAR: {
+            return Placement(collider.reference.xyz + collider.velocity.xyz * t, collider.velocity.xyz);
+        }
+        case MOTION_KEYFRAMED: {
+            return keyframe_placement(collider.first_key, collider.key_count, t);
+        }
+        default: {
+            return Placement(collider.reference.xyz, vec3<f32>(0.0));
+        }
+    }
+}
+
+fn box_surface(p: vec3<f32>, half: vec3<f32>) -> SurfacePoint {
+    let q = abs(p) - half;
+    let signs = vec3<f32>(sign_of(p.x), sign_of(p.y), sign_of(p.z));
+    if max(max(q.x, q.y), q.z) > 0.0 {
+        let outside = max(q, vec3<f32>(0.0));
+        let length = length(outside);
+        return SurfacePoint(length, outside * signs / length);
+    }
+    if q.x >= q.y && q.x >= q.z {
+        return SurfacePoint(q.x, vec3<f32>(signs.x, 0.0, 0.0));
+    }
+    if q.y >= q.z {
+        return SurfacePoint(q.y, vec3<f32>(0.0, signs.y, 0.0));
+    }
+    return SurfacePoint(q.z, vec3<f32>(0.0, 0.0, signs.z));
+}
+
+fn surface_point(collider: Collider, at: vec3<f32>, point: vec3<f32>) -> SurfacePoint {
+    switch collider.shape {
+        case SHAPE_SPHERE: {
+            let offset = point - at;
+            let length = length(offset);
+            var normal = vec3<f32>(0.0, 1.0, 0.0);
+            if length > 0.0 {
+                normal = offset / length;
+            }
+            return SurfacePoint(length - collider.reference.w, normal);
+        }
+        case SHAPE_BOX: {
+            return box_surface(point - at, 0.5 * collider.extent.xyz);
+        }
+        default: {
+            return SurfacePoint(dot(point - at, collider.extent.xyz), collider.extent.xyz);
+        }
+    }
+}
+
+// The contact law relative to a collider moving with collider_velocity:
+// sticky takes its velocity; separate (the thesis' law) stops approaching
+// snow with Coulomb friction on the tangential part; slip also removes a
+// separating normal velocity.
+fn contact_response(velocity: vec3<f32>, collider_velocity: vec3<f32>, normal: vec3<f32>, contact: u32, friction: f32) -> vec3<f32> {
+    let relative = velocity - collider_velocity;
+    let normal_speed = dot(relative, normal);
+    let tangential = relative - normal * normal_speed;
+    if contact == CONTACT_STICKY {
+        return collider_velocity;
+    }
+    if normal_speed >= 0.0 {
+        if contact == CONTACT_SEPARATE {
+            return velocity;
+        }
+        return collider_velocity + tangential;
+    }
+    let length = length(tangential);
+    let limit = -friction * normal_speed;
+    if length > limit {
+        return collider_velocity + tangential * (1.0 - limit / length);
+    }
+    return collider_velocity;
+}
+
+// Applies every collider in turn to a velocity at point, at time t.
+fn collide_all(point: vec3<f32>, velocity_in: vec3<f32>, t: f32) -> vec3<f32> {
+    var velocity = velocity_in;
+    let count = arrayLength(&colliders);
+    for (var c = 0u; c < count; c++) {
+        let collider = colliders[c];
+        let placed = placement(collider, t);
+        let surface = surface_point(collider, placed.position, point);
+        if surface.distance <= 0.0 {
+            velocity = contact_response(velocity, placed.velocity, surface.normal, collider.contact, collider.friction);
+        }
+    }
+    return velocity;
+}

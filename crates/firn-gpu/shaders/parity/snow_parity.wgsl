@@ -1,0 +1,64 @@
+// Entry points that run single library functions over arrays, so tests can
+// compare them with the CPU functions they mirror (svd3, the B-spline
+// weights, the snow model's elastic update).
+
+@group(0) @binding(0) var<storage, read> matrices_in: array<mat3x3<f32>>;
+@group(0) @binding(1) var<storage, read> vectors_in: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read_write> matrices_out: array<mat3x3<f32>>;
+@group(0) @binding(3) var<storage, read_write> vectors_out: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read> parity_material: array<Material>;
+
+// Vectors written per point by weights_parity: both bases, then the
+// quadratic values and slopes, then the cubic values and slopes.
+const WEIGHT_VECTORS: u32 = 16u;
+
+// U and V to matrices_out[2n], [2n + 1]; sigma to vectors_out[n].
+@compute @workgroup_size(64)
+fn svd_parity(@builtin(global_invocation_id) id: vec3<u32>) {
+    let n = id.x;
+    if n >= arrayLength(&matrices_in) {
+        return;
+    }
+    let svd = svd3(matrices_in[n]);
+    matrices_out[2u * n] = svd.u;
+    matrices_out[2u * n + 1u] = svd.v;
+    vectors_out[n] = vec4<f32>(svd.sigma, 0.0);
+}
+
+// The weights of a particle at grid coordinate vectors_in[n].xyz.
+@compute @workgroup_size(64)
+fn weights_parity(@builtin(global_invocation_id) id: vec3<u32>) {
+    let n = id.x;
+    if n >= arrayLength(&vectors_in) {
+        return;
+    }
+    let x = vectors_in[n].xyz;
+    let quadratic = quadratic_weights(x);
+    let cubic = cubic_weights(x);
+    let first = n * WEIGHT_VECTORS;
+    vectors_out[first] = vec4<f32>(vec3<f32>(quadratic.base), 0.0);
+    vectors_out[first + 1u] = vec4<f32>(vec3<f32>(cubic.base), 0.0);
+    for (var k = 0u; k < 3u; k++) {
+        vectors_out[first + 2u + k] = vec4<f32>(quadratic.values[k], 0.0);
+        vectors_out[first + 5u + k] = vec4<f32>(quadratic.slopes[k], 0.0);
+    }
+    for (var k = 0u; k < 4u; k++) {
+        vectors_out[first + 8u + k] = vec4<f32>(cubic.values[k], 0.0);
+        vectors_out[first + 12u + k] = vec4<f32>(cubic.slopes[k], 0.0);
+    }
+}
+
+// The elastic update of trial F_E matrices_in[n] with (J_P, V_p^0) in
+// vectors_in[n].xy: F_E and V_p^0 tau_p to matrices_out[2n], [2n + 1];
+// (J_P, hardening factor) to vectors_out[n].
+@compute @workgroup_size(64)
+fn stress_parity(@builtin(global_invocation_id) id: vec3<u32>) {
+    let n = id.x;
+    if n >= arrayLength(&matrices_in) {
+        return;
+    }
+    let state = elastic_update(matrices_in[n], vectors_in[n].x, vectors_in[n].y, parity_material[0]);
+    matrices_out[2u * n] = state.elastic;
+    matrices_out[2u * n + 1u] = state.stress;
+    vectors_out[n] = vec4<f32>(state.plastic_j, state.hardening_factor, 0.0, 0.0);
+}

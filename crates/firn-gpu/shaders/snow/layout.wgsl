@@ -1,0 +1,107 @@
+// Buffers of the snow substep. All kernels share one bind group; the grid
+// is dense, one buffer per 32-bit word plane (low and high word of each
+// 64-bit fixed-point sum), so no single buffer grows past the adapter's
+// storage-binding limit as fast as a packed layout would.
+
+const TRANSFER_APIC: u32 = 0u;
+const TRANSFER_PIC_FLIP: u32 = 1u;
+const NO_PARTICLE: u32 = 0xffffffffu;
+
+struct Params {
+    // xyz: world position of node (0, 0, 0); w: cell size h.
+    origin: vec4<f32>,
+    // xyz: nodes per axis; w: particle count.
+    dims: vec4<u32>,
+    // xyz: gravity; w: FLIP share alpha.
+    gravity: vec4<f32>,
+    // xyz: lowest allowed particle position; w: simulated time at the frame start.
+    lower: vec4<f32>,
+    // xyz: highest allowed particle position; w: seconds from the frame start to its end.
+    upper: vec4<f32>,
+    // x: CFL number; y: largest dt; z: fixed dt (0: adaptive); w: unused.
+    stepping: vec4<f32>,
+    // x: mass scale; y: momentum scale (fixed-point units per kg, per kg m/s).
+    scales: vec4<f32>,
+    // x: transfer scheme.
+    flags: vec4<u32>,
+}
+
+// What the substeps of a frame share, written by the GPU and read back by
+// the host once per batch of substeps.
+struct StepState {
+    // Dt of the current substep.
+    dt: f32,
+    // Seconds from the frame start to the end of the current substep.
+    elapsed: f32,
+    // 1 while substeps run; 0 once the frame is done or something went wrong.
+    running: u32,
+    // Substeps taken in this frame.
+    steps: u32,
+    // Largest |v_p|^2 and squared wave speed of the last gather, as f32 bits.
+    max_speed_bits: atomic<u32>,
+    max_wave_bits: atomic<u32>,
+    // Lowest index of a particle that became non-finite, or that left the domain.
+    non_finite: atomic<u32>,
+    left_domain: atomic<u32>,
+    // Bit q set: grid quantity q overflowed its fixed-point range.
+    overflow: atomic<u32>,
+    // The maxima the current substep's dt came from.
+    speed_squared: f32,
+    wave_speed_squared: f32,
+    pad: u32,
+}
+
+struct PlasticState {
+    plastic_j: f32,
+    material: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read_write> state: StepState;
+@group(0) @binding(2) var<storage, read> materials: array<Material>;
+@group(0) @binding(3) var<storage, read> colliders: array<Collider>;
+@group(0) @binding(4) var<storage, read> collider_keys: array<vec4<f32>>;
+
+// xyz: position; w: mass.
+@group(0) @binding(5) var<storage, read_write> position_mass: array<vec4<f32>>;
+// xyz: velocity; w: initial volume V_p^0.
+@group(0) @binding(6) var<storage, read_write> velocity_volume: array<vec4<f32>>;
+// F_E.
+@group(0) @binding(7) var<storage, read_write> elastic: array<mat3x3<f32>>;
+// C_p (APIC) or grad v_p (PIC/FLIP).
+@group(0) @binding(8) var<storage, read_write> affine: array<mat3x3<f32>>;
+// V_p^0 tau_p.
+@group(0) @binding(9) var<storage, read_write> stress: array<mat3x3<f32>>;
+@group(0) @binding(10) var<storage, read_write> plastic: array<PlasticState>;
+
+// Grid word planes: mass, momentum x/y/z (after the grid update: velocity
+// bits in the low planes, new velocity bits in the high planes), and for
+// PIC/FLIP the force impulse dt f x/y/z.
+@group(0) @binding(11) var<storage, read_write> mass_lo: array<atomic<u32>>;
+@group(0) @binding(12) var<storage, read_write> mass_hi: array<atomic<u32>>;
+@group(0) @binding(13) var<storage, read_write> px_lo: array<atomic<u32>>;
+@group(0) @binding(14) var<storage, read_write> px_hi: array<atomic<u32>>;
+@group(0) @binding(15) var<storage, read_write> py_lo: array<atomic<u32>>;
+@group(0) @binding(16) var<storage, read_write> py_hi: array<atomic<u32>>;
+@group(0) @binding(17) var<storage, read_write> pz_lo: array<atomic<u32>>;
+@group(0) @binding(18) var<storage, read_write> pz_hi: array<atomic<u32>>;
+@group(0) @binding(19) var<storage, read_write> fx_lo: array<atomic<u32>>;
+@group(0) @binding(20) var<storage, read_write> fx_hi: array<atomic<u32>>;
+@group(0) @binding(21) var<storage, read_write> fy_lo: array<atomic<u32>>;
+@group(0) @binding(22) var<storage, read_write> fy_hi: array<atomic<u32>>;
+@group(0) @binding(23) var<storage, read_write> fz_lo: array<atomic<u32>>;
+@group(0) @binding(24) var<storage, read_write> fz_hi: array<atomic<u32>>;
+
+// The linear invocation index of a dispatch split over two dimensions.
+fn linear_index(group: vec3<u32>, groups: vec3<u32>, local: u32) -> u32 {
+    return (group.y * groups.x + group.x) * 64u + local;
+}
+
+fn node_index(node: vec3<i32>) -> u32 {
+    let dims = params.dims.xyz;
+    return (u32(node.x) * dims.y + u32(node.y)) * dims.z + u32(node.z);
+}
+
+fn grid_coordinate(position: vec3<f32>) -> vec3<f32> {
+    return (position - params.origin.xyz) / params.origin.w;
+}

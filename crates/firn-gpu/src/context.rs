@@ -1,0 +1,205 @@
+//! Finding a graphics adapter and opening a device on it.
+//!
+//! `--backend auto` takes a hardware GPU (discrete, integrated or virtual)
+//! when one is present; a software adapter such as Mesa's lavapipe is used
+//! only when the GPU backend is asked for explicitly, because on it the CPU
+//! backend is faster. [`adapters`] lists everything wgpu finds, for
+//! `firn info`.
+
+use std::sync::Arc;
+
+use crate::error::GpuError;
+
+/// One adapter as wgpu reports it, with the limits that decide which scenes fit.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AdapterReport {
+    /// Adapter name, e.g. "NVIDIA GeForce RTX 4070" or "llvmpipe (LLVM 15.0.6, 256 bits)".
+    pub name: String,
+    /// Graphics API it is reached through (Vulkan, Metal, Dx12, Gl).
+    pub backend: String,
+    /// Discrete, integrated, virtual, CPU (software) or other.
+    pub device_type: String,
+    /// Driver name and version, where the driver tells.
+    pub driver: String,
+    /// Whether it renders in software on the CPU.
+    pub is_software: bool,
+    /// Largest storage buffer one binding may cover, in bytes.
+    pub max_storage_binding: u64,
+    /// Storage buffers one compute shader may bind.
+    pub max_storage_buffers_per_stage: u32,
+    /// Workgroups per dispatch dimension.
+    pub max_workgroups_per_dimension: u32,
+    /// Whether 32-bit float atomics are offered (an optional fast path; firn
+    /// scatters with integer atomics everywhere).
+    pub float_atomics: bool,
+}
+
+impl AdapterReport {
+    fn of(adapter: &wgpu::Adapter) -> AdapterReport {
+        let info = adapter.get_info();
+        let limits = adapter.limits();
+        AdapterReport {
+            name: info.name,
+            backend: format!("{:?}", info.backend),
+            device_type: format!("{:?}", info.device_type),
+            driver: format!("{} {}", info.driver, info.driver_info)
+                .trim()
+                .to_string(),
+            is_software: info.device_type == wgpu::DeviceType::Cpu,
+            max_storage_binding: limits.max_storage_buffer_binding_size,
+            max_storage_buffers_per_stage: limits.max_storage_buffers_per_shader_stage,
+            max_workgroups_per_dimension: limits.max_compute_workgroups_per_dimension,
+            float_atomics: adapter
+                .features()
+                .contains(wgpu::Features::SHADER_FLOAT32_ATOMIC),
+        }
+    }
+}
+
+/// Which adapters a device may be opened on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AdapterPolicy {
+    /// Hardware GPUs only (`--backend auto`).
+    HardwareOnly,
+    /// Hardware first, else a software adapter (`--backend gpu`).
+    AllowSoftware,
+}
+
+/// The graphics APIs firn computes through: the native ones, then GL.
+const BACKENDS: wgpu::Backends = wgpu::Backends::all();
+
+fn instance() -> wgpu::Instance {
+    wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env())
+}
+
+fn enumerate(instance: &wgpu::Instance) -> Vec<wgpu::Adapter> {
+    pollster::block_on(instance.enumerate_adapters(BACKENDS))
+        .into_iter()
+        .filter(|adapter| {
+            let limits = adapter.limits();
+            // Compute shaders with storage buffers are all firn needs.
+            limits.max_storage_buffers_per_shader_stage >= MIN_STORAGE_BUFFERS
+                && limits.max_compute_invocations_per_workgroup >= 64
+        })
+        .collect()
+}
+
+/// Storage buffers the largest kernel (the PIC/FLIP scatter) binds at once.
+pub const MIN_STORAGE_BUFFERS: u32 = 24;
+
+/// Every adapter wgpu finds that can run firn's kernels, best first.
+pub fn adapters() -> Vec<AdapterReport> {
+    let mut found: Vec<AdapterReport> = enumerate(&instance())
+        .iter()
+        .map(AdapterReport::of)
+        .collect();
+    found.sort_by_key(rank);
+    found
+}
+
+/// Orders adapters: discrete, integrated, virtual, then software; native
+/// APIs before GL.
+fn rank(report: &AdapterReport) -> (u8, u8) {
+    let kind = match report.device_type.as_str() {
+        "DiscreteGpu" => 0,
+        "IntegratedGpu" => 1,
+        "VirtualGpu" => 2,
+        "Cpu" => 4,
+        _ => 3,
+    };
+    (kind, u8::from(report.backend == "Gl"))
+}
+
+/// The adapter `policy` would choose, if any.
+pub fn choose(policy: AdapterPolicy) -> Option<AdapterReport> {
+    adapters()
+        .into_iter()
+        .find(|report| policy == AdapterPolicy::AllowSoftware || !report.is_software)
+}
+
+/// An open device and its queue, shared by the simulations that run on it.
+pub struct GpuContext {
+    /// The device the buffers and pipelines live on.
+    pub device: wgpu::Device,
+    /// Its queue.
+    pub queue: wgpu::Queue,
+    /// What the device runs on.
+    pub adapter: AdapterReport,
+    /// The limits the device was opened with (the adapter's own).
+    pub limits: wgpu::Limits,
+}
+
+impl std::fmt::Debug for GpuContext {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GpuContext")
+            .field("adapter", &self.adapter)
+            .finish()
+    }
+}
+
+impl GpuContext {
+    /// Opens a device on the best adapter `policy` allows, with that
+    /// adapter's full limits (large scenes need more than WebGPU's defaults).
+    pub fn new(policy: AdapterPolicy) -> Result<Arc<GpuContext>, GpuError> {
+        let instance = instance();
+        let mut candidates = enumerate(&instance);
+        candidates.sort_by_key(|adapter| rank(&AdapterReport::of(adapter)));
+        let adapter = candidates
+            .into_iter()
+            .find(|adapter| {
+                policy == AdapterPolicy::AllowSoftware || !AdapterReport::of(adapter).is_software
+            })
+            .ok_or(GpuError::NoAdapter { policy })?;
+        let limits = adapter.limits();
+        let descriptor = wgpu::DeviceDescriptor {
+            label: Some("firn"),
+            required_features: wgpu::Features::empty(),
+            required_limits: limits.clone(),
+            experimental_features: wgpu::ExperimentalFeatures::disabled(),
+            memory_hints: wgpu::MemoryHints::Performance,
+            trace: wgpu::Trace::Off,
+        };
+        let (device, queue) = pollster::block_on(adapter.request_device(&descriptor))
+            .map_err(|error| GpuError::Device(error.to_string()))?;
+        Ok(Arc::new(GpuContext {
+            device,
+            queue,
+            adapter: AdapterReport::of(&adapter),
+            limits,
+        }))
+    }
+
+    /// Blocks until every submitted command has finished.
+    pub fn wait(&self) -> Result<(), GpuError> {
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map(|_| ())
+            .map_err(|error| GpuError::Device(error.to_string()))
+    }
+}
+
+/// The environment variable that makes GPU tests fail instead of skip when
+/// no adapter is found (CI sets it; it has Mesa's lavapipe).
+pub const REQUIRE_GPU_VARIABLE: &str = "FIRN_REQUIRE_GPU";
+
+/// A device for tests, software adapters allowed. `None` (after printing how
+/// to get a software adapter) when there is none, unless
+/// `FIRN_REQUIRE_GPU=1`, which turns that into a panic.
+pub fn context_for_tests() -> Option<Arc<GpuContext>> {
+    match GpuContext::new(AdapterPolicy::AllowSoftware) {
+        Ok(context) => Some(context),
+        Err(error) => {
+            let required = std::env::var(REQUIRE_GPU_VARIABLE).is_ok_and(|value| value == "1");
+            assert!(
+                !required,
+                "{REQUIRE_GPU_VARIABLE}=1 but no GPU adapter was found: {error}"
+            );
+            eprintln!(
+                "skipping a GPU test: {error}. Install Mesa's software Vulkan driver \
+                 (Debian/Ubuntu: apt install mesa-vulkan-drivers libvulkan1) to run it, \
+                 and set {REQUIRE_GPU_VARIABLE}=1 to make a missing adapter an error"
+            );
+            None
+        }
+    }
+}

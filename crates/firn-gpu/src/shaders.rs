@@ -1,0 +1,77 @@
+//! The WGSL programs, each put together from `.wgsl` files under `shaders/`.
+//!
+//! WGSL has no includes, so a program is the concatenation of its parts:
+//! shared functions (B-spline weights, the 3x3 SVD, the snow model,
+//! colliders, simplex noise) first, then the kernels that use them. Every
+//! program is validated by naga in a plain unit test (`tests/validate.rs`),
+//! no adapter needed.
+
+/// One WGSL program: named parts, concatenated in order.
+#[derive(Clone, Copy, Debug)]
+pub struct Program {
+    /// Name for labels and error messages.
+    pub name: &'static str,
+    /// `(file, source)` pairs, concatenated in order.
+    pub parts: &'static [(&'static str, &'static str)],
+}
+
+impl Program {
+    /// The whole program text.
+    pub fn source(&self) -> String {
+        self.parts
+            .iter()
+            .map(|(file, text)| format!("// ---- {file} ----\n{text}\n"))
+            .collect()
+    }
+
+    /// Compiles the program on `device`.
+    pub fn module(&self, device: &wgpu::Device) -> wgpu::ShaderModule {
+        device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(self.name),
+            source: wgpu::ShaderSource::Wgsl(self.source().into()),
+        })
+    }
+}
+
+macro_rules! part {
+    ($file:literal) => {
+        ($file, include_str!(concat!("../shaders/", $file)))
+    };
+}
+
+/// Functions shared by the snow programs: weights, SVD, snow model, colliders.
+const SNOW_LIBRARY: [(&str, &str); 4] = [
+    part!("common/bspline.wgsl"),
+    part!("common/svd.wgsl"),
+    part!("common/snow_model.wgsl"),
+    part!("common/colliders.wgsl"),
+];
+
+/// The MPM substep: begin (Δt, stop conditions), scatter, grid update, gather.
+pub const SNOW_STEP: Program = Program {
+    name: "snow step",
+    parts: &[
+        SNOW_LIBRARY[0],
+        SNOW_LIBRARY[1],
+        SNOW_LIBRARY[2],
+        SNOW_LIBRARY[3],
+        part!("snow/layout.wgsl"),
+        part!("snow/fixed_point.wgsl"),
+        part!("snow/step.wgsl"),
+    ],
+};
+
+/// Entry points that run single library functions on arrays, for the parity
+/// tests against the CPU functions.
+pub const SNOW_PARITY: Program = Program {
+    name: "snow parity",
+    parts: &[
+        SNOW_LIBRARY[0],
+        SNOW_LIBRARY[1],
+        SNOW_LIBRARY[2],
+        part!("parity/snow_parity.wgsl"),
+    ],
+};
+
+/// Every program firn builds.
+pub const PROGRAMS: &[Program] = &[SNOW_STEP, SNOW_PARITY];

@@ -1,0 +1,181 @@
+//! Host mirrors of the structs in `shaders/snow/layout.wgsl` and
+//! `shaders/common/*.wgsl`, byte for byte.
+
+use bytemuck::{Pod, Zeroable};
+use firn_core::scene::{ColliderGeometry, ContactMode, Motion};
+use firn_mpm::constitutive::MaterialConstants;
+use glam::{Mat3, Vec3};
+
+use crate::error::GpuError;
+
+/// `Params`: the run's constants and the current frame's time window.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct Params {
+    pub origin: [f32; 4],
+    pub dims: [u32; 4],
+    pub gravity: [f32; 4],
+    pub lower: [f32; 4],
+    pub upper: [f32; 4],
+    pub stepping: [f32; 4],
+    pub scales: [f32; 4],
+    pub flags: [u32; 4],
+}
+
+/// `StepState`: what the substeps of a frame share.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct StepState {
+    pub dt: f32,
+    pub elapsed: f32,
+    pub running: u32,
+    pub steps: u32,
+    pub max_speed_bits: u32,
+    pub max_wave_bits: u32,
+    pub non_finite: u32,
+    pub left_domain: u32,
+    pub overflow: u32,
+    pub speed_squared: f32,
+    pub wave_speed_squared: f32,
+    pub pad: u32,
+}
+
+/// No particle: the "none" value of the trouble indices.
+pub const NO_PARTICLE: u32 = u32::MAX;
+
+/// `Material`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuMaterial {
+    pub mu0: f32,
+    pub lambda0: f32,
+    pub hardening: f32,
+    pub min_stretch: f32,
+    pub max_stretch: f32,
+    pub wave_speed_squared: f32,
+    pub pad: [f32; 2],
+}
+
+impl From<&MaterialConstants> for GpuMaterial {
+    fn from(constants: &MaterialConstants) -> GpuMaterial {
+        GpuMaterial {
+            mu0: constants.mu0,
+            lambda0: constants.lambda0,
+            hardening: constants.hardening,
+            min_stretch: constants.min_stretch,
+            max_stretch: constants.max_stretch,
+            wave_speed_squared: constants.wave_speed_squared,
+            pad: [0.0; 2],
+        }
+    }
+}
+
+/// `Collider`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuCollider {
+    pub shape: u32,
+    pub contact: u32,
+    pub friction: f32,
+    pub motion: u32,
+    pub first_key: u32,
+    pub key_count: u32,
+    pub pad: [u32; 2],
+    pub reference: [f32; 4],
+    pub extent: [f32; 4],
+    pub velocity: [f32; 4],
+}
+
+/// `PlasticState`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuPlastic {
+    pub plastic_j: f32,
+    pub material: u32,
+}
+
+/// A `mat3x3<f32>` in storage layout: three columns padded to 16 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuMat3(pub [[f32; 4]; 3]);
+
+impl From<Mat3> for GpuMat3 {
+    fn from(m: Mat3) -> GpuMat3 {
+        GpuMat3([
+            m.x_axis.extend(0.0).into(),
+            m.y_axis.extend(0.0).into(),
+            m.z_axis.extend(0.0).into(),
+        ])
+    }
+}
+
+impl From<GpuMat3> for Mat3 {
+    fn from(m: GpuMat3) -> Mat3 {
+        let column = |c: [f32; 4]| Vec3::new(c[0], c[1], c[2]);
+        Mat3::from_cols(column(m.0[0]), column(m.0[1]), column(m.0[2]))
+    }
+}
+
+/// The colliders (scene colliders, then the six walls) and their keys
+/// (xyz: position, w: time) as the kernels read them.
+pub fn pack_colliders(
+    colliders: &[firn_core::scene::Collider],
+) -> Result<(Vec<GpuCollider>, Vec<[f32; 4]>), GpuError> {
+    let mut packed = Vec::with_capacity(colliders.len());
+    let mut keys = Vec::new();
+    for collider in colliders {
+        let mut gpu = GpuCollider {
+            contact: match collider.contact.mode {
+                ContactMode::Sticky => 0,
+                ContactMode::Separate => 1,
+                ContactMode::Slip => 2,
+            },
+            friction: collider.contact.friction,
+            ..GpuCollider::default()
+        };
+        match collider.geometry {
+            ColliderGeometry::HalfPlane { point, normal } => {
+                gpu.shape = 0;
+                gpu.reference = point.extend(0.0).into();
+                gpu.extent = normal.extend(0.0).into();
+            }
+            ColliderGeometry::Sphere { center, radius } => {
+                gpu.shape = 1;
+                gpu.reference = center.extend(radius).into();
+            }
+            ColliderGeometry::Box { center, size } => {
+                gpu.shape = 2;
+                gpu.reference = center.extend(0.0).into();
+                gpu.extent = size.extend(0.0).into();
+            }
+            ColliderGeometry::Mesh(_) => return Err(mesh_unsupported()),
+        }
+        match &collider.motion {
+            Motion::Static => gpu.motion = 0,
+            Motion::Linear { velocity } => {
+                gpu.motion = 1;
+                gpu.velocity = velocity.extend(0.0).into();
+            }
+            Motion::Keyframed { keys: frames } => {
+                gpu.motion = 2;
+                gpu.first_key = keys.len() as u32;
+                gpu.key_count = frames.len() as u32;
+                keys.extend(
+                    frames
+                        .iter()
+                        .map(|key| key.position.extend(key.time as f32).to_array()),
+                );
+            }
+        }
+        packed.push(gpu);
+    }
+    Ok((packed, keys))
+}
+
+/// Why a mesh collider stops a GPU run.
+pub fn mesh_unsupported() -> GpuError {
+    GpuError::Unsupported {
+        what: "mesh colliders (shape = \"mesh\") are not yet on the GPU".into(),
+        fix: "run this scene with --backend cpu (or [compute] backend = \"cpu\")".into(),
+    }
+}

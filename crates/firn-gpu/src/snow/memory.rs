@@ -1,0 +1,63 @@
+//! What a snow scene needs on the GPU, known before anything is allocated.
+
+use firn_core::Scene;
+use firn_core::scene::Transfer;
+use firn_mpm::grid::GridLayout;
+
+/// Bytes per particle: position and mass, velocity and V_p^0 (two `vec4`),
+/// F_E, C_p and V_p^0 τ_p (three `mat3x3` of 48 bytes in storage layout),
+/// J_P and the material index.
+pub const BYTES_PER_PARTICLE: u64 = 16 + 16 + 3 * 48 + 8;
+
+/// Grid quantities summed by the scatter: mass and momentum, plus the force
+/// for PIC/FLIP; each is a 64-bit fixed-point sum.
+fn grid_quantities(transfer: Transfer) -> u64 {
+    match transfer {
+        Transfer::Apic => 4,
+        Transfer::PicFlip => 7,
+    }
+}
+
+/// The GPU memory a snow scene needs: dense grid plus particles.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MemoryEstimate {
+    /// Number of particles.
+    pub particles: u64,
+    /// Grid nodes, padding included.
+    pub nodes: u64,
+    /// Bytes per particle.
+    pub bytes_per_particle: u64,
+    /// Bytes per grid node (8 per summed quantity).
+    pub bytes_per_node: u64,
+}
+
+impl MemoryEstimate {
+    /// The estimate for `particles` particles in `scene`'s domain.
+    pub fn of(scene: &Scene, particles: u64) -> MemoryEstimate {
+        let domain = &scene.domain;
+        let layout = GridLayout::new(domain.min, domain.max, domain.cell_size);
+        let dims = layout.node_dims();
+        MemoryEstimate {
+            particles,
+            nodes: u64::from(dims.x) * u64::from(dims.y) * u64::from(dims.z),
+            bytes_per_particle: BYTES_PER_PARTICLE,
+            bytes_per_node: 8 * grid_quantities(scene.solver.transfer),
+        }
+    }
+
+    /// All buffers together, in bytes.
+    pub fn total_bytes(&self) -> u64 {
+        self.particles * self.bytes_per_particle + self.nodes * self.bytes_per_node
+    }
+
+    /// The largest single buffer: one grid quantity's word (4 bytes per
+    /// node) or one particle matrix array (48 bytes per particle).
+    pub fn largest_buffer_bytes(&self) -> u64 {
+        (self.nodes * 4).max(self.particles * 48)
+    }
+
+    /// How many particles fit in `budget` bytes beside this grid.
+    pub fn particles_within(&self, budget: u64) -> u64 {
+        budget.saturating_sub(self.nodes * self.bytes_per_node) / self.bytes_per_particle
+    }
+}

@@ -1,0 +1,410 @@
+//! The MPM substep on the GPU (thesis §3.4, explicit integrator), the same
+//! step as `firn_mpm::Simulation`, which is its reference.
+//!
+//! Per substep, four dispatches and a clear, with no host round trip:
+//!
+//! 1. `begin_step` (one invocation): Δt = CFL h / (max |v_p| + max c_p) from
+//!    the maxima the last gather reduced, clipped to the frame's end; stops
+//!    the frame when it is done or a particle was in trouble;
+//! 2. the grid's word planes are cleared;
+//! 3. `scatter_*`: particle to grid, into 64-bit fixed-point sums
+//!    ([`fixed_point`]);
+//! 4. `update_grid`: v_i = p_i / m_i, forces, gravity and grid collisions;
+//! 5. `gather_*`: grid to particle, the snow model (SVD, plastic clamp,
+//!    hardened stress), particle collisions and advection, with the maxima
+//!    for the next Δt reduced per workgroup, then by atomics.
+//!
+//! The host records batches of substeps, sized from the last Δt to just
+//! reach the frame's end, and reads back one 48-byte state per batch; the
+//! particles come back only when a frame is written ([`GpuSnow::snapshot`]).
+//! The grid is dense; [`MemoryEstimate`] says what a scene needs before
+//! anything is allocated.
+
+pub mod fixed_point;
+mod layout;
+mod memory;
+mod pipelines;
+
+use std::sync::Arc;
+
+use firn_core::Scene;
+use firn_core::scene::{ColliderGeometry, Integrator, SceneKind, TimeStep, Transfer};
+use firn_mpm::constitutive::MaterialConstants;
+use firn_mpm::grid::GridLayout;
+use firn_mpm::{Particles, SimulationError, Snapshot};
+use glam::{Mat3, Vec3};
+
+use crate::buffers::{read_back, storage_buffer};
+use crate::context::GpuContext;
+use crate::error::GpuError;
+use fixed_point::{QUANTITY_NAMES, Scales};
+use layout::{
+    GpuMat3, GpuMaterial, GpuPlastic, NO_PARTICLE, Params, StepState, mesh_unsupported,
+    pack_colliders,
+};
+use pipelines::{GridBuffers, ParticleBuffers, StepPipelines};
+
+pub use memory::MemoryEstimate;
+
+/// How far (in cells) a particle may stray outside the domain before the
+/// run stops, as on the CPU.
+const LEAVE_TOLERANCE_CELLS: f32 = 1.0;
+
+/// Most substeps recorded in one submission.
+const MAX_BATCH: u32 = 64;
+
+/// A running snow simulation on the GPU.
+pub struct GpuSnow {
+    context: Arc<GpuContext>,
+    scene: Scene,
+    materials: Vec<MaterialConstants>,
+    scales: Scales,
+    params: Params,
+    particles: ParticleBuffers,
+    grid: GridBuffers,
+    pipelines: StepPipelines,
+    particle_count: usize,
+    time: f64,
+    steps: u64,
+    /// The last Δt and the maxima it came from, read back per batch.
+    last: StepState,
+}
+
+impl GpuSnow {
+    /// Fills the scene's bodies with particles and estimates their volumes
+    /// exactly as the CPU solver does, then moves them to the GPU.
+    pub fn new(context: Arc<GpuContext>, scene: Scene) -> Result<GpuSnow, GpuError> {
+        GpuSnow::check_supported(&scene)?;
+        let cpu = firn_mpm::Simulation::new(scene.clone())?;
+        GpuSnow::from_snapshot(context, scene, cpu.snapshot())
+    }
+
+    /// Continues a run from a snapshot (of the CPU or the GPU backend).
+    pub fn from_snapshot(
+        context: Arc<GpuContext>,
+        scene: Scene,
+        snapshot: Snapshot,
+    ) -> Result<GpuSnow, GpuError> {
+        GpuSnow::check_supported(&scene)?;
+        let estimate = MemoryEstimate::of(&scene, snapshot.particles.len() as u64);
+        check_fits(&context, &estimate)?;
+        let materials: Vec<MaterialConstants> =
+            scene.materials.iter().map(MaterialConstants::new).collect();
+        let scales = Scales::of(&scene);
+        let domain = &scene.domain;
+        let layout = GridLayout::new(domain.min, domain.max, domain.cell_size);
+        let params = run_params(&scene, &layout, &scales, snapshot.particles.len());
+        let gpu_materials: Vec<GpuMaterial> = materials.iter().map(GpuMaterial::from).collect();
+        let all_colliders = firn_mpm::contact::ColliderSet::new(domain, &scene.colliders);
+        let (colliders, mut keys) = pack_colliders(all_colliders.colliders())?;
+        keys.push([0.0; 4]);
+        let particles = ParticleBuffers::upload(&context, &snapshot.particles);
+        let grid = GridBuffers::new(&context, estimate.nodes, scene.solver.transfer);
+        let state = StepState {
+            max_speed_bits: snapshot.max_speed_squared.to_bits(),
+            max_wave_bits: snapshot.max_wave_speed_squared.to_bits(),
+            non_finite: NO_PARTICLE,
+            left_domain: NO_PARTICLE,
+            ..StepState::default()
+        };
+        let pipelines = StepPipelines::new(
+            &context,
+            scene.solver.transfer,
+            &params,
+            &state,
+            &storage_buffer(&context, "materials", &gpu_materials),
+            &storage_buffer(&context, "colliders", &colliders),
+            &storage_buffer(&context, "collider keys", &keys),
+            &particles,
+            &grid,
+        );
+        Ok(GpuSnow {
+            context,
+            materials,
+            scales,
+            params,
+            particles,
+            grid,
+            pipelines,
+            particle_count: snapshot.particles.len(),
+            time: snapshot.time,
+            steps: snapshot.steps,
+            last: StepState {
+                speed_squared: snapshot.max_speed_squared,
+                wave_speed_squared: snapshot.max_wave_speed_squared,
+                ..state
+            },
+            scene,
+        })
+    }
+
+    /// `Ok` when the GPU backend runs this scene; otherwise what it lacks
+    /// (`--backend auto` then stays on the CPU).
+    pub fn check_supported(scene: &Scene) -> Result<(), GpuError> {
+        if !matches!(scene.kind, SceneKind::Snow) {
+            return Err(GpuError::Unsupported {
+                what: "this is a flow scene, not a snow scene".into(),
+                fix: "run it through firn_gpu::GpuFlow".into(),
+            });
+        }
+        if let Integrator::SemiImplicit(_) = scene.solver.integrator {
+            return Err(GpuError::Unsupported {
+                what: "the semi-implicit integrator is not yet on the GPU".into(),
+                fix: "run with --backend cpu, or set integrator = \"explicit\" in [solver]".into(),
+            });
+        }
+        if scene
+            .colliders
+            .iter()
+            .any(|collider| matches!(collider.geometry, ColliderGeometry::Mesh(_)))
+        {
+            return Err(mesh_unsupported());
+        }
+        Ok(())
+    }
+
+    /// Advances to simulated time `until`; returns the substeps taken.
+    pub fn advance_to(&mut self, until: f64) -> Result<u32, GpuError> {
+        if until - self.time <= 1e-9 {
+            return Ok(0);
+        }
+        self.begin_frame(until);
+        let mut taken = 0;
+        loop {
+            let batch = self.batch_size(until);
+            let state = self
+                .pipelines
+                .run_batch(&self.context, batch, self.grid.planes())?;
+            let before = self.last;
+            self.last = state;
+            let batch_steps = state.steps - before.steps;
+            taken += batch_steps;
+            self.steps += u64::from(batch_steps);
+            self.check_trouble(&state, until)?;
+            self.time = f64::from(self.params.lower[3]) + f64::from(state.elapsed);
+            if state.running == 0 {
+                self.time = until;
+                return Ok(taken);
+            }
+        }
+    }
+
+    /// Starts a frame: the time window goes into the parameters, the step
+    /// counter and the running flag into the state.
+    fn begin_frame(&mut self, until: f64) {
+        self.params.lower[3] = self.time as f32;
+        self.params.upper[3] = (until - self.time) as f32;
+        self.last.elapsed = 0.0;
+        self.last.steps = 0;
+        self.last.running = 1;
+        self.pipelines
+            .write_frame(&self.context, &self.params, &self.last);
+    }
+
+    /// Substeps to record next: enough to reach the frame's end at the last Δt.
+    fn batch_size(&self, until: f64) -> u32 {
+        let dt = match self.scene.time.step {
+            TimeStep::Fixed { dt } => dt,
+            TimeStep::Adaptive { .. } if self.last.dt > 0.0 => self.last.dt,
+            TimeStep::Adaptive { max_dt, .. } => max_dt,
+        };
+        let remaining = until - self.time;
+        ((remaining / f64::from(dt)).ceil() as u32 + 1).clamp(1, MAX_BATCH)
+    }
+
+    /// The error for a batch that ended in trouble, if it did.
+    fn check_trouble(&self, state: &StepState, until: f64) -> Result<(), GpuError> {
+        let step_start = self.time_of(state) - f64::from(state.dt);
+        if state.overflow != 0 {
+            let quantity = QUANTITY_NAMES[state.overflow.trailing_zeros() as usize];
+            return Err(GpuError::Overflow {
+                time: step_start,
+                quantity,
+                speed_limit: self.scales.speed_limit(),
+            });
+        }
+        let problem = match (state.non_finite, state.left_domain) {
+            (NO_PARTICLE, NO_PARTICLE) => None,
+            (NO_PARTICLE, particle) => Some((particle, "left the domain")),
+            (particle, _) => Some((particle, "became non-finite (NaN or infinity)")),
+        };
+        let Some((particle, what)) = problem else {
+            debug_assert!(state.running == 1 || until - self.time_of(state) < 1e-6);
+            return Ok(());
+        };
+        let position = self.particle_position(particle as usize)?;
+        Err(GpuError::Snow(SimulationError::Unstable {
+            time: step_start,
+            step: self.steps,
+            dt: state.dt,
+            particle: particle as usize,
+            what,
+            position,
+            hint: self.instability_hint(state.dt),
+        }))
+    }
+
+    fn time_of(&self, state: &StepState) -> f64 {
+        f64::from(self.params.lower[3]) + f64::from(state.elapsed)
+    }
+
+    /// What to change when a substep blew up.
+    fn instability_hint(&self, dt: f32) -> String {
+        let h = self.scene.domain.cell_size;
+        let wave_speed = self.last.wave_speed_squared.max(1e-12).sqrt();
+        let step_fix = match self.scene.time.step {
+            TimeStep::Fixed { .. } => {
+                format!(
+                    "in [time] set dt = {:.1e} or step = \"adaptive\"",
+                    0.3 * h / wave_speed
+                )
+            }
+            TimeStep::Adaptive { cfl, .. } => {
+                format!("in [time] set cfl = {:.2} (now {cfl})", cfl * 0.5)
+            }
+        };
+        format!(
+            "the time step Δt = {dt:.2e} s is too large for elastic waves of {wave_speed:.0} m/s \
+             in cells of h = {h} m, or snow was pushed through a wall: {step_fix}, and check \
+             that moving colliders stay inside [domain]"
+        )
+    }
+
+    fn particle_position(&self, index: usize) -> Result<Vec3, GpuError> {
+        let all = read_back::<[f32; 4]>(
+            &self.context,
+            &[(&self.particles.position_mass, self.particle_count)],
+        )?;
+        let [x, y, z, _] = all[0][index.min(self.particle_count - 1)];
+        Ok(Vec3::new(x, y, z))
+    }
+
+    /// Reads the particles back: the state to write a frame from or to
+    /// continue from, on either backend.
+    pub fn snapshot(&self) -> Result<Snapshot, GpuError> {
+        let n = self.particle_count;
+        let b = &self.particles;
+        let vectors = read_back::<[f32; 4]>(
+            &self.context,
+            &[(&b.position_mass, n), (&b.velocity_volume, n)],
+        )?;
+        let matrices = read_back::<GpuMat3>(
+            &self.context,
+            &[(&b.elastic, n), (&b.affine, n), (&b.stress, n)],
+        )?;
+        let plastic = read_back::<GpuPlastic>(&self.context, &[(&b.plastic, n)])?.remove(0);
+        let xyz = |v: &[f32; 4]| Vec3::new(v[0], v[1], v[2]);
+        let to_mat3 = |list: &Vec<GpuMat3>| list.iter().map(|&m| Mat3::from(m)).collect::<Vec<_>>();
+        let particles = Particles {
+            position: vectors[0].iter().map(xyz).collect(),
+            velocity: vectors[1].iter().map(xyz).collect(),
+            mass: vectors[0].iter().map(|v| v[3]).collect(),
+            volume0: vectors[1].iter().map(|v| v[3]).collect(),
+            elastic: to_mat3(&matrices[0]),
+            plastic_j: plastic.iter().map(|p| p.plastic_j).collect(),
+            stress: to_mat3(&matrices[2]),
+            velocity_gradient: to_mat3(&matrices[1]),
+            material: plastic.iter().map(|p| p.material as u16).collect(),
+        };
+        Ok(Snapshot {
+            time: self.time,
+            steps: self.steps,
+            max_speed_squared: f32::from_bits(self.last.max_speed_bits),
+            max_wave_speed_squared: f32::from_bits(self.last.max_wave_bits),
+            particles,
+        })
+    }
+
+    /// The scene being simulated.
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// Simulated time in seconds.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// Substeps taken.
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    /// Number of particles.
+    pub fn particle_count(&self) -> usize {
+        self.particle_count
+    }
+
+    /// Bytes of GPU buffers this simulation holds.
+    pub fn memory_bytes(&self) -> u64 {
+        MemoryEstimate::of(&self.scene, self.particle_count as u64).total_bytes()
+    }
+
+    /// The device this runs on.
+    pub fn context(&self) -> &Arc<GpuContext> {
+        &self.context
+    }
+
+    /// The materials' constants, as the kernels use them.
+    pub fn materials(&self) -> &[MaterialConstants] {
+        &self.materials
+    }
+}
+
+/// `Params` of a run: grid, stepping, scales; the frame window is set per frame.
+fn run_params(scene: &Scene, layout: &GridLayout, scales: &Scales, particles: usize) -> Params {
+    let dims = layout.node_dims();
+    let tolerance = Vec3::splat(LEAVE_TOLERANCE_CELLS * layout.cell_size);
+    let (cfl, max_dt, fixed_dt) = match scene.time.step {
+        TimeStep::Fixed { dt } => (0.0, dt, dt),
+        TimeStep::Adaptive { cfl, max_dt } => (cfl, max_dt, 0.0),
+    };
+    Params {
+        origin: layout.origin.extend(layout.cell_size).into(),
+        dims: [dims.x, dims.y, dims.z, particles as u32],
+        gravity: scene.solver.gravity.extend(scene.solver.flip_blend).into(),
+        lower: (scene.domain.min - tolerance).extend(0.0).into(),
+        upper: (scene.domain.max + tolerance).extend(0.0).into(),
+        stepping: [cfl, max_dt, fixed_dt, 0.0],
+        scales: [scales.mass, scales.momentum, 0.0, 0.0],
+        flags: [
+            u32::from(scene.solver.transfer == Transfer::PicFlip),
+            0,
+            0,
+            0,
+        ],
+    }
+}
+
+/// Fails before allocating when a buffer would pass the adapter's limits.
+fn check_fits(context: &GpuContext, estimate: &MemoryEstimate) -> Result<(), GpuError> {
+    let limit = context
+        .limits
+        .max_storage_buffer_binding_size
+        .min(context.limits.max_buffer_size);
+    let largest = estimate.largest_buffer_bytes();
+    if largest <= limit && estimate.particles <= u64::from(u32::MAX) {
+        return Ok(());
+    }
+    let (what, fix) = if estimate.nodes * 4 >= estimate.particles * 48 {
+        (
+            format!("one word plane of the dense {}-node grid", estimate.nodes),
+            "use a larger cell_size or a smaller [domain], or run with --backend cpu (its grid is sparse)",
+        )
+    } else {
+        (
+            format!(
+                "one matrix per particle for {} particles",
+                estimate.particles
+            ),
+            "use fewer particles_per_cell or smaller bodies, or run with --backend cpu",
+        )
+    };
+    Err(GpuError::TooLarge {
+        what,
+        needed: largest,
+        limit,
+        adapter: context.adapter.name.clone(),
+        fix: fix.into(),
+    })
+}

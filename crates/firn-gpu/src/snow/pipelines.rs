@@ -1,0 +1,288 @@
+//! The snow substep's buffers, bind group and compute pipelines, and the
+//! recording of batches of substeps.
+
+use bytemuck::Zeroable;
+use firn_core::scene::Transfer;
+use firn_mpm::Particles;
+
+use super::layout::{GpuMat3, GpuPlastic, Params, StepState};
+use crate::buffers::{read_back, storage_buffer, zeroed_storage_buffer};
+use crate::context::GpuContext;
+use crate::dispatch::workgroups;
+use crate::error::GpuError;
+use crate::shaders::SNOW_STEP;
+
+/// Per-particle arrays on the GPU (bindings 5 to 10).
+pub struct ParticleBuffers {
+    pub position_mass: wgpu::Buffer,
+    pub velocity_volume: wgpu::Buffer,
+    pub elastic: wgpu::Buffer,
+    pub affine: wgpu::Buffer,
+    pub stress: wgpu::Buffer,
+    pub plastic: wgpu::Buffer,
+}
+
+impl ParticleBuffers {
+    /// Uploads the particles.
+    pub fn upload(context: &GpuContext, particles: &Particles) -> ParticleBuffers {
+        let n = particles.len();
+        let matrices =
+            |list: &[glam::Mat3]| list.iter().map(|&m| GpuMat3::from(m)).collect::<Vec<_>>();
+        let position_mass: Vec<[f32; 4]> = (0..n)
+            .map(|p| particles.position[p].extend(particles.mass[p]).into())
+            .collect();
+        let velocity_volume: Vec<[f32; 4]> = (0..n)
+            .map(|p| particles.velocity[p].extend(particles.volume0[p]).into())
+            .collect();
+        let plastic: Vec<GpuPlastic> = (0..n)
+            .map(|p| GpuPlastic {
+                plastic_j: particles.plastic_j[p],
+                material: u32::from(particles.material[p]),
+            })
+            .collect();
+        ParticleBuffers {
+            position_mass: storage_buffer(context, "position and mass", &position_mass),
+            velocity_volume: storage_buffer(context, "velocity and volume", &velocity_volume),
+            elastic: storage_buffer(context, "elastic gradient", &matrices(&particles.elastic)),
+            affine: storage_buffer(
+                context,
+                "affine velocity",
+                &matrices(&particles.velocity_gradient),
+            ),
+            stress: storage_buffer(context, "stress", &matrices(&particles.stress)),
+            plastic: storage_buffer(context, "plastic state", &plastic),
+        }
+    }
+
+    fn all(&self) -> [&wgpu::Buffer; 6] {
+        [
+            &self.position_mass,
+            &self.velocity_volume,
+            &self.elastic,
+            &self.affine,
+            &self.stress,
+            &self.plastic,
+        ]
+    }
+}
+
+/// The grid's word planes (bindings 11 to 24): low and high words of mass,
+/// momentum and, for PIC/FLIP, the force impulse. APIC binds 16-byte
+/// stand-ins for the force planes it never touches.
+pub struct GridBuffers {
+    planes: Vec<wgpu::Buffer>,
+    used: usize,
+    nodes: u64,
+}
+
+impl GridBuffers {
+    /// Zeroed planes for `nodes` nodes.
+    pub fn new(context: &GpuContext, nodes: u64, transfer: Transfer) -> GridBuffers {
+        let used = match transfer {
+            Transfer::Apic => 8,
+            Transfer::PicFlip => 14,
+        };
+        let planes = (0..14)
+            .map(|plane| {
+                let bytes = if plane < used { nodes * 4 } else { 16 };
+                zeroed_storage_buffer(context, "grid word plane", bytes)
+            })
+            .collect();
+        GridBuffers {
+            planes,
+            used,
+            nodes,
+        }
+    }
+
+    /// The planes the substeps clear.
+    pub fn planes(&self) -> &[wgpu::Buffer] {
+        &self.planes[..self.used]
+    }
+}
+
+/// Pipelines and the bind group of one run.
+pub struct StepPipelines {
+    params: wgpu::Buffer,
+    state: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+    begin: wgpu::ComputePipeline,
+    scatter: wgpu::ComputePipeline,
+    update: wgpu::ComputePipeline,
+    gather: wgpu::ComputePipeline,
+    particle_groups: (u32, u32, u32),
+    node_groups: (u32, u32, u32),
+}
+
+/// Bindings 2 to 4: read-only storage; 1 and 5 to 24: read-write.
+fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
+    let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    };
+    (0..25)
+        .map(|binding| match binding {
+            0 => entry(binding, wgpu::BufferBindingType::Uniform),
+            2..=4 => entry(
+                binding,
+                wgpu::BufferBindingType::Storage { read_only: true },
+            ),
+            _ => entry(
+                binding,
+                wgpu::BufferBindingType::Storage { read_only: false },
+            ),
+        })
+        .collect()
+}
+
+impl StepPipelines {
+    /// Builds the pipelines of `transfer` and binds every buffer.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        context: &GpuContext,
+        transfer: Transfer,
+        params: &Params,
+        state: &StepState,
+        materials: &wgpu::Buffer,
+        colliders: &wgpu::Buffer,
+        keys: &wgpu::Buffer,
+        particles: &ParticleBuffers,
+        grid: &GridBuffers,
+    ) -> StepPipelines {
+        let device = &context.device;
+        let params_buffer = wgpu::util::DeviceExt::create_buffer_init(
+            device,
+            &wgpu::util::BufferInitDescriptor {
+                label: Some("snow params"),
+                contents: bytemuck::bytes_of(params),
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            },
+        );
+        let state_buffer = storage_buffer(context, "snow step state", std::slice::from_ref(state));
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("snow step"),
+            entries: &layout_entries(),
+        });
+        let mut buffers: Vec<&wgpu::Buffer> =
+            vec![&params_buffer, &state_buffer, materials, colliders, keys];
+        buffers.extend(particles.all());
+        buffers.extend(grid.planes.iter());
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(binding, buffer)| wgpu::BindGroupEntry {
+                binding: binding as u32,
+                resource: buffer.as_entire_binding(),
+            })
+            .collect();
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("snow step"),
+            layout: &layout,
+            entries: &entries,
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("snow step"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let module = SNOW_STEP.module(device);
+        let pipeline = |entry: &str| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(&pipeline_layout),
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: wgpu::PipelineCompilationOptions::default(),
+                cache: None,
+            })
+        };
+        let (scatter, gather) = match transfer {
+            Transfer::Apic => ("scatter_apic", "gather_apic"),
+            Transfer::PicFlip => ("scatter_pic_flip", "gather_pic_flip"),
+        };
+        let limit = context.limits.max_compute_workgroups_per_dimension;
+        StepPipelines {
+            begin: pipeline("begin_step"),
+            scatter: pipeline(scatter),
+            update: pipeline("update_grid"),
+            gather: pipeline(gather),
+            particle_groups: workgroups(params.dims[3], limit),
+            node_groups: workgroups(grid.nodes as u32, limit),
+            params: params_buffer,
+            state: state_buffer,
+            bind_group,
+        }
+    }
+
+    /// Writes a frame's parameters and starting state.
+    pub fn write_frame(&self, context: &GpuContext, params: &Params, state: &StepState) {
+        context
+            .queue
+            .write_buffer(&self.params, 0, bytemuck::bytes_of(params));
+        // Only the first four words: the maxima and trouble flags stay as
+        // the last gather left them.
+        let head = [
+            state.dt.to_bits(),
+            state.elapsed.to_bits(),
+            state.running,
+            state.steps,
+        ];
+        context
+            .queue
+            .write_buffer(&self.state, 0, bytemuck::cast_slice(&head));
+    }
+
+    /// Records and runs `substeps` substeps (those after the frame's end do
+    /// nothing), then reads the state back.
+    pub fn run_batch(
+        &self,
+        context: &GpuContext,
+        substeps: u32,
+        planes: &[wgpu::Buffer],
+    ) -> Result<StepState, GpuError> {
+        let mut encoder = context
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("snow substeps"),
+            });
+        for _ in 0..substeps {
+            self.dispatch(&mut encoder, &[(&self.begin, (1, 1, 1))]);
+            for plane in planes {
+                encoder.clear_buffer(plane, 0, None);
+            }
+            self.dispatch(
+                &mut encoder,
+                &[
+                    (&self.scatter, self.particle_groups),
+                    (&self.update, self.node_groups),
+                    (&self.gather, self.particle_groups),
+                ],
+            );
+        }
+        context.queue.submit([encoder.finish()]);
+        let state = read_back::<StepState>(context, &[(&self.state, 1)])?;
+        Ok(state[0].first().copied().unwrap_or_else(StepState::zeroed))
+    }
+
+    fn dispatch(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        kernels: &[(&wgpu::ComputePipeline, (u32, u32, u32))],
+    ) {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("snow substep"),
+            timestamp_writes: None,
+        });
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        for (pipeline, (x, y, z)) in kernels {
+            pass.set_pipeline(pipeline);
+            pass.dispatch_workgroups(*x, *y, *z);
+        }
+    }
+}
