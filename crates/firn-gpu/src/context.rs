@@ -65,15 +65,31 @@ pub enum AdapterPolicy {
     AllowSoftware,
 }
 
-/// The graphics APIs firn computes through: the native ones, then GL.
-const BACKENDS: wgpu::Backends = wgpu::Backends::all();
-
-fn instance() -> wgpu::Instance {
-    wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env())
+fn instance(backends: wgpu::Backends) -> wgpu::Instance {
+    let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+    descriptor.backends &= backends;
+    wgpu::Instance::new(descriptor)
 }
 
-fn enumerate(instance: &wgpu::Instance) -> Vec<wgpu::Adapter> {
-    pollster::block_on(instance.enumerate_adapters(BACKENDS))
+/// The adapters of the native APIs (Vulkan, Metal, DX12), or of GL where
+/// there are none (GL is asked only then: probing it prints EGL warnings).
+fn enumerate() -> Vec<wgpu::Adapter> {
+    let found = |backends| {
+        usable(pollster::block_on(
+            instance(backends).enumerate_adapters(backends),
+        ))
+    };
+    let native = found(wgpu::Backends::PRIMARY);
+    if native.is_empty() {
+        found(wgpu::Backends::GL)
+    } else {
+        native
+    }
+}
+
+/// The adapters that can run firn's kernels.
+fn usable(adapters: Vec<wgpu::Adapter>) -> Vec<wgpu::Adapter> {
+    adapters
         .into_iter()
         .filter(|adapter| {
             let limits = adapter.limits();
@@ -89,10 +105,7 @@ pub const MIN_STORAGE_BUFFERS: u32 = 24;
 
 /// Every adapter wgpu finds that can run firn's kernels, best first.
 pub fn adapters() -> Vec<AdapterReport> {
-    let mut found: Vec<AdapterReport> = enumerate(&instance())
-        .iter()
-        .map(AdapterReport::of)
-        .collect();
+    let mut found: Vec<AdapterReport> = enumerate().iter().map(AdapterReport::of).collect();
     found.sort_by_key(rank);
     found
 }
@@ -141,8 +154,7 @@ impl GpuContext {
     /// Opens a device on the best adapter `policy` allows, with that
     /// adapter's full limits (large scenes need more than WebGPU's defaults).
     pub fn new(policy: AdapterPolicy) -> Result<Arc<GpuContext>, GpuError> {
-        let instance = instance();
-        let mut candidates = enumerate(&instance);
+        let mut candidates = enumerate();
         candidates.sort_by_key(|adapter| rank(&AdapterReport::of(adapter)));
         let adapter = candidates
             .into_iter()

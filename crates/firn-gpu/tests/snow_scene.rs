@@ -122,3 +122,76 @@ fn apic_on_the_gpu_follows_the_cpu() {
 fn pic_flip_on_the_gpu_follows_the_cpu() {
     compare_runs("pic-flip", 0.1, 1e-3, 2e-3);
 }
+
+/// The scatter's fixed-point sums are associative, so the GPU run does not
+/// depend on the order its invocations happen to run in.
+#[test]
+fn two_gpu_runs_give_the_same_bits() {
+    let Some(context) = context_for_tests() else {
+        return;
+    };
+    let scene = thrown_ball("apic");
+    let run = || {
+        let mut gpu = GpuSnow::new(context.clone(), scene.clone()).unwrap();
+        gpu.advance_to(0.05).unwrap();
+        gpu.snapshot().unwrap().particles
+    };
+    let (first, second) = (run(), run());
+    assert!(
+        first
+            .position
+            .iter()
+            .zip(&second.position)
+            .all(|(a, b)| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits))
+    );
+    assert!(
+        first.elastic.iter().zip(&second.elastic).all(
+            |(a, b)| a.to_cols_array().map(f32::to_bits) == b.to_cols_array().map(f32::to_bits)
+        )
+    );
+}
+
+/// Snow at absurd speed overflows the 64-bit momentum sums; the run stops
+/// with that explanation instead of going on from wrapped integers.
+#[test]
+fn a_fixed_point_overflow_stops_the_run() {
+    let Some(context) = context_for_tests() else {
+        return;
+    };
+    let mut scene = thrown_ball("apic");
+    scene.bodies[0].velocity = glam::Vec3::new(3.0e7, 0.0, 0.0);
+    let mut gpu = GpuSnow::new(context, scene).unwrap();
+    let error = gpu.advance_to(1e-6).unwrap_err();
+    let message = error.to_string();
+    assert!(
+        matches!(error, firn_gpu::GpuError::Overflow { .. }),
+        "{message}"
+    );
+    assert!(
+        message.contains("momentum x") && message.contains("fix:"),
+        "{message}"
+    );
+}
+
+/// A grid whose word planes pass the adapter's storage-binding limit is
+/// refused before anything is allocated, with the numbers.
+#[test]
+fn a_grid_too_large_for_the_adapter_is_refused_with_the_numbers() {
+    let Some(context) = context_for_tests() else {
+        return;
+    };
+    let mut scene = thrown_ball("apic");
+    let limit = context.limits.max_storage_buffer_binding_size;
+    let cells_per_axis = ((limit / 4) as f64).cbrt() as f32 + 16.0;
+    scene.domain.max = glam::Vec3::splat(cells_per_axis * scene.domain.cell_size);
+    let error = match GpuSnow::new(context, scene) {
+        Ok(_) => panic!("a grid past the binding limit was accepted"),
+        Err(error) => error,
+    };
+    let message = error.to_string();
+    assert!(
+        message.contains(&limit.to_string()) && message.contains("word plane"),
+        "{message}"
+    );
+    assert!(message.contains("--backend cpu"), "{message}");
+}

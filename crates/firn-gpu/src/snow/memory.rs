@@ -61,3 +61,31 @@ impl MemoryEstimate {
         budget.saturating_sub(self.nodes * self.bytes_per_node) / self.bytes_per_particle
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The thesis' GTX 1070 (8 GB) case: 2^20 particles on a 256³ grid
+    /// must fit in 4 GiB with either transfer scheme.
+    #[test]
+    fn the_thesis_largest_case_fits_in_four_gib() {
+        for transfer in ["apic", "pic-flip"] {
+            let text = format!(
+                "format = 1\n[domain]\nmax = [2.56, 2.56, 2.56]\ncell_size = 0.01\n[time]\nduration = 1.0\n\
+                 [solver]\ntransfer = \"{transfer}\"\n[[bodies]]\nshape = \"sphere\"\n\
+                 center = [1.28, 1.28, 1.28]\nradius = 0.3\n"
+            );
+            let scene = Scene::from_toml_str(&text, "thesis-256.toml").unwrap();
+            let estimate = MemoryEstimate::of(&scene, 1 << 20);
+            assert!(estimate.nodes >= 257u64.pow(3), "{estimate:?}");
+            let four_gib = 4u64 << 30;
+            assert!(
+                estimate.total_bytes() < four_gib,
+                "{transfer}: {estimate:?} needs {} bytes",
+                estimate.total_bytes()
+            );
+            assert!(estimate.particles_within(four_gib) > 1 << 20);
+        }
+    }
+}
