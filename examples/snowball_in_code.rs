@@ -77,6 +77,7 @@ fn main() -> Result<(), Box<dyn Error>> {
         camera: Camera::default(),
         render: RenderSettings::default(),
         kind: SceneKind::Snow,
+        compute: Default::default(),
     };
     // The same checks a scene file gets.
     scene.validate()?;

@@ -6,8 +6,11 @@
 //! With `--scene FILE` it runs a scene file instead, for a stretch of simulated
 //! time, and reports wall-clock seconds per simulated second: the measure that
 //! compares integrators, whose substeps differ in length and cost.
+//!
+//! Both run on the backend of `--backend` (see `bench_gpu.rs` for the GPU).
 
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::time::Instant;
 
 use clap::{Args, ValueEnum};
@@ -18,12 +21,15 @@ use firn_core::scene::{
     OutputSettings, RenderSettings, Scene, SceneKind, Shape, SolverSettings, TimeSettings,
     TimeStep, Transfer,
 };
+use firn_gpu::GpuContext;
 use firn_mpm::update::preferred_simd;
 use firn_mpm::{PhaseTimes, Simulation};
 use glam::Vec3;
 use serde::Serialize;
 
 use crate::Failure;
+use crate::backend::{BackendChoice, Placement, choose_backend};
+use crate::bench_gpu::{GpuMemoryRecord, GpuTiming};
 use crate::bench_render::bench_render;
 use crate::bench_sweep::SweepArgs;
 
@@ -98,6 +104,38 @@ pub struct BenchArgs {
     /// compares their speed.
     #[arg(long, value_enum, default_value = "auto")]
     pub simd: SimdChoice,
+    /// Compute backend of the snowball and --scene runs (default: auto, or
+    /// the --scene file's [compute] backend). --render, --flow and --sweep
+    /// run on the CPU.
+    #[arg(long, value_enum)]
+    pub backend: Option<BackendChoice>,
+    /// GPU runs: the memory budget, GiB, of the estimate of how many
+    /// particles fit (on the bench's grid and on 256^3).
+    #[arg(long, default_value_t = 4.0)]
+    pub memory_budget_gib: f64,
+    /// GPU runs: how the scatter adds into the grid: binned (particles
+    /// sorted by block, sums in workgroup memory first; the default where
+    /// the adapter allows) or atomic (every particle adds into the grid).
+    #[arg(long, value_enum, default_value_t = GpuScatterChoice::Binned)]
+    pub gpu_scatter: GpuScatterChoice,
+}
+
+/// Scatters for `--gpu-scatter`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum GpuScatterChoice {
+    /// Counting sort by block, sums in workgroup memory, one global add per node.
+    Binned,
+    /// Global 64-bit fixed-point atomics per particle and node.
+    Atomic,
+}
+
+impl GpuScatterChoice {
+    fn scatter(self) -> firn_gpu::snow::Scatter {
+        match self {
+            GpuScatterChoice::Binned => firn_gpu::snow::Scatter::Binned,
+            GpuScatterChoice::Atomic => firn_gpu::snow::Scatter::Atomic,
+        }
+    }
 }
 
 /// Instruction sets for `--simd`.
@@ -195,11 +233,83 @@ struct BenchRecord {
     substeps_per_second: f64,
     memory_mib: f64,
     threads: usize,
-    /// Instruction set of the batched particle update.
-    simd: &'static str,
+    /// Instruction set of the batched particle update (CPU runs only).
+    simd: Option<&'static str>,
     center_of_mass_y: f64,
-    /// Nanoseconds per particle-substep in each phase of the step.
+    /// Nanoseconds per particle-substep in each phase of the step (CPU
+    /// runs only; empty on the GPU).
     phases_ns_per_particle_substep: Vec<PhaseRecord>,
+    /// Where it ran.
+    #[serde(flatten)]
+    backend: BackendRecord,
+}
+
+/// The backend a bench ran on, for its JSON record.
+#[derive(Debug, Serialize)]
+struct BackendRecord {
+    /// "cpu" or "gpu".
+    backend: &'static str,
+    /// The GPU adapter's name (GPU runs only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    adapter: Option<String>,
+    /// GPU memory needed and what fits the budget (GPU runs only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    gpu_memory: Option<GpuMemoryRecord>,
+    /// The scatter the GPU ran, "binned" or "atomic" (GPU runs only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    gpu_scatter: Option<&'static str>,
+}
+
+impl BackendRecord {
+    /// A CPU run.
+    const CPU: BackendRecord = BackendRecord {
+        backend: "cpu",
+        adapter: None,
+        gpu_memory: None,
+        gpu_scatter: None,
+    };
+
+    /// A GPU run on `context` of `particles` particles of `scene` with `scatter`.
+    fn gpu(
+        context: &GpuContext,
+        scene: &Scene,
+        particles: usize,
+        args: &BenchArgs,
+        scatter: firn_gpu::snow::Scatter,
+    ) -> Self {
+        BackendRecord {
+            gpu_scatter: Some(match scatter {
+                firn_gpu::snow::Scatter::Binned => "binned",
+                firn_gpu::snow::Scatter::Atomic => "atomic",
+            }),
+            backend: "gpu",
+            adapter: Some(context.adapter.name.clone()),
+            gpu_memory: Some(GpuMemoryRecord::of(
+                scene,
+                particles as u64,
+                args.memory_budget_gib,
+            )),
+        }
+    }
+
+    /// ` backend=gpu adapter="NAME"` for the bench's output line.
+    fn words(&self) -> String {
+        match &self.adapter {
+            Some(adapter) => format!(
+                " backend={} adapter=\"{adapter}\" gpu_scatter={}",
+                self.backend,
+                self.gpu_scatter.unwrap_or("atomic")
+            ),
+            None => format!(" backend={}", self.backend),
+        }
+    }
+
+    /// The GPU memory lines, if any, each on its own line.
+    fn print_memory(&self) {
+        if let Some(memory) = &self.gpu_memory {
+            println!("{}", memory.lines());
+        }
+    }
 }
 
 /// The time of one phase of the step, per particle and substep.
@@ -225,9 +335,19 @@ fn phase_records(times: PhaseTimes, substeps: u32, particles: usize) -> Vec<Phas
         .collect()
 }
 
-/// Prints a phase profile as a small table.
-fn print_phases(phases: &[PhaseRecord]) {
-    for phase in phases {
+/// ` simd=NAME` for the output line of a CPU run.
+fn simd_words(simd: Option<&str>) -> String {
+    simd.map(|name| format!(" simd={name}")).unwrap_or_default()
+}
+
+/// Prints a run's phase profile as a small table, or why there is none.
+fn print_phases(record: &BenchRecord) {
+    if record.backend.backend != "cpu" {
+        println!(
+            "  phases: not measured on the GPU; --phases profiles the CPU solver (--backend cpu)"
+        );
+    }
+    for phase in &record.phases_ns_per_particle_substep {
         println!(
             "  {:<15} {:>9.2} ns  {:>5.1} %",
             phase.phase,
@@ -256,8 +376,11 @@ struct SceneRecord {
     unconverged_solves: Option<u64>,
     worst_solver_residual: Option<f32>,
     threads: usize,
-    /// Instruction set of the batched particle update.
-    simd: &'static str,
+    /// Instruction set of the batched particle update (CPU runs only).
+    simd: Option<&'static str>,
+    /// Where it ran.
+    #[serde(flatten)]
+    backend: BackendRecord,
 }
 
 /// Runs every configuration and writes the JSON record.
@@ -269,6 +392,13 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
             .map_err(|error| {
                 Failure::Failed(format!("error: cannot start {count} threads: {error}"))
             })?;
+    }
+    if (args.render || args.flow || args.sweep.sweep.is_some())
+        && matches!(args.backend, Some(BackendChoice::Gpu))
+    {
+        return Err(Failure::BadInput(
+            "error: --backend gpu applies to the snowball bench and --scene; --render, --flow and --sweep measure the CPU\n  fix: leave out --backend, or --render, --flow and --sweep".into(),
+        ));
     }
     if args.render {
         let particles = args.particles.first().copied().unwrap_or(262_144);
@@ -297,7 +427,8 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
             for &transfer in transfers {
                 let record = measure(snowball_drop(particles, grid, transfer), grid, &args)?;
                 println!(
-                    "firn transfer={} particles={} grid={} steps={} seconds={:.3} ns_per_particle_step={:.2} substeps_per_s={:.2} memory_mib={:.1} threads={} simd={}",
+                    "firn{} transfer={} particles={} grid={} steps={} seconds={:.3} ns_per_particle_step={:.2} substeps_per_s={:.2} memory_mib={:.1} threads={}{}",
+                    record.backend.words(),
                     transfer_name(transfer),
                     record.particles,
                     grid,
@@ -307,10 +438,11 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
                     record.substeps_per_second,
                     record.memory_mib,
                     record.threads,
-                    record.simd
+                    simd_words(record.simd)
                 );
+                record.backend.print_memory();
                 if args.phases {
-                    print_phases(&record.phases_ns_per_particle_substep);
+                    print_phases(&record);
                 }
                 records.push(record);
             }
@@ -351,20 +483,68 @@ fn bench_scene(path: &std::path::Path, args: &BenchArgs) -> Result<Scene, Failur
     Ok(scene)
 }
 
+/// Where a bench scene runs: `--backend`, else the scene's own backend.
+fn bench_placement(scene: &mut Scene, args: &BenchArgs) -> Result<Placement, Failure> {
+    if let Some(choice) = args.backend {
+        scene.compute.backend = choice.backend();
+    }
+    let chosen = choose_backend(scene)?;
+    if let Some(note) = chosen.note {
+        println!("{note}");
+    }
+    Ok(chosen.placement)
+}
+
+/// A scene run to its end: its final state and what it took.
+struct SceneRun {
+    simulation: Simulation,
+    wall_seconds: f64,
+    backend: BackendRecord,
+}
+
+/// Runs `scene` to its end on `placement`.
+fn run_scene(scene: Scene, placement: &Placement, args: &BenchArgs) -> Result<SceneRun, Failure> {
+    let duration = scene.time.duration;
+    let Placement::Gpu(context) = placement else {
+        let mut simulation = bench_simulation(scene, args)?;
+        let started = Instant::now();
+        simulation
+            .advance_to(duration)
+            .map_err(|error| Failure::Failed(format!("error: {error}")))?;
+        return Ok(SceneRun {
+            simulation,
+            wall_seconds: started.elapsed().as_secs_f64(),
+            backend: BackendRecord::CPU,
+        });
+    };
+    let mut gpu = crate::bench_gpu::start(context, scene, args.gpu_scatter.scatter())?;
+    let GpuTiming { seconds, state, .. } = crate::bench_gpu::time_until(&mut gpu, 0.0, duration)?;
+    let backend = BackendRecord::gpu(
+        context,
+        state.scene(),
+        state.particles().len(),
+        args,
+        gpu.scatter(),
+    );
+    Ok(SceneRun {
+        simulation: state,
+        wall_seconds: seconds,
+        backend,
+    })
+}
+
 /// Runs a scene file for its duration and times it.
 fn measure_scene(path: &std::path::Path, args: &BenchArgs) -> Result<SceneRecord, Failure> {
-    let scene = bench_scene(path, args)?;
+    let mut scene = bench_scene(path, args)?;
+    let placement = bench_placement(&mut scene, args)?;
     let (duration, time_step) = (scene.time.duration, scene.time.step.clone());
     let (transfer, integrator) = (scene.solver.transfer, scene.solver.integrator);
-    let mut simulation = bench_simulation(scene, args)?;
-    let started = Instant::now();
-    simulation
-        .advance_to(duration)
-        .map_err(|error| Failure::Failed(format!("error: {error}")))?;
-    let wall_seconds = started.elapsed().as_secs_f64();
+    let run = run_scene(scene, &placement, args)?;
+    let (simulation, wall_seconds) = (&run.simulation, run.wall_seconds);
     let substeps = simulation.steps();
     let particles = simulation.particles().len();
     let solver = simulation.solver_stats();
+    let on_cpu = matches!(placement, Placement::Cpu);
     let record = SceneRecord {
         scene: path.display().to_string(),
         integrator: match integrator {
@@ -385,7 +565,8 @@ fn measure_scene(path: &std::path::Path, args: &BenchArgs) -> Result<SceneRecord
         unconverged_solves: solver.map(|stats| stats.unconverged_steps),
         worst_solver_residual: solver.map(|stats| stats.worst_residual),
         threads: rayon::current_num_threads(),
-        simd: simulation.simd().name(),
+        simd: on_cpu.then(|| simulation.simd().name()),
+        backend: run.backend,
     };
     let iterations = match (record.mean_solver_iterations, record.max_solver_iterations) {
         (Some(mean), Some(max)) => format!(
@@ -395,7 +576,8 @@ fn measure_scene(path: &std::path::Path, args: &BenchArgs) -> Result<SceneRecord
         _ => String::new(),
     };
     println!(
-        "firn scene={} integrator={} transfer={} particles={} simulated_s={} substeps={} mean_dt={:.3e} wall_s={:.3} wall_s_per_simulated_s={:.2} ns_per_particle_step={:.1}{iterations} threads={} simd={}",
+        "firn{} scene={} integrator={} transfer={} particles={} simulated_s={} substeps={} mean_dt={:.3e} wall_s={:.3} wall_s_per_simulated_s={:.2} ns_per_particle_step={:.1}{iterations} threads={}{}",
+        record.backend.words(),
         record.scene,
         record.integrator,
         transfer_name(transfer),
@@ -407,8 +589,9 @@ fn measure_scene(path: &std::path::Path, args: &BenchArgs) -> Result<SceneRecord
         record.wall_seconds_per_simulated_second,
         record.ns_per_particle_substep,
         record.threads,
-        record.simd
+        simd_words(record.simd)
     );
+    record.backend.print_memory();
     Ok(record)
 }
 
@@ -420,12 +603,25 @@ pub fn transfer_name(transfer: Transfer) -> &'static str {
     }
 }
 
-fn measure(scene: Scene, grid: u32, args: &BenchArgs) -> Result<BenchRecord, Failure> {
-    let dt = match scene.time.step {
+/// Times the snowball `scene` on `--backend`'s choice.
+fn measure(mut scene: Scene, grid: u32, args: &BenchArgs) -> Result<BenchRecord, Failure> {
+    match bench_placement(&mut scene, args)? {
+        Placement::Cpu => measure_cpu(scene, grid, args),
+        Placement::Gpu(context) => measure_gpu(scene, grid, &context, args),
+    }
+}
+
+/// The fixed substep of a bench scene (or its adaptive bound).
+fn bench_dt(scene: &Scene) -> f32 {
+    match scene.time.step {
         TimeStep::Fixed { dt } => dt,
         TimeStep::Adaptive { max_dt, .. } => max_dt,
-    };
-    let transfer = scene.solver.transfer;
+    }
+}
+
+/// Times `args.steps` substeps of the CPU solver after `args.warmup`.
+fn measure_cpu(scene: Scene, grid: u32, args: &BenchArgs) -> Result<BenchRecord, Failure> {
+    let (dt, transfer) = (bench_dt(&scene), scene.solver.transfer);
     let mut simulation = bench_simulation(scene, args)?;
     let (_, seconds) = time_substeps(&mut simulation, args.warmup, args.steps, None)?;
     let particles = simulation.particles().len();
@@ -441,9 +637,53 @@ fn measure(scene: Scene, grid: u32, args: &BenchArgs) -> Result<BenchRecord, Fai
         substeps_per_second: args.steps as f64 / seconds,
         memory_mib: simulation.memory_bytes() as f64 / (1024.0 * 1024.0),
         threads: rayon::current_num_threads(),
-        simd: simulation.simd().name(),
+        simd: Some(simulation.simd().name()),
         center_of_mass_y: simulation.diagnostics().center_of_mass[1],
         phases_ns_per_particle_substep: phases,
+        backend: BackendRecord::CPU,
+    })
+}
+
+/// Times about `args.steps` fixed substeps on the GPU after `args.warmup`
+/// (the GPU steps to a time; the substeps it took are counted).
+fn measure_gpu(
+    scene: Scene,
+    grid: u32,
+    context: &Arc<GpuContext>,
+    args: &BenchArgs,
+) -> Result<BenchRecord, Failure> {
+    let (dt, transfer) = (bench_dt(&scene), scene.solver.transfer);
+    let mut gpu = crate::bench_gpu::start(context, scene, args.gpu_scatter.scatter())?;
+    let warmup_until = f64::from(args.warmup) * f64::from(dt);
+    let until = f64::from(args.warmup + args.steps) * f64::from(dt);
+    let timing = crate::bench_gpu::time_until(&mut gpu, warmup_until, until)?;
+    let particles = timing.state.particles().len();
+    let steps = timing.substeps.max(1) as f64;
+    let backend = BackendRecord::gpu(
+        context,
+        timing.state.scene(),
+        particles,
+        args,
+        gpu.scatter(),
+    );
+    Ok(BenchRecord {
+        transfer,
+        particles,
+        grid,
+        steps: timing.substeps as u32,
+        dt,
+        seconds: timing.seconds,
+        ns_per_particle_substep: timing.seconds * 1e9 / (steps * particles as f64),
+        substeps_per_second: steps / timing.seconds,
+        memory_mib: backend
+            .gpu_memory
+            .as_ref()
+            .map_or(0.0, |memory| memory.total_bytes as f64 / (1024.0 * 1024.0)),
+        threads: rayon::current_num_threads(),
+        simd: None,
+        center_of_mass_y: timing.state.diagnostics().center_of_mass[1],
+        phases_ns_per_particle_substep: Vec::new(),
+        backend,
     })
 }
 
@@ -535,5 +775,6 @@ pub fn snowball_drop(particles: u32, grid: u32, transfer: Transfer) -> Scene {
         camera: Camera::default(),
         render: RenderSettings::default(),
         kind: SceneKind::Snow,
+        compute: Default::default(),
     }
 }

@@ -17,6 +17,7 @@ use image::{Rgb, RgbImage};
 use serde::Serialize;
 
 use crate::Failure;
+use crate::backend::Placement;
 use crate::compare_layout::{GLYPH_PIXELS, Layout, layout_for};
 use crate::pictures::style_name;
 use crate::scene_source::load_scene;
@@ -248,9 +249,11 @@ impl Plan {
         let started = Instant::now();
         let mut rows = Vec::with_capacity(self.scenes.len());
         for (row, (entry, label)) in self.scenes.iter().zip(&self.labels).enumerate() {
-            let mut solver = Solver::new(entry.scene.clone()).map_err(|error| {
-                Failure::BadInput(format!("error: {}: {error}", entry.file.display()))
-            })?;
+            // Stills are compared side by side: all on the CPU, the same method.
+            let mut solver =
+                Solver::new(entry.scene.clone(), &Placement::Cpu).map_err(|error| {
+                    Failure::BadInput(format!("error: {}: {error}", entry.file.display()))
+                })?;
             let mut substeps = 0u64;
             let mut stills = Vec::with_capacity(self.times.len());
             for (column, &time) in self.times.iter().enumerate() {

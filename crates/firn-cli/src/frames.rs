@@ -197,3 +197,44 @@ pub fn read_checkpoint(path: &Path) -> Result<RestoredCheckpoint, String> {
 pub fn scene_json(scene: &Scene) -> serde_json::Value {
     serde_json::to_value(scene).unwrap_or_default()
 }
+
+/// Whether two resolved scenes (as JSON) simulate the same thing: equal but
+/// for `compute`, which says only where, and which checkpoints written
+/// before it existed lack.
+pub fn same_physics(a: &serde_json::Value, b: &serde_json::Value) -> bool {
+    without_compute(a) == without_compute(b)
+}
+
+/// `scene` without its `compute` table.
+fn without_compute(scene: &serde_json::Value) -> serde_json::Value {
+    let mut scene = scene.clone();
+    if let Some(table) = scene.as_object_mut() {
+        table.remove("compute");
+    }
+    scene
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn scenes_that_differ_only_in_their_backend_simulate_the_same() {
+        let before_compute = json!({ "name": "ball", "time": { "fps": 30.0 } });
+        let on_gpu = json!({
+            "name": "ball",
+            "time": { "fps": 30.0 },
+            "compute": { "backend": "gpu" }
+        });
+        let on_cpu = json!({
+            "name": "ball",
+            "time": { "fps": 30.0 },
+            "compute": { "backend": "cpu" }
+        });
+        assert!(same_physics(&before_compute, &on_gpu));
+        assert!(same_physics(&on_cpu, &on_gpu));
+        let faster = json!({ "name": "ball", "time": { "fps": 60.0 } });
+        assert!(!same_physics(&faster, &before_compute));
+    }
+}

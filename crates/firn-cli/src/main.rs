@@ -1,7 +1,9 @@
 //! The `firn` command: run, check and benchmark snow simulations.
 
+mod backend;
 mod bench;
 mod bench_flow;
+mod bench_gpu;
 mod bench_render;
 mod bench_sweep;
 mod charts;
@@ -9,6 +11,7 @@ mod check;
 mod compare;
 mod compare_layout;
 mod frames;
+mod info;
 mod pictures;
 mod presets;
 mod render;
@@ -47,6 +50,8 @@ enum Command {
     Render(render::RenderArgs),
     /// Picture scene variants side by side at given times (the thesis' figures 14-18).
     Compare(compare::CompareArgs),
+    /// Show the CPU, the GPU adapters and which backend `--backend auto` takes.
+    Info,
 }
 
 /// A failure, classified for the exit code.
@@ -58,7 +63,24 @@ pub enum Failure {
     Failed(String),
 }
 
+/// The environment variable that turns off Mesa's Vulkan device-select layer.
+const NODEVICE_SELECT: &str = "NODEVICE_SELECT";
+
+/// Turns off Mesa's Vulkan device-select layer, unless the user set it.
+/// The layer asks the Wayland compositor for the desktop's default GPU and,
+/// on a headless machine, prints "error: XDG_RUNTIME_DIR is invalid" at
+/// every adapter probe (`--backend auto` probes on every run); firn ranks
+/// the adapters itself, so it loses nothing without the layer.
+fn quiet_device_select_layer() {
+    if std::env::var_os(NODEVICE_SELECT).is_none() {
+        // SAFETY: main calls this first, before any thread exists that could
+        // read the environment concurrently.
+        unsafe { std::env::set_var(NODEVICE_SELECT, "1") };
+    }
+}
+
 fn main() -> ExitCode {
+    quiet_device_select_layer();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Run(args) => run::run(args),
@@ -70,6 +92,7 @@ fn main() -> ExitCode {
         Command::Bench(args) => bench::bench(args),
         Command::Render(args) => render::render(args),
         Command::Compare(args) => compare::compare(args),
+        Command::Info => info::info(),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -15,8 +15,9 @@ use firn_mpm::SolverStats;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use crate::Failure;
+use crate::backend::{BackendChoice, Placement, choose_backend};
 use crate::bench::IntegratorChoice;
-use crate::frames::{prepare_cache_dirs, scene_json};
+use crate::frames::{prepare_cache_dirs, same_physics, scene_json};
 use crate::pictures::{prepare_image_dirs, render_frame, write_animations};
 use crate::scene_source::load_scene;
 use crate::solver::{Solver, frame_solver_stats};
@@ -51,6 +52,10 @@ pub struct RunArgs {
     /// Time integrator (default: the scene's [solver] integrator).
     #[arg(long, value_enum)]
     pub integrator: Option<IntegratorChoice>,
+    /// Compute backend (default: the scene's [compute] backend, else auto:
+    /// a hardware GPU when there is one, else the CPU).
+    #[arg(long, value_enum)]
+    pub backend: Option<BackendChoice>,
 }
 
 /// File name of the checkpoint inside the output directory.
@@ -76,6 +81,14 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
     if let Some(choice) = args.integrator {
         scene.solver.integrator = choice.applied_to(scene.solver.integrator);
     }
+    if let Some(choice) = args.backend {
+        scene.compute.backend = choice.backend();
+    }
+    let chosen = choose_backend(&scene)?;
+    if let (Some(note), false) = (&chosen.note, args.quiet) {
+        eprintln!("{note}");
+    }
+    let placement = chosen.placement;
     let directory = scene.output.directory.clone();
     ensure_writable_dir(&directory)
         .and_then(|()| prepare_cache_dirs(&scene, &directory))
@@ -93,10 +106,18 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
         .min(args.frames.unwrap_or(u32::MAX));
     let scene_json = scene_json(&scene);
     let mut state = if args.resume {
-        RunState::resume(scene, &directory, &scene_json)?
+        RunState::resume(scene, &directory, &scene_json, &placement)?
     } else {
-        RunState::fresh(scene, scene_file, threads, &directory, scene_json)?
+        let started = Started {
+            scene_file,
+            threads,
+            placement: &placement,
+        };
+        RunState::fresh(scene, started, &directory, scene_json)?
     };
+    if !args.quiet {
+        state.announce(last_frame, &placement);
+    }
     state.run_frames(last_frame, args.quiet)
 }
 
@@ -118,6 +139,13 @@ fn configure_threads(threads: Option<usize>) -> Result<usize, Failure> {
     Ok(rayon::current_num_threads())
 }
 
+/// How a fresh run was started, for its manifest.
+struct Started<'a> {
+    scene_file: Option<PathBuf>,
+    threads: usize,
+    placement: &'a Placement,
+}
+
 /// A run in progress: the simulation, where it writes, and what it wrote.
 struct RunState {
     simulation: Solver,
@@ -134,20 +162,20 @@ impl RunState {
     /// Starts a new run and writes frame 0 (the initial state).
     fn fresh(
         scene: Scene,
-        scene_file: Option<PathBuf>,
-        threads: usize,
+        started: Started<'_>,
         directory: &Path,
         scene_json: serde_json::Value,
     ) -> Result<RunState, Failure> {
         let cells = scene.domain.cells();
-        let simulation =
-            Solver::new(scene).map_err(|error| Failure::BadInput(format!("error: {error}")))?;
+        let simulation = Solver::new(scene, started.placement)
+            .map_err(|error| Failure::BadInput(format!("error: {error}")))?;
         let manifest = Manifest {
             firn_version: env!("CARGO_PKG_VERSION").to_string(),
-            scene_file: scene_file.map(|path| path.display().to_string()),
+            scene_file: started.scene_file.map(|path| path.display().to_string()),
             scene: scene_json.clone(),
-            backend: "cpu".into(),
-            threads,
+            backend: started.placement.name().into(),
+            adapter: started.placement.adapter(),
+            threads: started.threads,
             particle_count: simulation.particle_count(),
             grid_cells: cells,
             frames: Vec::new(),
@@ -167,11 +195,12 @@ impl RunState {
         Ok(state)
     }
 
-    /// Picks up a run from the checkpoint in `directory`.
+    /// Picks up a run from the checkpoint in `directory`, on either backend.
     fn resume(
         scene: Scene,
         directory: &Path,
         scene_json: &serde_json::Value,
+        placement: &Placement,
     ) -> Result<RunState, Failure> {
         let checkpoint_path = directory.join(CHECKPOINT_FILE);
         let manifest_path = directory.join(MANIFEST_FILE);
@@ -181,13 +210,13 @@ impl RunState {
                 checkpoint_path.display()
             )));
         }
-        let (simulation, restored_frame, restored_scene) = Solver::resume(scene, &checkpoint_path)
-            .map_err(|message| {
+        let (simulation, restored_frame, restored_scene) =
+            Solver::resume(scene, &checkpoint_path, placement).map_err(|message| {
                 Failure::BadInput(format!(
                     "error: cannot resume: {message}\n  fix: run without --resume to start over"
                 ))
             })?;
-        if &restored_scene != scene_json {
+        if !same_physics(&restored_scene, scene_json) {
             return Err(Failure::BadInput(format!(
                 "error: cannot resume: the scene differs from the one that wrote {}\n  fix: resume with the same scene file, or run without --resume to start over",
                 checkpoint_path.display()
@@ -203,6 +232,8 @@ impl RunState {
             .retain(|record| record.index <= restored_frame);
         manifest.status = RunStatus::Running;
         manifest.threads = rayon::current_num_threads();
+        manifest.backend = placement.name().into();
+        manifest.adapter = placement.adapter();
         let mut pvd = PvdCollection::read(&directory.join("particles.pvd")).unwrap_or_default();
         pvd.remove_after(simulation.time() + 1e-12);
         Ok(RunState {
@@ -214,6 +245,18 @@ impl RunState {
             scene_json: scene_json.clone(),
             solver_totals: None,
         })
+    }
+
+    /// Says on stderr what runs where: the start line.
+    fn announce(&self, last_frame: u32, placement: &Placement) {
+        eprintln!(
+            "firn: {}: {} particles, frames {} to {}, on {}",
+            self.simulation.scene().name,
+            self.simulation.particle_count(),
+            self.frame + 1,
+            last_frame,
+            placement.describe()
+        );
     }
 
     /// Simulates and writes frames up to `last_frame`.

@@ -1,18 +1,26 @@
 //! The simulation behind a run: snow on the MPM solver, or particles in a
-//! curl-noise flow. `firn run` drives either through this one interface:
-//! step to a time, write a frame's caches, render it, checkpoint it.
+//! curl-noise flow, on the CPU or the GPU. `firn run` drives each through
+//! this one interface: step to a time, write a frame's caches, render it,
+//! checkpoint it.
+//!
+//! A GPU simulation keeps a CPU mirror, rebuilt from the GPU's particles
+//! after each frame's advance, and writes, renders and checkpoints from it
+//! with the CPU code; a checkpoint therefore resumes on either backend.
 
 use std::path::Path;
+use std::sync::Arc;
 
 use firn_core::Scene;
 use firn_core::scene::{ColorBy, SceneKind};
 use firn_flow::{FlowSimulation, FlowSnapshot};
+use firn_gpu::{GpuContext, GpuError, GpuFlow, GpuSnow};
 use firn_io::{Attribute, Checkpoint, FrameData, IoError, PvdCollection, SolverFrameStats};
-use firn_mpm::{Simulation, SolverStats};
+use firn_mpm::{Simulation, Snapshot, SolverStats};
 use firn_render::scene_view::FrameParticles;
 use firn_render::trails::Trails;
 use glam::Vec3;
 
+use crate::backend::Placement;
 use crate::frames::{color_values, read_checkpoint, write_caches, write_checkpoint, write_frame};
 
 /// A running simulation of either kind.
@@ -21,6 +29,59 @@ pub enum Solver {
     Snow(Box<Simulation>),
     /// Particles carried by a curl-noise flow.
     Flow(Box<FlowSimulation>),
+    /// Snow on the GPU.
+    GpuSnow(Box<GpuSnowRun>),
+    /// A curl-noise flow on the GPU.
+    GpuFlow(Box<GpuFlowRun>),
+}
+
+/// Snow on the GPU and the CPU mirror of its last frame.
+pub struct GpuSnowRun {
+    gpu: GpuSnow,
+    mirror: Simulation,
+}
+
+impl GpuSnowRun {
+    /// Moves `mirror`'s state to the GPU.
+    fn start(context: Arc<GpuContext>, mirror: Simulation) -> Result<GpuSnowRun, GpuError> {
+        let gpu = GpuSnow::from_snapshot(context, mirror.scene().clone(), mirror.snapshot())?;
+        Ok(GpuSnowRun { gpu, mirror })
+    }
+
+    /// Advances the GPU to `until` and refreshes the mirror from it.
+    fn advance_to(&mut self, until: f64) -> Result<u32, GpuError> {
+        let substeps = self.gpu.advance_to(until)?;
+        self.mirror = Simulation::from_snapshot(self.gpu.scene().clone(), self.gpu.snapshot()?)?;
+        Ok(substeps)
+    }
+}
+
+/// A curl-noise flow on the GPU and the CPU mirror of its last frame.
+pub struct GpuFlowRun {
+    gpu: GpuFlow,
+    mirror: FlowSimulation,
+}
+
+impl GpuFlowRun {
+    /// Moves `mirror`'s state to the GPU.
+    fn start(context: Arc<GpuContext>, mirror: FlowSimulation) -> Result<GpuFlowRun, GpuError> {
+        let gpu = GpuFlow::from_snapshot(context, mirror.scene().clone(), mirror.snapshot())?;
+        Ok(GpuFlowRun { gpu, mirror })
+    }
+
+    /// Advances the GPU to `until` and refreshes the mirror from it.
+    fn advance_to(&mut self, until: f64) -> Result<u32, GpuError> {
+        let substeps = self.gpu.advance_to(until)?;
+        self.mirror =
+            FlowSimulation::from_snapshot(self.gpu.scene().clone(), self.gpu.snapshot()?)?;
+        Ok(substeps)
+    }
+}
+
+/// A solver's state as the CPU code reads it, whatever computes it.
+enum View<'a> {
+    Snow(&'a Simulation),
+    Flow(&'a FlowSimulation),
 }
 
 /// A frame's trails, flattened oldest first for the renderer.
@@ -42,47 +103,80 @@ impl FlatTrails {
 }
 
 impl Solver {
-    /// Starts the scene's simulation at time 0.
-    pub fn new(scene: Scene) -> Result<Solver, String> {
+    /// Starts the scene's simulation at time 0 where `placement` says.
+    pub fn new(scene: Scene, placement: &Placement) -> Result<Solver, String> {
         match scene.kind {
-            SceneKind::Snow => Simulation::new(scene)
-                .map(|simulation| Solver::Snow(Box::new(simulation)))
+            SceneKind::Snow => {
+                let simulation = Simulation::new(scene).map_err(|error| error.to_string())?;
+                Solver::snow(simulation, placement)
+            }
+            SceneKind::Flow(_) => {
+                let flow = FlowSimulation::new(scene).map_err(|error| error.to_string())?;
+                Solver::flow(flow, placement)
+            }
+        }
+    }
+
+    /// A flow continuing from `flow`'s state where `placement` says.
+    fn flow(flow: FlowSimulation, placement: &Placement) -> Result<Solver, String> {
+        match placement {
+            Placement::Cpu => Ok(Solver::Flow(Box::new(flow))),
+            Placement::Gpu(context) => GpuFlowRun::start(Arc::clone(context), flow)
+                .map(|run| Solver::GpuFlow(Box::new(run)))
                 .map_err(|error| error.to_string()),
-            SceneKind::Flow(_) => FlowSimulation::new(scene)
-                .map(|flow| Solver::Flow(Box::new(flow)))
+        }
+    }
+
+    /// Snow continuing from `simulation`'s state where `placement` says.
+    fn snow(simulation: Simulation, placement: &Placement) -> Result<Solver, String> {
+        match placement {
+            Placement::Cpu => Ok(Solver::Snow(Box::new(simulation))),
+            Placement::Gpu(context) => GpuSnowRun::start(Arc::clone(context), simulation)
+                .map(|run| Solver::GpuSnow(Box::new(run)))
                 .map_err(|error| error.to_string()),
+        }
+    }
+
+    /// The state the CPU code writes and renders from.
+    fn view(&self) -> View<'_> {
+        match self {
+            Solver::Snow(simulation) => View::Snow(simulation),
+            Solver::GpuSnow(run) => View::Snow(&run.mirror),
+            Solver::Flow(flow) => View::Flow(flow),
+            Solver::GpuFlow(run) => View::Flow(&run.mirror),
         }
     }
 
     /// The scene being simulated.
     pub fn scene(&self) -> &Scene {
-        match self {
-            Solver::Snow(simulation) => simulation.scene(),
-            Solver::Flow(flow) => flow.scene(),
+        match self.view() {
+            View::Snow(simulation) => simulation.scene(),
+            View::Flow(flow) => flow.scene(),
         }
     }
 
     /// Simulated time in seconds.
     pub fn time(&self) -> f64 {
-        match self {
-            Solver::Snow(simulation) => simulation.time(),
-            Solver::Flow(flow) => flow.time(),
+        match self.view() {
+            View::Snow(simulation) => simulation.time(),
+            View::Flow(flow) => flow.time(),
         }
     }
 
     /// Current number of particles.
     pub fn particle_count(&self) -> usize {
-        match self {
-            Solver::Snow(simulation) => simulation.particles().len(),
-            Solver::Flow(flow) => flow.len(),
+        match self.view() {
+            View::Snow(simulation) => simulation.particles().len(),
+            View::Flow(flow) => flow.len(),
         }
     }
 
-    /// The semi-implicit solver's running totals (snow with that integrator only).
+    /// The semi-implicit solver's running totals (snow with that integrator
+    /// on the CPU only).
     pub fn solver_stats(&self) -> Option<SolverStats> {
         match self {
             Solver::Snow(simulation) => simulation.solver_stats(),
-            Solver::Flow(_) => None,
+            Solver::Flow(_) | Solver::GpuSnow(_) | Solver::GpuFlow(_) => None,
         }
     }
 
@@ -93,6 +187,8 @@ impl Solver {
                 .advance_to(until)
                 .map_err(|error| error.to_string()),
             Solver::Flow(flow) => Ok(flow.advance_to(until)),
+            Solver::GpuSnow(run) => run.advance_to(until).map_err(|error| error.to_string()),
+            Solver::GpuFlow(run) => run.advance_to(until).map_err(|error| error.to_string()),
         }
     }
 
@@ -103,9 +199,9 @@ impl Solver {
         directory: &Path,
         pvd: &mut PvdCollection,
     ) -> Result<Vec<String>, IoError> {
-        match self {
-            Solver::Snow(simulation) => write_frame(simulation, index, directory, pvd),
-            Solver::Flow(flow) => {
+        match self.view() {
+            View::Snow(simulation) => write_frame(simulation, index, directory, pvd),
+            View::Flow(flow) => {
                 let frame = FrameData::new(index, flow.time(), flow.positions())
                     .with_attribute(Attribute::vector("velocity", flow.velocities()))
                     .with_attribute(Attribute::scalar("age", flow.ages()));
@@ -116,8 +212,8 @@ impl Solver {
 
     /// Calls `draw` with this frame's particles as the renderer needs them.
     pub fn with_frame_particles<T>(&self, draw: impl FnOnce(FrameParticles<'_>) -> T) -> T {
-        match self {
-            Solver::Snow(simulation) => {
+        match self.view() {
+            View::Snow(simulation) => {
                 let particles = simulation.particles();
                 let values = color_values(simulation, simulation.scene().render.color_by);
                 draw(FrameParticles {
@@ -127,7 +223,7 @@ impl Solver {
                     trails: None,
                 })
             }
-            Solver::Flow(flow) => {
+            View::Flow(flow) => {
                 let trails = flat_trails(flow);
                 // Only speed is a ramp quantity of a flow; others need no values.
                 let speeds = (flow.scene().render.color_by == ColorBy::Speed).then(|| {
@@ -153,22 +249,26 @@ impl Solver {
         scene_json: &serde_json::Value,
         path: &Path,
     ) -> Result<(), IoError> {
-        match self {
-            Solver::Snow(simulation) => write_checkpoint(simulation, frame, scene_json, path),
-            Solver::Flow(flow) => write_flow_checkpoint(flow, frame, scene_json, path),
+        match self.view() {
+            View::Snow(simulation) => write_checkpoint(simulation, frame, scene_json, path),
+            View::Flow(flow) => write_flow_checkpoint(flow, frame, scene_json, path),
         }
     }
 
-    /// Restores the simulation of `scene` from a checkpoint; returns it, the
-    /// frame the checkpoint follows, and the scene it was written for.
-    pub fn resume(scene: Scene, path: &Path) -> Result<(Solver, u32, serde_json::Value), String> {
+    /// Restores the simulation of `scene` from a checkpoint (written on
+    /// either backend) to run where `placement` says; returns it, the frame
+    /// the checkpoint follows, and the scene it was written for.
+    pub fn resume(
+        scene: Scene,
+        path: &Path,
+        placement: &Placement,
+    ) -> Result<(Solver, u32, serde_json::Value), String> {
         match scene.kind {
             SceneKind::Snow => {
                 let restored = read_checkpoint(path)?;
-                let simulation = Simulation::from_snapshot(scene, restored.snapshot)
-                    .map_err(|error| error.to_string())?;
+                let simulation = restore_snow(scene, restored.snapshot)?;
                 Ok((
-                    Solver::Snow(Box::new(simulation)),
+                    Solver::snow(simulation, placement)?,
                     restored.frame,
                     restored.scene_json,
                 ))
@@ -177,10 +277,15 @@ impl Solver {
                 let (snapshot, frame, scene_json) = read_flow_checkpoint(path)?;
                 let flow = FlowSimulation::from_snapshot(scene, snapshot)
                     .map_err(|error| error.to_string())?;
-                Ok((Solver::Flow(Box::new(flow)), frame, scene_json))
+                Ok((Solver::flow(flow, placement)?, frame, scene_json))
             }
         }
     }
+}
+
+/// The CPU solver of `scene` at a checkpoint's state.
+fn restore_snow(scene: Scene, snapshot: Snapshot) -> Result<Simulation, String> {
+    Simulation::from_snapshot(scene, snapshot).map_err(|error| error.to_string())
 }
 
 /// The solver's work between two readings of its running totals.

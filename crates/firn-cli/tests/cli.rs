@@ -26,7 +26,7 @@ radius = 0.08
 velocity = [2.0, -1.0, 0.0]
 "#;
 
-/// `firn run SCENE --out OUT --quiet`.
+/// `firn run SCENE --out OUT --quiet --backend cpu`.
 fn run_into(scene: &Path, out: &Path) -> Output {
     firn(&[
         "run",
@@ -34,6 +34,8 @@ fn run_into(scene: &Path, out: &Path) -> Output {
         "--out",
         out.to_str().unwrap(),
         "--quiet",
+        "--backend",
+        "cpu",
     ])
 }
 
@@ -46,6 +48,8 @@ fn run_small(dir: &Path, out: &str, extra: &[&str]) -> Output {
         "--out",
         out.to_str().unwrap(),
         "--quiet",
+        "--backend",
+        "cpu",
     ];
     args.extend_from_slice(extra);
     firn(&args)
@@ -115,6 +119,11 @@ fn progress_goes_to_logs_as_a_line_per_frame_unless_quiet() {
     assert!(
         stderr.contains("substeps/s") && stderr.contains("ETA"),
         "{stderr}"
+    );
+    let start = stderr.lines().next().unwrap_or_default();
+    assert!(
+        start.starts_with("firn: small: ") && start.contains("frames 1 to 4, on the "),
+        "the start line says what runs where: {stderr}"
     );
     let quiet = run_into(&scene, &dir.path().join("quiet"));
     assert!(text(&quiet.stderr).is_empty(), "{}", text(&quiet.stderr));
@@ -441,8 +450,8 @@ fn check_summarises_a_flow_scene() {
     assert!(stdout.contains("obstacles   1"), "{stdout}");
 }
 
-/// `firn bench` on a 2000-particle APIC snowball for 4 substeps with `extra`
-/// arguments: its standard output and its JSON record.
+/// `firn bench` on the CPU, a 2000-particle APIC snowball for 4 substeps
+/// with `extra` arguments: its standard output and its JSON record.
 fn small_bench(extra: &[&str]) -> (String, serde_json::Value) {
     let dir = tempfile::tempdir().unwrap();
     let json = dir.path().join("bench.json");
@@ -458,6 +467,8 @@ fn small_bench(extra: &[&str]) -> (String, serde_json::Value) {
         "4",
         "--warmup",
         "1",
+        "--backend",
+        "cpu",
         "--json",
         json.to_str().unwrap(),
     ];
@@ -502,6 +513,8 @@ fn bench_simd_choices_are_recorded_and_agree_to_the_bit() {
     let (stdout, portable) = small_bench(&["--simd", "portable"]);
     assert!(stdout.contains("simd=portable"), "{stdout}");
     assert_eq!(portable["simd"], "portable");
+    assert_eq!(portable["backend"], "cpu");
+    assert!(portable.get("adapter").is_none() && portable.get("gpu_memory").is_none());
     let (_, chosen) = small_bench(&["--simd", "auto"]);
     assert_eq!(
         portable["center_of_mass_y"], chosen["center_of_mass_y"],

@@ -642,3 +642,36 @@ fn misspelled_integrator() {
         "did you mean \"semi-implicit\"?",
     );
 }
+
+#[test]
+fn unknown_backend_lists_the_backends() {
+    let err = error(&format!("{HEAD}{SPHERE}\n[compute]\nbackend = \"bogus\"\n"));
+    check(
+        &err,
+        15,
+        11,
+        Some("compute.backend"),
+        "compute.backend takes one of \"auto\", \"cpu\", \"gpu\"",
+    );
+    assert_eq!(err.message, "compute.backend has no option \"bogus\"");
+    let typo = error(&format!("{HEAD}{SPHERE}\n[compute]\nbackend = \"gpuu\"\n"));
+    assert!(typo.hint.starts_with("did you mean \"gpu\"?"), "{typo}");
+}
+
+#[test]
+fn unknown_compute_key_suggests_backend() {
+    let err = error(&format!("{HEAD}{SPHERE}\n[compute]\nbakend = \"gpu\"\n"));
+    check(
+        &err,
+        15,
+        1,
+        Some("compute.bakend"),
+        "did you mean `backend`?",
+    );
+}
+
+#[test]
+fn a_misplaced_compute_table_name_is_explained() {
+    let err = error(&format!("{HEAD}{SPHERE}\n[compte]\nbackend = \"gpu\"\n"));
+    check(&err, 14, 2, Some("compte"), "did you mean `compute`?");
+}

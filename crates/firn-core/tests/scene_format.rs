@@ -470,3 +470,63 @@ fn the_integrator_is_explicit_unless_asked() {
         })
     );
 }
+
+#[test]
+fn the_backend_is_auto_unless_asked() {
+    use firn_core::scene::Backend;
+    assert_eq!(load(MINIMAL).compute.backend, Backend::Auto);
+    for (written, backend) in [
+        ("auto", Backend::Auto),
+        ("cpu", Backend::Cpu),
+        ("gpu", Backend::Gpu),
+    ] {
+        let scene = load(&format!("{MINIMAL}\n[compute]\nbackend = \"{written}\"\n"));
+        assert_eq!(scene.compute.backend, backend);
+        assert_eq!(backend.name(), written);
+    }
+    // An empty table keeps the default.
+    assert_eq!(
+        load(&format!("{MINIMAL}\n[compute]\n")).compute.backend,
+        Backend::Auto
+    );
+}
+
+#[test]
+fn flow_scenes_take_a_compute_table_too() {
+    use firn_core::scene::Backend;
+    let scene = load(
+        r#"format = 1
+kind = "flow"
+
+[domain]
+max = [10.0, 10.0, 10.0]
+
+[time]
+duration = 1.0
+
+[compute]
+backend = "cpu"
+
+[[flow.emitters]]
+shape = "box"
+center = [5.0, 5.0, 5.0]
+size = [2.0, 2.0, 2.0]
+count = 100
+"#,
+    );
+    assert_eq!(scene.compute.backend, Backend::Cpu);
+}
+
+#[test]
+fn resolved_scenes_written_before_the_compute_table_still_read() {
+    use firn_core::scene::{Backend, ComputeSettings};
+    let mut scene = load(&format!("{MINIMAL}\n[compute]\nbackend = \"gpu\"\n"));
+    let mut json = serde_json::to_value(&scene).unwrap();
+    assert_eq!(json["compute"], serde_json::json!({ "backend": "gpu" }));
+    json.as_object_mut().unwrap().remove("compute");
+    let old: Scene = serde_json::from_value(json).unwrap();
+    scene.compute = ComputeSettings {
+        backend: Backend::Auto,
+    };
+    assert_eq!(old, scene);
+}

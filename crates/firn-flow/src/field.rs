@@ -64,30 +64,40 @@ pub struct FlowField {
     curl: FlowCurl,
 }
 
+/// Where each component's noise domain sits, in noise cells: the offsets
+/// ε_c / L and the drift velocities w_c of seed eq. 1, drawn from the
+/// scene's seed unless the scene gives the offsets. Shared with the GPU
+/// backend, which must draw the same numbers.
+pub fn noise_domains(settings: &FlowSettings) -> ([DVec3; 3], [DVec3; 3]) {
+    let length = f64::from(settings.length_scale);
+    let seed = settings.seed;
+    let offsets = match settings.offsets {
+        Some(offsets) => offsets.map(|offset| offset.as_dvec3() / length),
+        None => std::array::from_fn(|c| {
+            DVec3::from_array(std::array::from_fn(|axis| {
+                let u = random::unit_f64(seed, FIELD_ID, c as u64, axis as u64);
+                (2.0 * u - 1.0) * OFFSET_SPAN
+            }))
+        }),
+    };
+    let rate = f64::from(settings.evolution_rate);
+    let drift = std::array::from_fn(|c| {
+        // A uniformly random direction per component.
+        let u = random::unit_f64(seed, FIELD_ID, 3 + c as u64, 0);
+        let v = random::unit_f64(seed, FIELD_ID, 3 + c as u64, 1);
+        let z = 2.0 * u - 1.0;
+        let ring = (1.0 - z * z).max(0.0).sqrt();
+        let angle = std::f64::consts::TAU * v;
+        DVec3::new(ring * angle.cos(), ring * angle.sin(), z) * rate
+    });
+    (offsets, drift)
+}
+
 impl FlowField {
     /// The field of a flow scene's settings (seed eq. 1-4).
     pub fn new(settings: &FlowSettings) -> FlowField {
         let length = f64::from(settings.length_scale);
-        let seed = settings.seed;
-        let offsets = match settings.offsets {
-            Some(offsets) => offsets.map(|offset| offset.as_dvec3() / length),
-            None => std::array::from_fn(|c| {
-                DVec3::from_array(std::array::from_fn(|axis| {
-                    let u = random::unit_f64(seed, FIELD_ID, c as u64, axis as u64);
-                    (2.0 * u - 1.0) * OFFSET_SPAN
-                }))
-            }),
-        };
-        let rate = f64::from(settings.evolution_rate);
-        let drift = std::array::from_fn(|c| {
-            // A uniformly random direction per component.
-            let u = random::unit_f64(seed, FIELD_ID, 3 + c as u64, 0);
-            let v = random::unit_f64(seed, FIELD_ID, 3 + c as u64, 1);
-            let z = 2.0 * u - 1.0;
-            let ring = (1.0 - z * z).max(0.0).sqrt();
-            let angle = std::f64::consts::TAU * v;
-            DVec3::new(ring * angle.cos(), ring * angle.sin(), z) * rate
-        });
+        let (offsets, drift) = noise_domains(settings);
         let gamma = f64::from(settings.noise_share);
         FlowField {
             turbulence: gamma * f64::from(settings.noise_strength),

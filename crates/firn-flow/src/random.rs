@@ -12,10 +12,17 @@ pub fn mix64(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// The seed's part of every draw: the first step of [`bits`], which the GPU
+/// backend takes once on the host.
+#[inline]
+pub fn seed_key(seed: u64) -> u64 {
+    mix64(seed ^ 0x9E37_79B9_7F4A_7C15)
+}
+
 /// 64 random bits for draw `stream` of life `generation` of particle `id`.
 #[inline]
 pub fn bits(seed: u64, id: u64, generation: u64, stream: u64) -> u64 {
-    let mut h = mix64(seed ^ 0x9E37_79B9_7F4A_7C15);
+    let mut h = seed_key(seed);
     h = mix64(h ^ id.wrapping_mul(0xD6E8_FEB8_6659_FD93));
     h = mix64(h ^ generation.wrapping_mul(0xA076_1D64_78BD_642F));
     mix64(h ^ stream.wrapping_mul(0xE703_7ED1_A0B4_28DB))

@@ -100,8 +100,8 @@ fn usable(adapters: Vec<wgpu::Adapter>) -> Vec<wgpu::Adapter> {
         .collect()
 }
 
-/// Storage buffers the largest kernel (the PIC/FLIP scatter) binds at once.
-pub const MIN_STORAGE_BUFFERS: u32 = 24;
+/// Storage buffers the snow substep binds (one bind group for all its kernels).
+pub const MIN_STORAGE_BUFFERS: u32 = 27;
 
 /// Every adapter wgpu finds that can run firn's kernels, best first.
 pub fn adapters() -> Vec<AdapterReport> {

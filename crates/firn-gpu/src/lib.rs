@@ -6,6 +6,7 @@
 //! - [`context`]: finding an adapter (`--backend auto|gpu`) and opening a device;
 //! - [`shaders`]: the WGSL programs, put together from `shaders/*.wgsl`;
 //! - [`snow`]: the MPM substep on the GPU, checked against `firn-mpm`;
+//! - [`flow`]: the curl-noise flow on the GPU, checked against `firn-flow`;
 //! - [`dispatch`]: splitting work over the adapter's workgroup limits.
 //!
 //! Particle and grid data stay on the GPU between substeps; the host reads
@@ -20,9 +21,11 @@ pub mod buffers;
 pub mod context;
 pub mod dispatch;
 pub mod error;
+pub mod flow;
 pub mod shaders;
 pub mod snow;
 
 pub use context::{AdapterPolicy, AdapterReport, GpuContext, adapters, choose, context_for_tests};
 pub use error::GpuError;
+pub use flow::GpuFlow;
 pub use snow::GpuSnow;

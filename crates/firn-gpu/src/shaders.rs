@@ -58,6 +58,7 @@ pub const SNOW_STEP: Program = Program {
         part!("snow/layout.wgsl"),
         part!("snow/fixed_point.wgsl"),
         part!("snow/step.wgsl"),
+        part!("snow/binning.wgsl"),
     ],
 };
 
@@ -73,5 +74,42 @@ pub const SNOW_PARITY: Program = Program {
     ],
 };
 
+/// Functions shared by the flow programs: the bindings they all see,
+/// simplex noise, random draws, the field and the emitters.
+const FLOW_LIBRARY: [(&str, &str); 5] = [
+    part!("flow/layout.wgsl"),
+    part!("flow/noise.wgsl"),
+    part!("flow/random.wgsl"),
+    part!("flow/field.wgsl"),
+    part!("flow/emitters.wgsl"),
+];
+
+/// The curl-noise flow substep: advance, settle newborns, record trails.
+pub const FLOW_STEP: Program = Program {
+    name: "flow step",
+    parts: &[
+        FLOW_LIBRARY[0],
+        FLOW_LIBRARY[1],
+        FLOW_LIBRARY[2],
+        FLOW_LIBRARY[3],
+        FLOW_LIBRARY[4],
+        part!("flow/step.wgsl"),
+    ],
+};
+
+/// Entry points that run the flow's library functions on arrays, for the
+/// parity tests against `firn-flow`.
+pub const FLOW_PARITY: Program = Program {
+    name: "flow parity",
+    parts: &[
+        FLOW_LIBRARY[0],
+        FLOW_LIBRARY[1],
+        FLOW_LIBRARY[2],
+        FLOW_LIBRARY[3],
+        FLOW_LIBRARY[4],
+        part!("flow/probe.wgsl"),
+    ],
+};
+
 /// Every program firn builds.
-pub const PROGRAMS: &[Program] = &[SNOW_STEP, SNOW_PARITY];
+pub const PROGRAMS: &[Program] = &[SNOW_STEP, SNOW_PARITY, FLOW_STEP, FLOW_PARITY];

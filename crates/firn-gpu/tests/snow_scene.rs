@@ -6,6 +6,7 @@
 //! drift apart by round-off that grows with the number of substeps.
 
 use firn_core::Scene;
+use firn_gpu::snow::Scatter;
 use firn_gpu::{GpuSnow, context_for_tests};
 use firn_mpm::Simulation;
 use firn_mpm::simulation::diagnostics;
@@ -194,4 +195,44 @@ fn a_grid_too_large_for_the_adapter_is_refused_with_the_numbers() {
         "{message}"
     );
     assert!(message.contains("--backend cpu"), "{message}");
+}
+
+/// The binned scatter (counting sort by block, sums in workgroup memory)
+/// and the plain atomic scatter add the same integers, so whole runs agree
+/// to the bit, for both transfer schemes.
+#[test]
+fn the_binned_and_the_atomic_scatter_give_the_same_bits() {
+    let Some(context) = context_for_tests() else {
+        return;
+    };
+    for transfer in ["apic", "pic-flip"] {
+        let scene = thrown_ball(transfer);
+        let run = |scatter: Scatter| {
+            let mut gpu = GpuSnow::new(context.clone(), scene.clone()).unwrap();
+            assert_eq!(
+                gpu.set_scatter(scatter),
+                scatter,
+                "{} lacks the workgroup memory",
+                context.adapter.name
+            );
+            gpu.advance_to(0.05).unwrap();
+            gpu.snapshot().unwrap().particles
+        };
+        let (binned, atomic) = (run(Scatter::Binned), run(Scatter::Atomic));
+        let bits = |particles: &firn_mpm::Particles| {
+            particles
+                .position
+                .iter()
+                .flat_map(|x| x.to_array().map(f32::to_bits))
+                .collect::<Vec<_>>()
+        };
+        let (binned, atomic) = (bits(&binned), bits(&atomic));
+        let differing = binned.iter().zip(&atomic).filter(|(a, b)| a != b).count();
+        assert_eq!(
+            differing,
+            0,
+            "{transfer}: {differing} of {} coordinates differ",
+            binned.len()
+        );
+    }
 }

@@ -19,8 +19,12 @@ pub struct Manifest {
     pub scene_file: Option<String>,
     /// The fully resolved scene, defaults included, so the run can be reproduced.
     pub scene: serde_json::Value,
-    /// Compute backend name (e.g. "cpu").
+    /// Compute backend name: "cpu" or "gpu".
     pub backend: String,
+    /// The GPU adapter the run computed on (absent on the CPU, and in
+    /// manifests written before GPU runs existed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub adapter: Option<String>,
     /// Worker threads used.
     pub threads: usize,
     /// Number of simulated particles.
@@ -156,7 +160,8 @@ mod tests {
             firn_version: "0.1.0".into(),
             scene_file: Some("scenes/avalanche.toml".into()),
             scene: serde_json::json!({ "gravity": [0.0, -9.81, 0.0], "frames": 48 }),
-            backend: "cpu".into(),
+            backend: "gpu".into(),
+            adapter: Some("llvmpipe (LLVM 19.1.7, 256 bits)".into()),
             threads: 16,
             particle_count: 1_000_000,
             grid_cells: [128, 64, 128],
@@ -208,6 +213,20 @@ mod tests {
         manifest.record_frame(frame(1));
         let indices: Vec<u32> = manifest.frames.iter().map(|frame| frame.index).collect();
         assert_eq!(indices, [0, 1]);
+    }
+
+    #[test]
+    fn manifests_without_an_adapter_still_read() {
+        let mut json = serde_json::to_value(sample()).unwrap();
+        json.as_object_mut().unwrap().remove("adapter");
+        let read: Manifest = serde_json::from_value(json).unwrap();
+        assert_eq!(read.adapter, None);
+        let cpu = Manifest {
+            adapter: None,
+            ..sample()
+        };
+        let written = serde_json::to_value(&cpu).unwrap();
+        assert!(written.get("adapter").is_none(), "{written}");
     }
 
     #[test]

@@ -27,6 +27,7 @@ use serde::Deserialize;
 use toml::Spanned;
 use toml::de::{DeTable, DeValue};
 
+use super::compute::{Backend, ComputeSettings};
 use super::flow::SceneKind;
 use super::material::{Material, PRESET_NAMES};
 use super::mesh::{MeshBody, MeshCollider, MeshPlacement};
@@ -544,7 +545,7 @@ fn describe_expected(expected: &str, path: &KeyPath) -> String {
 }
 
 /// Top-level tables of the format.
-const TABLES: [&str; 8] = [
+const TABLES: [&str; 9] = [
     "domain",
     "time",
     "solver",
@@ -553,6 +554,7 @@ const TABLES: [&str; 8] = [
     "colliders",
     "output",
     "flow",
+    "compute",
 ];
 
 /// "write it as ..., e.g. key = value".
@@ -669,6 +671,7 @@ fn example(leaf: &str) -> Option<&'static str> {
         "lifetime" => "lifetime = 8.0",
         "lifetime_spread" => "lifetime_spread = 0.25",
         "velocity_decay" => "velocity_decay = 1.0",
+        "backend" => "backend = \"auto\"",
         _ => return None,
     })
 }
@@ -720,6 +723,13 @@ struct RawScene {
     render: Option<RawRender>,
     kind: Option<flow::RawKind>,
     flow: Option<flow::RawFlow>,
+    compute: Option<RawCompute>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCompute {
+    backend: Option<Backend>,
 }
 
 #[derive(Deserialize)]
@@ -1235,7 +1245,15 @@ fn resolve(raw: RawScene, origin: &str) -> Result<Scene, Issue> {
         camera,
         render,
         kind: SceneKind::Snow,
+        compute: resolve_compute(raw.compute),
     })
+}
+
+/// The `[compute]` table with its default (`backend = "auto"`).
+fn resolve_compute(raw: Option<RawCompute>) -> ComputeSettings {
+    ComputeSettings {
+        backend: raw.and_then(|raw| raw.backend).unwrap_or_default(),
+    }
 }
 
 fn resolve_time(raw: Option<RawTime>) -> Result<TimeSettings, Issue> {

@@ -5,8 +5,10 @@
 //! input with file, line, column and a fix; [`sampling`] turns bodies of snow
 //! into particles; [`render`] holds the camera and the picture settings;
 //! [`flow`] holds the settings of curl-noise particle flows (`kind = "flow"`);
-//! [`mesh`] places triangle meshes as bodies and colliders.
+//! [`mesh`] places triangle meshes as bodies and colliders; [`compute`] says
+//! which backend (CPU or GPU) computes the scene.
 
+pub mod compute;
 pub mod flow;
 pub mod format;
 pub mod material;
@@ -15,6 +17,7 @@ pub mod model;
 pub mod render;
 pub mod sampling;
 
+pub use compute::*;
 pub use flow::*;
 pub use format::SceneError;
 pub use material::Material;

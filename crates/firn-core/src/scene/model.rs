@@ -8,6 +8,7 @@ use std::path::PathBuf;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
+use super::compute::ComputeSettings;
 use super::flow::SceneKind;
 use super::material::Material;
 use super::mesh::{MeshBody, MeshCollider};
@@ -38,6 +39,10 @@ pub struct Scene {
     pub render: RenderSettings,
     /// Snow, or a curl-noise particle flow with its settings.
     pub kind: SceneKind,
+    /// Which backend computes the scene (`[compute]`; absent from manifests
+    /// and checkpoints written before it existed).
+    #[serde(default)]
+    pub compute: ComputeSettings,
 }
 
 /// The axis-aligned simulation box, its grid spacing and its walls.

@@ -44,7 +44,11 @@ fn carry(old_low: u32, low: u32) -> u32 {
 
 // Adds scaled (= x S) into node's sum of quantity.
 fn add_to_grid(quantity: u32, node: u32, scaled: f32) {
-    let words = to_fixed(scaled);
+    add_words_to_grid(quantity, node, to_fixed(scaled));
+}
+
+// Adds a 64-bit value given as (high, low) words into node's sum of quantity.
+fn add_words_to_grid(quantity: u32, node: u32, words: vec2<u32>) {
     switch quantity {
         case QUANTITY_MASS: {
             let c = carry(atomicAdd(&mass_lo[node], words.y), words.y);

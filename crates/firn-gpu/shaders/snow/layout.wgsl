@@ -22,7 +22,7 @@ struct Params {
     stepping: vec4<f32>,
     // x: mass scale; y: momentum scale (fixed-point units per kg, per kg m/s).
     scales: vec4<f32>,
-    // x: transfer scheme.
+    // x: transfer scheme; y: the adapter's workgroups per dispatch dimension.
     flags: vec4<u32>,
 }
 

@@ -6,8 +6,13 @@ use firn_mpm::grid::GridLayout;
 
 /// Bytes per particle: position and mass, velocity and V_p^0 (two `vec4`),
 /// F_E, C_p and V_p^0 τ_p (three `mat3x3` of 48 bytes in storage layout),
-/// J_P and the material index.
-pub const BYTES_PER_PARTICLE: u64 = 16 + 16 + 3 * 48 + 8;
+/// J_P and the material index; then the binning's block, rank and sorted
+/// slot (12) and at most one 8-byte work item per particle plus one per 64.
+pub const BYTES_PER_PARTICLE: u64 = 16 + 16 + 3 * 48 + 8 + 12 + 9;
+
+/// Bytes per node besides the sums: a block's particle count and first
+/// slot (8 bytes per 64 nodes), rounded up.
+const BINNING_BYTES_PER_NODE: u64 = 1;
 
 /// Grid quantities summed by the scatter: mass and momentum, plus the force
 /// for PIC/FLIP; each is a 64-bit fixed-point sum.
@@ -41,7 +46,7 @@ impl MemoryEstimate {
             particles,
             nodes: u64::from(dims.x) * u64::from(dims.y) * u64::from(dims.z),
             bytes_per_particle: BYTES_PER_PARTICLE,
-            bytes_per_node: 8 * grid_quantities(scene.solver.transfer),
+            bytes_per_node: 8 * grid_quantities(scene.solver.transfer) + BINNING_BYTES_PER_NODE,
         }
     }
 
@@ -51,7 +56,8 @@ impl MemoryEstimate {
     }
 
     /// The largest single buffer: one grid quantity's word (4 bytes per
-    /// node) or one particle matrix array (48 bytes per particle).
+    /// node) or one particle matrix array (48 bytes per particle; the work
+    /// items take at most 8 bytes and a fraction).
     pub fn largest_buffer_bytes(&self) -> u64 {
         (self.nodes * 4).max(self.particles * 48)
     }

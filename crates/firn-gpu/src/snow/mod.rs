@@ -42,9 +42,10 @@ use layout::{
     GpuMat3, GpuMaterial, GpuPlastic, NO_PARTICLE, Params, StepState, mesh_unsupported,
     pack_colliders,
 };
-use pipelines::{GridBuffers, ParticleBuffers, StepPipelines};
+use pipelines::{BinningBuffers, GridBuffers, ParticleBuffers, StepPipelines};
 
 pub use memory::MemoryEstimate;
+pub use pipelines::Scatter;
 
 /// How far (in cells) a particle may stray outside the domain before the
 /// run stops, as on the CPU.
@@ -93,13 +94,15 @@ impl GpuSnow {
         let scales = Scales::of(&scene);
         let domain = &scene.domain;
         let layout = GridLayout::new(domain.min, domain.max, domain.cell_size);
-        let params = run_params(&scene, &layout, &scales, snapshot.particles.len());
+        let mut params = run_params(&scene, &layout, &scales, snapshot.particles.len());
+        params.flags[1] = context.limits.max_compute_workgroups_per_dimension;
         let gpu_materials: Vec<GpuMaterial> = materials.iter().map(GpuMaterial::from).collect();
         let all_colliders = firn_mpm::contact::ColliderSet::new(domain, &scene.colliders);
         let (colliders, mut keys) = pack_colliders(all_colliders.colliders())?;
         keys.push([0.0; 4]);
         let particles = ParticleBuffers::upload(&context, &snapshot.particles);
         let grid = GridBuffers::new(&context, estimate.nodes, scene.solver.transfer);
+        let binning = BinningBuffers::new(&context, estimate.particles, estimate.nodes);
         let state = StepState {
             max_speed_bits: snapshot.max_speed_squared.to_bits(),
             max_wave_bits: snapshot.max_wave_speed_squared.to_bits(),
@@ -117,6 +120,7 @@ impl GpuSnow {
             &storage_buffer(&context, "collider keys", &keys),
             &particles,
             &grid,
+            binning,
         );
         Ok(GpuSnow {
             context,
@@ -313,6 +317,18 @@ impl GpuSnow {
             max_wave_speed_squared: f32::from_bits(self.last.max_wave_bits),
             particles,
         })
+    }
+
+    /// The scatter in use ([`Scatter::Binned`] by default where the
+    /// adapter's workgroup memory allows it).
+    pub fn scatter(&self) -> Scatter {
+        self.pipelines.scatter_mode()
+    }
+
+    /// Chooses the scatter (for comparing them; both give the same sums,
+    /// bit for bit); returns the one now in use.
+    pub fn set_scatter(&mut self, scatter: Scatter) -> Scatter {
+        self.pipelines.set_scatter_mode(scatter)
     }
 
     /// The scene being simulated.

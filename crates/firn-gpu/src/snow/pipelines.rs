@@ -101,6 +101,56 @@ impl GridBuffers {
     }
 }
 
+/// The counting sort's buffers (bindings 25 to 27) and the binned
+/// scatter's indirect dispatch arguments.
+pub struct BinningBuffers {
+    bins: wgpu::Buffer,
+    particle_bins: wgpu::Buffer,
+    work: wgpu::Buffer,
+    indirect: wgpu::Buffer,
+}
+
+impl BinningBuffers {
+    /// Buffers for `particles` particles on a grid of `nodes` nodes.
+    pub fn new(context: &GpuContext, particles: u64, nodes: u64) -> BinningBuffers {
+        let blocks = nodes / 64;
+        let items = particles.div_ceil(64) + particles.min(blocks);
+        BinningBuffers {
+            bins: zeroed_storage_buffer(context, "bins", blocks * 8),
+            particle_bins: zeroed_storage_buffer(context, "particle bins", particles * 12),
+            work: zeroed_storage_buffer(context, "binned scatter work", (4 + 2 * items) * 4),
+            indirect: context.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("binned scatter dispatch"),
+                size: 16,
+                usage: wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+        }
+    }
+}
+
+/// How the scatter adds particle contributions into the grid.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scatter {
+    /// Every particle adds into the grid's sums with global atomics.
+    Atomic,
+    /// Particles are sorted by block each substep and each workgroup sums
+    /// one block's chunk of particles in workgroup memory first.
+    Binned,
+}
+
+/// Workgroup memory the binned scatter needs: the 7³ nodes' sums of seven
+/// quantities in two words, and its header.
+const BINNED_WORKGROUP_BYTES: u32 = 4802 * 4 + 16;
+
+/// The counting sort and the binned scatter.
+struct BinnedPipelines {
+    count: wgpu::ComputePipeline,
+    offsets: wgpu::ComputePipeline,
+    sort: wgpu::ComputePipeline,
+    scatter: wgpu::ComputePipeline,
+}
+
 /// Pipelines and the bind group of one run.
 pub struct StepPipelines {
     params: wgpu::Buffer,
@@ -108,13 +158,16 @@ pub struct StepPipelines {
     bind_group: wgpu::BindGroup,
     begin: wgpu::ComputePipeline,
     scatter: wgpu::ComputePipeline,
+    binned: Option<BinnedPipelines>,
+    binning: BinningBuffers,
+    mode: Scatter,
     update: wgpu::ComputePipeline,
     gather: wgpu::ComputePipeline,
     particle_groups: (u32, u32, u32),
     node_groups: (u32, u32, u32),
 }
 
-/// Bindings 2 to 4: read-only storage; 1 and 5 to 24: read-write.
+/// Bindings 2 to 4: read-only storage; 1 and 5 to 27: read-write.
 fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
     let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
         binding,
@@ -126,7 +179,7 @@ fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
         },
         count: None,
     };
-    (0..25)
+    (0..28)
         .map(|binding| match binding {
             0 => entry(binding, wgpu::BufferBindingType::Uniform),
             2..=4 => entry(
@@ -154,6 +207,7 @@ impl StepPipelines {
         keys: &wgpu::Buffer,
         particles: &ParticleBuffers,
         grid: &GridBuffers,
+        binning: BinningBuffers,
     ) -> StepPipelines {
         let device = &context.device;
         let params_buffer = wgpu::util::DeviceExt::create_buffer_init(
@@ -173,6 +227,7 @@ impl StepPipelines {
             vec![&params_buffer, &state_buffer, materials, colliders, keys];
         buffers.extend(particles.all());
         buffers.extend(grid.planes.iter());
+        buffers.extend([&binning.bins, &binning.particle_bins, &binning.work]);
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
             .enumerate()
@@ -202,14 +257,32 @@ impl StepPipelines {
                 cache: None,
             })
         };
-        let (scatter, gather) = match transfer {
-            Transfer::Apic => ("scatter_apic", "gather_apic"),
-            Transfer::PicFlip => ("scatter_pic_flip", "gather_pic_flip"),
+        let (scatter, binned_scatter, gather) = match transfer {
+            Transfer::Apic => ("scatter_apic", "scatter_binned_apic", "gather_apic"),
+            Transfer::PicFlip => (
+                "scatter_pic_flip",
+                "scatter_binned_pic_flip",
+                "gather_pic_flip",
+            ),
         };
+        let binned = (context.limits.max_compute_workgroup_storage_size >= BINNED_WORKGROUP_BYTES)
+            .then(|| BinnedPipelines {
+                count: pipeline("bin_count"),
+                offsets: pipeline("bin_offsets"),
+                sort: pipeline("bin_sort"),
+                scatter: pipeline(binned_scatter),
+            });
         let limit = context.limits.max_compute_workgroups_per_dimension;
         StepPipelines {
             begin: pipeline("begin_step"),
             scatter: pipeline(scatter),
+            mode: if binned.is_some() {
+                Scatter::Binned
+            } else {
+                Scatter::Atomic
+            },
+            binned,
+            binning,
             update: pipeline("update_grid"),
             gather: pipeline(gather),
             particle_groups: workgroups(params.dims[3], limit),
@@ -218,6 +291,23 @@ impl StepPipelines {
             state: state_buffer,
             bind_group,
         }
+    }
+
+    /// The scatter in use: binned where the adapter's workgroup memory
+    /// allows, else atomic.
+    pub fn scatter_mode(&self) -> Scatter {
+        self.mode
+    }
+
+    /// Chooses the scatter; binned falls back to atomic where the adapter
+    /// lacks the workgroup memory. Returns the scatter now in use.
+    pub fn set_scatter_mode(&mut self, mode: Scatter) -> Scatter {
+        self.mode = if self.binned.is_some() {
+            mode
+        } else {
+            Scatter::Atomic
+        };
+        self.mode
     }
 
     /// Writes a frame's parameters and starting state.
@@ -256,10 +346,13 @@ impl StepPipelines {
             for plane in planes {
                 encoder.clear_buffer(plane, 0, None);
             }
+            match (&self.binned, self.mode) {
+                (Some(binned), Scatter::Binned) => self.scatter_binned(&mut encoder, binned),
+                _ => self.dispatch(&mut encoder, &[(&self.scatter, self.particle_groups)]),
+            }
             self.dispatch(
                 &mut encoder,
                 &[
-                    (&self.scatter, self.particle_groups),
                     (&self.update, self.node_groups),
                     (&self.gather, self.particle_groups),
                 ],
@@ -268,6 +361,28 @@ impl StepPipelines {
         context.queue.submit([encoder.finish()]);
         let state = read_back::<StepState>(context, &[(&self.state, 1)])?;
         Ok(state[0].first().copied().unwrap_or_else(StepState::zeroed))
+    }
+
+    /// Sorts the particles by block, then scatters one block's chunk per
+    /// workgroup, as many workgroups as the sort found chunks.
+    fn scatter_binned(&self, encoder: &mut wgpu::CommandEncoder, binned: &BinnedPipelines) {
+        encoder.clear_buffer(&self.binning.bins, 0, None);
+        self.dispatch(
+            encoder,
+            &[
+                (&binned.count, self.particle_groups),
+                (&binned.offsets, (1, 1, 1)),
+                (&binned.sort, self.particle_groups),
+            ],
+        );
+        encoder.copy_buffer_to_buffer(&self.binning.work, 0, &self.binning.indirect, 0, 12);
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("binned scatter"),
+            timestamp_writes: None,
+        });
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.set_pipeline(&binned.scatter);
+        pass.dispatch_workgroups_indirect(&self.binning.indirect, 0);
     }
 
     fn dispatch(

@@ -53,6 +53,7 @@ pub fn scene_with(body: Shape, velocity: Vec3, transfer: Transfer, cell_size: f3
         camera: Camera::default(),
         render: RenderSettings::default(),
         kind: SceneKind::Snow,
+        compute: Default::default(),
     }
 }
 

@@ -255,6 +255,7 @@ pub(super) fn resolve_flow_scene(raw: RawScene, origin: &str) -> Result<Scene, I
         camera,
         render,
         kind: SceneKind::Flow(Box::new(flow)),
+        compute: super::resolve_compute(raw.compute),
     })
 }
 
