@@ -173,19 +173,19 @@ mod tests {
     #[test]
     fn an_unsupported_scene_is_named_in_one_line() {
         let error = GpuError::Unsupported {
-            what: "mesh colliders".into(),
+            what: "the semi-implicit integrator".into(),
             fix: "use --backend cpu".into(),
         };
         assert_eq!(
             first_line(&error),
-            "the GPU backend cannot run this scene: mesh colliders"
+            "the GPU backend cannot run this scene: the semi-implicit integrator"
         );
         let Failure::BadInput(message) = gpu_failure(&error) else {
             panic!("an unsupported scene is bad input");
         };
         assert_eq!(
             message,
-            "error: the GPU backend cannot run this scene: mesh colliders\n  fix: use --backend cpu"
+            "error: the GPU backend cannot run this scene: the semi-implicit integrator\n  fix: use --backend cpu"
         );
     }
 

@@ -97,6 +97,16 @@ impl SignedDistanceField {
         self.grid.spacing
     }
 
+    /// Grid points per axis.
+    pub fn dims(&self) -> UVec3 {
+        self.grid.dims
+    }
+
+    /// The samples, x fastest, then y, then z (for uploading to a GPU).
+    pub fn values(&self) -> &[f32] {
+        &self.values
+    }
+
     /// Memory held by the field in bytes, to budget fine grids.
     pub fn byte_size(&self) -> usize {
         std::mem::size_of::<Self>() + self.values.len() * std::mem::size_of::<f32>()

@@ -5,6 +5,7 @@
 const SHAPE_HALF_PLANE: u32 = 0u;
 const SHAPE_SPHERE: u32 = 1u;
 const SHAPE_BOX: u32 = 2u;
+const SHAPE_MESH: u32 = 3u;
 
 const CONTACT_STICKY: u32 = 0u;
 const CONTACT_SEPARATE: u32 = 1u;
@@ -29,6 +30,13 @@ struct Collider {
     extent: vec4<f32>,
     // Velocity of linear motion.
     velocity: vec4<f32>,
+    // Meshes: the signed distance grid's first point at the time-zero
+    // placement (xyz) and its spacing (w); extent.xyz is then the time-zero
+    // centre.
+    sdf_origin: vec4<f32>,
+    // Meshes: grid points per axis (xyz) and the index of the first sample
+    // in collider_distances (w).
+    sdf_dims: vec4<u32>,
 }
 
 // Where a collider's reference point is at one instant, and how fast it moves.
@@ -96,6 +104,63 @@ fn box_surface(p: vec3<f32>, half: vec3<f32>) -> SurfacePoint {
     return SurfacePoint(q.z, vec3<f32>(0.0, 0.0, signs.z));
 }
 
+fn sdf_sample(collider: Collider, point: vec3<u32>) -> f32 {
+    let dims = collider.sdf_dims.xyz;
+    return collider_distances[collider.sdf_dims.w + (point.z * dims.y + point.y) * dims.x + point.x];
+}
+
+// A mesh collider's signed distance grid at q (in the time-zero placement),
+// as firn_mesh::SignedDistanceField::sample: trilinear value and gradient
+// inside the grid box; outside it the distance to the box is added and the
+// gradient points away from the box.
+fn mesh_surface(collider: Collider, q: vec3<f32>) -> SurfacePoint {
+    let origin = collider.sdf_origin.xyz;
+    let spacing = collider.sdf_origin.w;
+    let dims = collider.sdf_dims.xyz;
+    let high = origin + vec3<f32>(dims - vec3<u32>(1u)) * spacing;
+    let clamped = clamp(q, origin, high);
+    let g = (clamped - origin) / spacing;
+    let cell = min(vec3<u32>(floor(g)), dims - vec3<u32>(2u));
+    let t = clamp(g - vec3<f32>(cell), vec3<f32>(0.0), vec3<f32>(1.0));
+    let c000 = sdf_sample(collider, cell);
+    let c100 = sdf_sample(collider, cell + vec3<u32>(1u, 0u, 0u));
+    let c010 = sdf_sample(collider, cell + vec3<u32>(0u, 1u, 0u));
+    let c110 = sdf_sample(collider, cell + vec3<u32>(1u, 1u, 0u));
+    let c001 = sdf_sample(collider, cell + vec3<u32>(0u, 0u, 1u));
+    let c101 = sdf_sample(collider, cell + vec3<u32>(1u, 0u, 1u));
+    let c011 = sdf_sample(collider, cell + vec3<u32>(0u, 1u, 1u));
+    let c111 = sdf_sample(collider, cell + vec3<u32>(1u, 1u, 1u));
+    let c00 = c000 + (c100 - c000) * t.x;
+    let c10 = c010 + (c110 - c010) * t.x;
+    let c01 = c001 + (c101 - c001) * t.x;
+    let c11 = c011 + (c111 - c011) * t.x;
+    let c0 = c00 + (c10 - c00) * t.y;
+    let c1 = c01 + (c11 - c01) * t.y;
+    let dx00 = c100 - c000;
+    let dx10 = c110 - c010;
+    let dx01 = c101 - c001;
+    let dx11 = c111 - c011;
+    let gx0 = dx00 + (dx10 - dx00) * t.y;
+    let gx1 = dx01 + (dx11 - dx01) * t.y;
+    let gy0 = c10 - c00;
+    let gy1 = c11 - c01;
+    var gradient = vec3<f32>(gx0 + (gx1 - gx0) * t.z, gy0 + (gy1 - gy0) * t.z, c1 - c0) / spacing;
+    let value = c0 + (c1 - c0) * t.z;
+    let outside = q - clamped;
+    let gap = length(outside);
+    if gap > 0.0 {
+        gradient = select(gradient, outside / gap, outside != vec3<f32>(0.0));
+    }
+    var normal = vec3<f32>(0.0, 1.0, 0.0);
+    let from_center = q - 0.5 * (origin + high);
+    if length(gradient) > 0.0 {
+        normal = normalize(gradient);
+    } else if length(from_center) > 0.0 {
+        normal = normalize(from_center);
+    }
+    return SurfacePoint(value + gap, normal);
+}
+
 fn surface_point(collider: Collider, at: vec3<f32>, point: vec3<f32>) -> SurfacePoint {
     switch collider.shape {
         case SHAPE_SPHERE: {
@@ -109,6 +174,9 @@ fn surface_point(collider: Collider, at: vec3<f32>, point: vec3<f32>) -> Surface
         }
         case SHAPE_BOX: {
             return box_surface(point - at, 0.5 * collider.extent.xyz);
+        }
+        case SHAPE_MESH: {
+            return mesh_surface(collider, point - (at - collider.extent.xyz));
         }
         default: {
             return SurfacePoint(dot(point - at, collider.extent.xyz), collider.extent.xyz);

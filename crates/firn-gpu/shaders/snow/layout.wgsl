@@ -61,6 +61,8 @@ struct PlasticState {
 @group(0) @binding(2) var<storage, read> materials: array<Material>;
 @group(0) @binding(3) var<storage, read> colliders: array<Collider>;
 @group(0) @binding(4) var<storage, read> collider_keys: array<vec4<f32>>;
+// Signed distance samples of the mesh colliders, one grid after another.
+@group(0) @binding(28) var<storage, read> collider_distances: array<f32>;
 
 // xyz: position; w: mass.
 @group(0) @binding(5) var<storage, read_write> position_mass: array<vec4<f32>>;

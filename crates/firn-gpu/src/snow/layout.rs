@@ -6,8 +6,6 @@ use firn_core::scene::{ColliderGeometry, ContactMode, Motion};
 use firn_mpm::constitutive::MaterialConstants;
 use glam::{Mat3, Vec3};
 
-use crate::error::GpuError;
-
 /// `Params`: the run's constants and the current frame's time window.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
@@ -84,6 +82,8 @@ pub struct GpuCollider {
     pub reference: [f32; 4],
     pub extent: [f32; 4],
     pub velocity: [f32; 4],
+    pub sdf_origin: [f32; 4],
+    pub sdf_dims: [u32; 4],
 }
 
 /// `PlasticState`.
@@ -116,13 +116,21 @@ impl From<GpuMat3> for Mat3 {
     }
 }
 
-/// The colliders (scene colliders, then the six walls) and their keys
-/// (xyz: position, w: time) as the kernels read them.
-pub fn pack_colliders(
-    colliders: &[firn_core::scene::Collider],
-) -> Result<(Vec<GpuCollider>, Vec<[f32; 4]>), GpuError> {
+/// The colliders as the kernels read them: the colliders (scene colliders,
+/// then the six walls), their keyframes (xyz: position, w: time) and the
+/// signed distance samples of the mesh colliders, one after another.
+#[derive(Debug, Default)]
+pub struct PackedColliders {
+    pub colliders: Vec<GpuCollider>,
+    pub keys: Vec<[f32; 4]>,
+    pub distances: Vec<f32>,
+}
+
+/// Packs `colliders` for the kernels.
+pub fn pack_colliders(colliders: &[firn_core::scene::Collider]) -> PackedColliders {
     let mut packed = Vec::with_capacity(colliders.len());
     let mut keys = Vec::new();
+    let mut distances = Vec::new();
     for collider in colliders {
         let mut gpu = GpuCollider {
             contact: match collider.contact.mode {
@@ -148,7 +156,17 @@ pub fn pack_colliders(
                 gpu.reference = center.extend(0.0).into();
                 gpu.extent = size.extend(0.0).into();
             }
-            ColliderGeometry::Mesh(_) => return Err(mesh_unsupported()),
+            ColliderGeometry::Mesh(ref mesh) => {
+                // The field is sampled around the time-zero placement; the
+                // collider's motion moves its reference point (the centre).
+                let field = mesh.field.get();
+                gpu.shape = 3;
+                gpu.reference = mesh.center.extend(0.0).into();
+                gpu.extent = mesh.placement.center.extend(0.0).into();
+                gpu.sdf_origin = field.bounds().0.extend(field.spacing()).into();
+                gpu.sdf_dims = field.dims().extend(distances.len() as u32).into();
+                distances.extend_from_slice(field.values());
+            }
         }
         match &collider.motion {
             Motion::Static => gpu.motion = 0,
@@ -169,13 +187,9 @@ pub fn pack_colliders(
         }
         packed.push(gpu);
     }
-    Ok((packed, keys))
-}
-
-/// Why a mesh collider stops a GPU run.
-pub fn mesh_unsupported() -> GpuError {
-    GpuError::Unsupported {
-        what: "mesh colliders (shape = \"mesh\") are not yet on the GPU".into(),
-        fix: "run this scene with --backend cpu (or [compute] backend = \"cpu\")".into(),
+    PackedColliders {
+        colliders: packed,
+        keys,
+        distances,
     }
 }

@@ -28,7 +28,7 @@ mod pipelines;
 use std::sync::Arc;
 
 use firn_core::Scene;
-use firn_core::scene::{ColliderGeometry, Integrator, SceneKind, TimeStep, Transfer};
+use firn_core::scene::{Integrator, SceneKind, TimeStep, Transfer};
 use firn_mpm::constitutive::MaterialConstants;
 use firn_mpm::grid::GridLayout;
 use firn_mpm::{Particles, SimulationError, Snapshot};
@@ -38,10 +38,7 @@ use crate::buffers::{read_back, storage_buffer};
 use crate::context::GpuContext;
 use crate::error::GpuError;
 use fixed_point::{QUANTITY_NAMES, Scales};
-use layout::{
-    GpuMat3, GpuMaterial, GpuPlastic, NO_PARTICLE, Params, StepState, mesh_unsupported,
-    pack_colliders,
-};
+use layout::{GpuMat3, GpuMaterial, GpuPlastic, NO_PARTICLE, Params, StepState, pack_colliders};
 use pipelines::{BinningBuffers, GridBuffers, ParticleBuffers, StepPipelines};
 
 pub use memory::MemoryEstimate;
@@ -58,7 +55,6 @@ const MAX_BATCH: u32 = 64;
 pub struct GpuSnow {
     context: Arc<GpuContext>,
     scene: Scene,
-    materials: Vec<MaterialConstants>,
     scales: Scales,
     params: Params,
     particles: ParticleBuffers,
@@ -89,17 +85,18 @@ impl GpuSnow {
         GpuSnow::check_supported(&scene)?;
         let estimate = MemoryEstimate::of(&scene, snapshot.particles.len() as u64);
         check_fits(&context, &estimate)?;
-        let materials: Vec<MaterialConstants> =
-            scene.materials.iter().map(MaterialConstants::new).collect();
+        let materials: Vec<GpuMaterial> = scene
+            .materials
+            .iter()
+            .map(|material| GpuMaterial::from(&MaterialConstants::new(material)))
+            .collect();
         let scales = Scales::of(&scene);
         let domain = &scene.domain;
         let layout = GridLayout::new(domain.min, domain.max, domain.cell_size);
         let mut params = run_params(&scene, &layout, &scales, snapshot.particles.len());
         params.flags[1] = context.limits.max_compute_workgroups_per_dimension;
-        let gpu_materials: Vec<GpuMaterial> = materials.iter().map(GpuMaterial::from).collect();
         let all_colliders = firn_mpm::contact::ColliderSet::new(domain, &scene.colliders);
-        let (colliders, mut keys) = pack_colliders(all_colliders.colliders())?;
-        keys.push([0.0; 4]);
+        let packed = pack_colliders(all_colliders.colliders());
         let particles = ParticleBuffers::upload(&context, &snapshot.particles);
         let grid = GridBuffers::new(&context, estimate.nodes, scene.solver.transfer);
         let binning = BinningBuffers::new(&context, estimate.particles, estimate.nodes);
@@ -115,16 +112,18 @@ impl GpuSnow {
             scene.solver.transfer,
             &params,
             &state,
-            &storage_buffer(&context, "materials", &gpu_materials),
-            &storage_buffer(&context, "colliders", &colliders),
-            &storage_buffer(&context, "collider keys", &keys),
+            &storage_buffer(&context, "materials", &materials),
+            [
+                &storage_buffer(&context, "colliders", &packed.colliders),
+                &storage_buffer(&context, "collider keys", &packed.keys),
+                &storage_buffer(&context, "collider distances", &packed.distances),
+            ],
             &particles,
             &grid,
             binning,
         );
         Ok(GpuSnow {
             context,
-            materials,
             scales,
             params,
             particles,
@@ -157,13 +156,6 @@ impl GpuSnow {
                 fix: "run with --backend cpu, or set integrator = \"explicit\" in [solver]".into(),
             });
         }
-        if scene
-            .colliders
-            .iter()
-            .any(|collider| matches!(collider.geometry, ColliderGeometry::Mesh(_)))
-        {
-            return Err(mesh_unsupported());
-        }
         Ok(())
     }
 
@@ -184,7 +176,7 @@ impl GpuSnow {
             let batch_steps = state.steps - before.steps;
             taken += batch_steps;
             self.steps += u64::from(batch_steps);
-            self.check_trouble(&state, until)?;
+            self.check_trouble(&state)?;
             self.time = f64::from(self.params.lower[3]) + f64::from(state.elapsed);
             if state.running == 0 {
                 self.time = until;
@@ -217,7 +209,7 @@ impl GpuSnow {
     }
 
     /// The error for a batch that ended in trouble, if it did.
-    fn check_trouble(&self, state: &StepState, until: f64) -> Result<(), GpuError> {
+    fn check_trouble(&self, state: &StepState) -> Result<(), GpuError> {
         let step_start = self.time_of(state) - f64::from(state.dt);
         if state.overflow != 0 {
             let quantity = QUANTITY_NAMES[state.overflow.trailing_zeros() as usize];
@@ -233,7 +225,6 @@ impl GpuSnow {
             (particle, _) => Some((particle, "became non-finite (NaN or infinity)")),
         };
         let Some((particle, what)) = problem else {
-            debug_assert!(state.running == 1 || until - self.time_of(state) < 1e-6);
             return Ok(());
         };
         let position = self.particle_position(particle as usize)?;
@@ -341,29 +332,9 @@ impl GpuSnow {
         self.time
     }
 
-    /// Substeps taken.
-    pub fn steps(&self) -> u64 {
-        self.steps
-    }
-
-    /// Number of particles.
-    pub fn particle_count(&self) -> usize {
-        self.particle_count
-    }
-
-    /// Bytes of GPU buffers this simulation holds.
-    pub fn memory_bytes(&self) -> u64 {
-        MemoryEstimate::of(&self.scene, self.particle_count as u64).total_bytes()
-    }
-
     /// The device this runs on.
     pub fn context(&self) -> &Arc<GpuContext> {
         &self.context
-    }
-
-    /// The materials' constants, as the kernels use them.
-    pub fn materials(&self) -> &[MaterialConstants] {
-        &self.materials
     }
 }
 

@@ -167,7 +167,7 @@ pub struct StepPipelines {
     node_groups: (u32, u32, u32),
 }
 
-/// Bindings 2 to 4: read-only storage; 1 and 5 to 27: read-write.
+/// Bindings 2 to 4 and 28: read-only storage; 1 and 5 to 27: read-write.
 fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
     let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
         binding,
@@ -179,10 +179,10 @@ fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
         },
         count: None,
     };
-    (0..28)
+    (0..29)
         .map(|binding| match binding {
             0 => entry(binding, wgpu::BufferBindingType::Uniform),
-            2..=4 => entry(
+            2..=4 | 28 => entry(
                 binding,
                 wgpu::BufferBindingType::Storage { read_only: true },
             ),
@@ -203,8 +203,7 @@ impl StepPipelines {
         params: &Params,
         state: &StepState,
         materials: &wgpu::Buffer,
-        colliders: &wgpu::Buffer,
-        keys: &wgpu::Buffer,
+        [colliders, keys, distances]: [&wgpu::Buffer; 3],
         particles: &ParticleBuffers,
         grid: &GridBuffers,
         binning: BinningBuffers,
@@ -227,7 +226,12 @@ impl StepPipelines {
             vec![&params_buffer, &state_buffer, materials, colliders, keys];
         buffers.extend(particles.all());
         buffers.extend(grid.planes.iter());
-        buffers.extend([&binning.bins, &binning.particle_bins, &binning.work]);
+        buffers.extend([
+            &binning.bins,
+            &binning.particle_bins,
+            &binning.work,
+            distances,
+        ]);
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
             .enumerate()
