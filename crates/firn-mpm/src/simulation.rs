@@ -324,12 +324,19 @@ impl Simulation {
         let stats = match transfer_scheme {
             Transfer::PicFlip => gather_pic_flip(
                 &self.grid,
+                &self.bins,
                 &mut self.particles,
                 self.scene.solver.flip_blend,
                 &context,
                 self.simd,
             ),
-            Transfer::Apic => gather_apic(&self.grid, &mut self.particles, &context, self.simd),
+            Transfer::Apic => gather_apic(
+                &self.grid,
+                &self.bins,
+                &mut self.particles,
+                &context,
+                self.simd,
+            ),
         };
         clock.lap(&mut self.profile.gather);
         transfer::clear_grid(&mut self.grid);

@@ -125,6 +125,34 @@ impl LocalNodes {
         ((corner.x * REACH + corner.y) * REACH + corner.z) as usize
     }
 
+    /// The grid's nodes around `block`, for the gather; nodes outside the
+    /// grid (which no particle's stencil reaches) stay zero. Every block
+    /// within one block of an occupied one has storage (see
+    /// [`crate::binning`]), so one slot per neighbouring block finds all.
+    fn copied_from(table: &PageTable, nodes: &[Node], block: IVec3) -> LocalNodes {
+        let mut local = LocalNodes::around(block);
+        let dims = table.layout.node_dims().as_ivec3();
+        for (index, copy) in local.sums.iter_mut().enumerate() {
+            let index = index as i32;
+            let offset = IVec3::new(
+                index / (REACH * REACH),
+                index / REACH % REACH,
+                index % REACH,
+            );
+            let node = local.first_node + offset;
+            if node.cmpge(IVec3::ZERO).all() && node.cmplt(dims).all() {
+                *copy = nodes[table.node_index(node)];
+            }
+        }
+        local
+    }
+
+    /// The node (i, j, k) of a stencil whose first node is at `corner`.
+    #[inline(always)]
+    fn at(&self, corner: usize, i: usize, j: usize, k: usize) -> &Node {
+        &self.sums[corner + (i * REACH as usize + j) * REACH as usize + k]
+    }
+
     /// Adds the sums into the grid's nodes (those a particle reached: every
     /// reached node has mass, and only they are sure to exist).
     fn add_to(&self, table: &PageTable, writer: &NodeWriter<Node>) {
@@ -334,6 +362,7 @@ pub fn clear_grid(grid: &mut Grid) {
 /// ∇v_p = Σ v_i^{n+1} (∇w_ip)ᵀ.
 pub fn gather_pic_flip(
     grid: &Grid,
+    bins: &Bins,
     particles: &mut Particles,
     flip: f32,
     context: &UpdateContext,
@@ -342,33 +371,41 @@ pub fn gather_pic_flip(
     let table = grid.page_table();
     let layout = table.layout;
     let inverse_h = 1.0 / layout.cell_size;
-    let nodes = &grid.nodes;
-    gather_with(particles, context, simd, |position, velocity| {
-        let weights = cubic_weights(layout.to_grid(position));
-        let indices = table.stencil(weights.base).indices::<4>();
-        let mut pic = Vec3::ZERO;
-        let mut change = Vec3::ZERO;
-        let mut gradient = Mat3::ZERO;
-        for i in 0..4 {
-            for j in 0..4 {
-                for k in 0..4 {
-                    let node = &nodes[indices[i][j][k]];
-                    let w = weights.weight(i, j, k);
-                    let grad_w = weights.gradient(i, j, k) * inverse_h;
-                    pic += node.velocity_new() * w;
-                    change += (node.velocity_new() - node.velocity()) * w;
-                    gradient += outer(node.velocity_new(), grad_w);
+    let local_grid = |block| LocalNodes::copied_from(&table, &grid.nodes, block);
+    gather_with(
+        particles,
+        bins,
+        context,
+        simd,
+        local_grid,
+        |local, position, velocity| {
+            let weights = cubic_weights(layout.to_grid(position));
+            let corner = local.corner::<4>(weights.base);
+            let mut pic = Vec3::ZERO;
+            let mut change = Vec3::ZERO;
+            let mut gradient = Mat3::ZERO;
+            for i in 0..4 {
+                for j in 0..4 {
+                    for k in 0..4 {
+                        let node = local.at(corner, i, j, k);
+                        let w = weights.weight(i, j, k);
+                        let grad_w = weights.gradient(i, j, k) * inverse_h;
+                        pic += node.velocity_new() * w;
+                        change += (node.velocity_new() - node.velocity()) * w;
+                        gradient += outer(node.velocity_new(), grad_w);
+                    }
                 }
             }
-        }
-        (pic * (1.0 - flip) + (velocity + change) * flip, gradient)
-    })
+            (pic * (1.0 - flip) + (velocity + change) * flip, gradient)
+        },
+    )
 }
 
 /// Steps 7-10 for APIC: v_p = Σ w_ip v_i, C_p = (4/h²) Σ w_ip v_i (x_i − x_p)ᵀ,
 /// and ∇v_p = C_p.
 pub fn gather_apic(
     grid: &Grid,
+    bins: &Bins,
     particles: &mut Particles,
     context: &UpdateContext,
     simd: Simd,
@@ -377,19 +414,26 @@ pub fn gather_apic(
     let layout = table.layout;
     // (4/h²) times the offset in world units (cells · h).
     let affine_scale = 4.0 / layout.cell_size;
-    let nodes = &grid.nodes;
-    gather_with(particles, context, simd, |position, _| {
-        let (velocity, affine) = interpolate_apic(&table, nodes, position);
-        (velocity, affine * affine_scale)
-    })
+    let local_grid = |block| LocalNodes::copied_from(&table, &grid.nodes, block);
+    gather_with(
+        particles,
+        bins,
+        context,
+        simd,
+        local_grid,
+        |local, position, _| {
+            let (velocity, affine) = interpolate_apic(local, layout.to_grid(position));
+            (velocity, affine * affine_scale)
+        },
+    )
 }
 
-/// v_p = Σ w_ip v_i and Σ w_ip v_i (x_i − x_p)ᵀ in cells, for one particle.
+/// v_p = Σ w_ip v_i and Σ w_ip v_i (x_i − x_p)ᵀ in cells, for one particle
+/// at grid coordinate `x`, from the nodes around its block.
 #[inline(always)]
-fn interpolate_apic(table: &PageTable, nodes: &[Node], position: Vec3) -> (Vec3, Mat3) {
-    let layout = table.layout;
-    let weights = quadratic_weights(layout.to_grid(position));
-    let indices = table.stencil(weights.base).indices::<3>();
+fn interpolate_apic(local: &LocalNodes, x: Vec3) -> (Vec3, Mat3) {
+    let weights = quadratic_weights(x);
+    let corner = local.corner::<3>(weights.base);
     // Weighted velocities summed per x-slab, y-row and z-column of the
     // stencil: their totals give v_p, their first moments C_p.
     let (mut slabs, mut rows, mut columns) = ([Vec4::ZERO; 3], [Vec4::ZERO; 3], [Vec4::ZERO; 3]);
@@ -397,7 +441,7 @@ fn interpolate_apic(table: &PageTable, nodes: &[Node], position: Vec3) -> (Vec3,
         for j in 0..3 {
             let wxy = weights.values[i].x * weights.values[j].y;
             for k in 0..3 {
-                let weighted = nodes[indices[i][j][k]].velocity_new * (wxy * weights.values[k].z);
+                let weighted = local.at(corner, i, j, k).velocity_new * (wxy * weights.values[k].z);
                 slabs[i] += weighted;
                 rows[j] += weighted;
                 columns[k] += weighted;

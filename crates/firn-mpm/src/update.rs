@@ -1,28 +1,29 @@
-//! The particle update after the gather (steps 7 to 10), 16 particles at a
-//! time: each particle's grid velocity and ∇v_p are interpolated one by one,
-//! then the SVD, plasticity and stress of the whole batch run in SIMD lanes
-//! ([`crate::constitutive::ElasticUpdate`]), then each particle collides and
-//! moves.
+//! The particle update after the gather (steps 7 to 10), block by block
+//! and 16 particles at a time: the nodes around a block are copied once
+//! into a dense local array, each particle's grid velocity and ∇v_p are
+//! interpolated from it one by one, then the SVD, plasticity and stress of
+//! the whole batch run in SIMD lanes ([`crate::constitutive::ElasticUpdate`]),
+//! then each particle collides and moves.
 //!
-//! Batches are formed from particle indices alone (the last one is padded
-//! with undeformed particles), and every lane does the same IEEE operations,
-//! so a particle's new state does not depend on the thread count or on the
-//! instruction set ([`Simd`]): AVX-512, AVX2 and portable code give the same
-//! bits.
+//! Batches are formed from a block's particles (the last one is padded with
+//! undeformed particles), and every lane does the same IEEE operations, so
+//! a particle's new state does not depend on the batch it lands in, the
+//! thread count or the instruction set ([`Simd`]): AVX-512, AVX2 and
+//! portable code give the same bits.
+
+use std::marker::PhantomData;
 
 use firn_core::math::lanes::{F32s, Mat3s, Simd};
-use glam::{Mat3, Vec3};
+use glam::{IVec3, Mat3, Vec3};
 use rayon::prelude::*;
 
+use crate::binning::Bins;
 use crate::constitutive::{ElasticUpdate, MaterialConstants, MaterialLanes};
 use crate::contact::{PlacedCollider, collide_all};
 use crate::particles::Particles;
 
 /// Particles per batch: one AVX-512 register of `f32`.
 pub const BATCH: usize = 16;
-
-/// Batches per parallel work item (rayon splits no finer).
-const BATCHES_PER_TASK: usize = 32;
 
 /// What the gather learned about the particles, for the next Δt and for
 /// catching a simulation that blows up.
@@ -184,6 +185,64 @@ struct ParticleState<'a> {
     velocity_gradient: &'a mut Mat3,
 }
 
+/// The particle arrays, shared by the tasks of the block-by-block gather.
+///
+/// Sound only because every particle belongs to exactly one occupied block
+/// ([`Bins::order`] is a permutation) and each block is one task: no two
+/// tasks ever reach the same particle.
+struct ParticleArrays<'a> {
+    position: *mut Vec3,
+    velocity: *mut Vec3,
+    elastic: *mut Mat3,
+    plastic_j: *mut f32,
+    stress: *mut Mat3,
+    velocity_gradient: *mut Mat3,
+    volume0: &'a [f32],
+    material: &'a [u16],
+    _particles: PhantomData<&'a mut Particles>,
+}
+
+// SAFETY: shared across the gather's tasks only, which touch disjoint
+// particles (see the type's documentation).
+unsafe impl Sync for ParticleArrays<'_> {}
+
+impl<'a> ParticleArrays<'a> {
+    fn new(particles: &'a mut Particles) -> ParticleArrays<'a> {
+        ParticleArrays {
+            position: particles.position.as_mut_ptr(),
+            velocity: particles.velocity.as_mut_ptr(),
+            elastic: particles.elastic.as_mut_ptr(),
+            plastic_j: particles.plastic_j.as_mut_ptr(),
+            stress: particles.stress.as_mut_ptr(),
+            velocity_gradient: particles.velocity_gradient.as_mut_ptr(),
+            volume0: &particles.volume0,
+            material: &particles.material,
+            _particles: PhantomData,
+        }
+    }
+
+    /// Particle `p`'s mutable state.
+    ///
+    /// # Safety
+    /// No other reference to particle `p` may exist while the result lives.
+    #[inline(always)]
+    unsafe fn state(&self, p: usize) -> ParticleState<'_> {
+        assert!(p < self.volume0.len(), "particle {p} out of range");
+        // SAFETY: in bounds (all arrays have the same length, checked by
+        // `Particles`' users); exclusive by the caller's contract.
+        unsafe {
+            ParticleState {
+                position: &mut *self.position.add(p),
+                velocity: &mut *self.velocity.add(p),
+                elastic: &mut *self.elastic.add(p),
+                plastic_j: &mut *self.plastic_j.add(p),
+                stress: &mut *self.stress.add(p),
+                velocity_gradient: &mut *self.velocity_gradient.add(p),
+            }
+        }
+    }
+}
+
 /// Step 10 and the bookkeeping for particle `index` (lane `lane` of its
 /// batch): stores the new elastic state, collides at the predicted position,
 /// advects, and reports speed, wave speed and trouble.
@@ -231,75 +290,84 @@ fn finish_particle(
     }
 }
 
-/// Steps 7-10 for every particle, batches in parallel: `interpolate` reads
-/// the grid at a particle (position, old velocity) and returns its new
-/// velocity and ∇v_p; the rest is the snow model and the advection.
-pub(crate) fn gather_with(
+/// Steps 7-10 for every particle, block by block in parallel:
+/// `local_grid` copies what the gather needs of the nodes around a block
+/// (once per block), `interpolate` reads it at a particle (position, old
+/// velocity) and returns its new velocity and ∇v_p; the rest is the snow
+/// model and the advection, 16 particles of the block per batch.
+pub(crate) fn gather_with<L>(
     particles: &mut Particles,
+    bins: &Bins,
     context: &UpdateContext,
     simd: Simd,
-    interpolate: impl Fn(Vec3, Vec3) -> (Vec3, Mat3) + Sync,
+    local_grid: impl Fn(IVec3) -> L + Sync,
+    interpolate: impl Fn(&L, Vec3, Vec3) -> (Vec3, Mat3) + Sync,
 ) -> GatherStats {
     let simd = checked_simd(simd);
-    (
-        particles.position.par_chunks_mut(BATCH),
-        particles.velocity.par_chunks_mut(BATCH),
-        particles.elastic.par_chunks_mut(BATCH),
-        particles.plastic_j.par_chunks_mut(BATCH),
-        particles.stress.par_chunks_mut(BATCH),
-        particles.velocity_gradient.par_chunks_mut(BATCH),
-        particles.volume0.par_chunks(BATCH),
-        particles.material.par_chunks(BATCH),
-    )
-        .into_par_iter()
-        .enumerate()
-        .with_min_len(BATCHES_PER_TASK)
-        .map(
-            |(
-                chunk,
-                (
-                    position,
-                    velocity,
-                    elastic,
-                    plastic_j,
-                    stress,
-                    velocity_gradient,
-                    volume0,
-                    material,
-                ),
-            )| {
-                let mut batch = Interpolated::padded(&context.materials[0]);
-                for lane in 0..position.len() {
-                    let (new_velocity, gradient) = interpolate(position[lane], velocity[lane]);
-                    let trial = (Mat3::IDENTITY + gradient * context.dt) * elastic[lane];
-                    batch.velocity[lane] = new_velocity;
-                    batch.velocity_gradient[lane] = gradient;
-                    batch.trial_elastic.set_lane(lane, trial);
-                    batch.plastic_j.0[lane] = plastic_j[lane];
-                    batch.volume0.0[lane] = volume0[lane];
-                    batch
-                        .materials
-                        .set_lane(lane, &context.materials[material[lane] as usize]);
-                }
-                let update = elastic_update(simd, &batch);
-                let mut stats = GatherStats::default();
-                for lane in 0..position.len() {
-                    let state = ParticleState {
-                        position: &mut position[lane],
-                        velocity: &mut velocity[lane],
-                        elastic: &mut elastic[lane],
-                        plastic_j: &mut plastic_j[lane],
-                        stress: &mut stress[lane],
-                        velocity_gradient: &mut velocity_gradient[lane],
-                    };
-                    let constants = &context.materials[material[lane] as usize];
-                    let index = chunk * BATCH + lane;
-                    stats = stats.merge(finish_particle(
-                        index, lane, state, &batch, &update, constants, context,
-                    ));
-                }
-                stats
-            },
-        )
+    let arrays = ParticleArrays::new(particles);
+    bins.occupied
+        .par_iter()
+        .map(|block| {
+            let local = local_grid(block.coord);
+            bins.particles_of(block)
+                .chunks(BATCH)
+                .map(|batch| {
+                    // SAFETY: the particles of a block are this task's alone.
+                    unsafe {
+                        update_batch(&arrays, batch, context, simd, |position, velocity| {
+                            interpolate(&local, position, velocity)
+                        })
+                    }
+                })
+                .fold(GatherStats::default(), GatherStats::merge)
+        })
         .reduce(GatherStats::default, GatherStats::merge)
+}
+
+/// Steps 7-10 for one batch of particle indices.
+///
+/// # Safety
+/// No other task may touch these particles meanwhile.
+#[inline(always)]
+unsafe fn update_batch(
+    arrays: &ParticleArrays,
+    batch: &[u32],
+    context: &UpdateContext,
+    simd: Simd,
+    interpolate: impl Fn(Vec3, Vec3) -> (Vec3, Mat3),
+) -> GatherStats {
+    let mut interpolated = Interpolated::padded(&context.materials[0]);
+    for (lane, &p) in batch.iter().enumerate() {
+        let p = p as usize;
+        // SAFETY: exclusive by the caller's contract; the borrow ends here.
+        let state = unsafe { arrays.state(p) };
+        let (new_velocity, gradient) = interpolate(*state.position, *state.velocity);
+        let trial = (Mat3::IDENTITY + gradient * context.dt) * *state.elastic;
+        interpolated.velocity[lane] = new_velocity;
+        interpolated.velocity_gradient[lane] = gradient;
+        interpolated.trial_elastic.set_lane(lane, trial);
+        interpolated.plastic_j.0[lane] = *state.plastic_j;
+        interpolated.volume0.0[lane] = arrays.volume0[p];
+        interpolated
+            .materials
+            .set_lane(lane, &context.materials[arrays.material[p] as usize]);
+    }
+    let update = elastic_update(simd, &interpolated);
+    let mut stats = GatherStats::default();
+    for (lane, &p) in batch.iter().enumerate() {
+        let p = p as usize;
+        let constants = &context.materials[arrays.material[p] as usize];
+        // SAFETY: as above.
+        let state = unsafe { arrays.state(p) };
+        stats = stats.merge(finish_particle(
+            p,
+            lane,
+            state,
+            &interpolated,
+            &update,
+            constants,
+            context,
+        ));
+    }
+    stats
 }

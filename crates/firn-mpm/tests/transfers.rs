@@ -122,9 +122,11 @@ fn round_trip(transfer_scheme: Transfer) {
     let stats = match transfer_scheme {
         // α = 0: pure PIC, so particle velocities are the interpolated grid ones.
         Transfer::PicFlip => {
-            transfer::gather_pic_flip(&grid, &mut particles, 0.0, &context, Simd::detect())
+            transfer::gather_pic_flip(&grid, &bins, &mut particles, 0.0, &context, Simd::detect())
         }
-        Transfer::Apic => transfer::gather_apic(&grid, &mut particles, &context, Simd::detect()),
+        Transfer::Apic => {
+            transfer::gather_apic(&grid, &bins, &mut particles, &context, Simd::detect())
+        }
     };
     assert!(stats.problem.is_none());
     let after = diagnostics(&particles, H, transfer_scheme);
