@@ -437,14 +437,14 @@ fn interpolate_apic(local: &LocalNodes, x: Vec3) -> (Vec3, Mat3) {
     // Weighted velocities summed per x-slab, y-row and z-column of the
     // stencil: their totals give v_p, their first moments C_p.
     let (mut slabs, mut rows, mut columns) = ([Vec4::ZERO; 3], [Vec4::ZERO; 3], [Vec4::ZERO; 3]);
-    for i in 0..3 {
-        for j in 0..3 {
+    for (i, slab) in slabs.iter_mut().enumerate() {
+        for (j, row) in rows.iter_mut().enumerate() {
             let wxy = weights.values[i].x * weights.values[j].y;
-            for k in 0..3 {
+            for (k, column) in columns.iter_mut().enumerate() {
                 let weighted = local.at(corner, i, j, k).velocity_new * (wxy * weights.values[k].z);
-                slabs[i] += weighted;
-                rows[j] += weighted;
-                columns[k] += weighted;
+                *slab += weighted;
+                *row += weighted;
+                *column += weighted;
             }
         }
     }
