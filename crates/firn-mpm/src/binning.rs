@@ -9,6 +9,7 @@
 //! fixed order and each block adds its particles in a fixed order, so every
 //! node sums its contributions in the same order whatever the thread count.
 
+use firn_core::math::bspline::floor;
 use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 
@@ -171,7 +172,7 @@ impl Bins {
 
 /// Linear index of the block holding the cell of `position`.
 fn block_key(grid: &GridLayout, position: Vec3) -> usize {
-    let cell = grid.to_grid(position).floor().as_ivec3();
+    let cell = floor(grid.to_grid(position)).as_ivec3();
     let last = grid.blocks.as_ivec3() - IVec3::ONE;
     grid.block_index((cell.div_euclid(IVec3::splat(BLOCK_WIDTH))).clamp(IVec3::ZERO, last))
 }

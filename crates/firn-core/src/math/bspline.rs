@@ -106,7 +106,7 @@ impl<const N: usize> StencilWeights<N> {
 /// rounding instruction): truncate, then step down where truncation rounded
 /// up. Exact for |x| < 2³¹, far beyond any grid.
 #[inline(always)]
-fn floor(x: Vec3) -> Vec3 {
+pub fn floor(x: Vec3) -> Vec3 {
     let truncated = x.as_ivec3().as_vec3();
     truncated - Vec3::select(truncated.cmpgt(x), Vec3::ONE, Vec3::ZERO)
 }

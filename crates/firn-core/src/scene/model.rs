@@ -444,6 +444,7 @@ impl ColliderGeometry {
     }
 
     /// Signed distance (negative inside the solid) and outward unit normal at `point`.
+    #[inline]
     pub fn signed_distance(&self, point: Vec3) -> (f32, Vec3) {
         match *self {
             ColliderGeometry::HalfPlane {
@@ -469,6 +470,7 @@ impl ColliderGeometry {
 }
 
 /// Signed distance and outward normal of an axis-aligned box centred at the origin.
+#[inline]
 fn box_signed_distance(p: Vec3, half: Vec3) -> (f32, Vec3) {
     let q = p.abs() - half;
     if q.max_element() > 0.0 {
