@@ -55,7 +55,11 @@ pub struct Bins {
 }
 
 impl Bins {
-    /// Re-bins all particles by their current positions (a stable counting sort).
+    /// Re-bins all particles by their current positions (a stable counting
+    /// sort). The block keys are computed in parallel and cut into runs of
+    /// equal keys (particles are kept sorted by block, so runs are long);
+    /// the counting and placing then go run by run, in particle order, so
+    /// the result is the same for any thread count.
     pub fn rebuild(&mut self, grid: &GridLayout, positions: &[Vec3]) {
         self.keys.resize(positions.len(), 0);
         self.keys
@@ -63,25 +67,31 @@ impl Bins {
             .zip(positions.par_iter())
             .with_min_len(4096)
             .for_each(|(key, &position)| *key = block_key(grid, position) as u32);
+        let runs: Vec<Vec<Run>> = self.keys.par_chunks(RUN_CHUNK).map(runs_of).collect();
         self.numbers.resize(grid.block_count(), ABSENT);
 
         self.seen.clear();
         self.counts.clear();
-        for &key in &self.keys {
-            let number = &mut self.numbers[key as usize];
+        for run in runs.iter().flatten() {
+            let number = &mut self.numbers[run.key as usize];
             if *number == ABSENT {
                 *number = self.seen.len() as u32;
-                self.seen.push(key);
+                self.seen.push(run.key);
                 self.counts.push(0);
             }
-            self.counts[*number as usize] += 1;
+            self.counts[*number as usize] += run.length;
         }
         self.collect_occupied(grid);
         self.order.resize(positions.len(), 0);
-        for (p, &key) in self.keys.iter().enumerate() {
-            let next = &mut self.counts[self.numbers[key as usize] as usize];
-            self.order[*next as usize] = p as u32;
-            *next += 1;
+        let mut first_particle = 0;
+        for run in runs.iter().flatten() {
+            let next = &mut self.counts[self.numbers[run.key as usize] as usize];
+            let places = &mut self.order[*next as usize..(*next + run.length) as usize];
+            for (place, p) in places.iter_mut().zip(first_particle..) {
+                *place = p;
+            }
+            *next += run.length;
+            first_particle += run.length;
         }
         for &key in &self.seen {
             self.numbers[key as usize] = ABSENT;
@@ -170,6 +180,28 @@ impl Bins {
     }
 }
 
+/// Particles per parallel piece when cutting the keys into runs.
+const RUN_CHUNK: usize = 4096;
+
+/// Consecutive particles in the same block.
+#[derive(Clone, Copy, Debug)]
+struct Run {
+    key: u32,
+    length: u32,
+}
+
+/// The runs of equal keys in `keys`, in order.
+fn runs_of(keys: &[u32]) -> Vec<Run> {
+    let mut runs: Vec<Run> = Vec::new();
+    for &key in keys {
+        match runs.last_mut() {
+            Some(run) if run.key == key => run.length += 1,
+            _ => runs.push(Run { key, length: 1 }),
+        }
+    }
+    runs
+}
+
 /// Linear index of the block holding the cell of `position`.
 fn block_key(grid: &GridLayout, position: Vec3) -> usize {
     let cell = floor(grid.to_grid(position)).as_ivec3();
@@ -186,24 +218,16 @@ pub fn colour_of(block: IVec3) -> usize {
 mod tests {
     use super::*;
 
-    #[test]
-    fn bins_sort_stably_and_cover_every_particle() {
-        let grid = GridLayout::new(Vec3::ZERO, Vec3::ONE, 0.05);
-        let positions: Vec<Vec3> = (0..500)
-            .map(|i| {
-                let t = i as f32 * 0.618;
-                Vec3::new(t.fract(), (t * 1.7).fract(), (t * 2.3).fract())
-            })
-            .collect();
+    fn check_bins(grid: &GridLayout, positions: &[Vec3]) {
         let mut bins = Bins::default();
-        bins.rebuild(&grid, &positions);
+        bins.rebuild(grid, positions);
         let mut seen = vec![false; positions.len()];
         for block in &bins.occupied {
             let particles = bins.particles_of(block);
             assert!(particles.windows(2).all(|w| w[0] < w[1]), "stable order");
             for &p in particles {
                 assert_eq!(
-                    block_key(&grid, positions[p as usize]),
+                    block_key(grid, positions[p as usize]),
                     grid.block_index(block.coord)
                 );
                 seen[p as usize] = true;
@@ -212,5 +236,29 @@ mod tests {
         assert!(seen.iter().all(|&s| s));
         let coloured: usize = bins.colours.iter().map(Vec::len).sum();
         assert_eq!(coloured, bins.occupied.len());
+    }
+
+    fn scattered(count: usize) -> impl Fn(usize) -> Vec3 {
+        move |i| {
+            let t = (i % count) as f32 * 0.618;
+            Vec3::new(t.fract(), (t * 1.7).fract(), (t * 2.3).fract())
+        }
+    }
+
+    #[test]
+    fn bins_sort_stably_and_cover_every_particle() {
+        let grid = GridLayout::new(Vec3::ZERO, Vec3::ONE, 0.05);
+        let positions: Vec<Vec3> = (0..500).map(scattered(500)).collect();
+        check_bins(&grid, &positions);
+    }
+
+    /// Runs of particles in one block that cross the pieces the keys are
+    /// cut into, and blocks that come back in later pieces.
+    #[test]
+    fn runs_across_pieces_sort_stably() {
+        let grid = GridLayout::new(Vec3::ZERO, Vec3::ONE, 0.05);
+        let count = 3 * RUN_CHUNK + 17;
+        let positions: Vec<Vec3> = (0..count).map(|i| scattered(40)(i / 333)).collect();
+        check_bins(&grid, &positions);
     }
 }

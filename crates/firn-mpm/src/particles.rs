@@ -2,6 +2,7 @@
 //! one contiguous array so that every pass streams only what it reads.
 
 use glam::{Mat3, Vec3};
+use rayon::prelude::*;
 
 /// All material points of a simulation.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -56,8 +57,8 @@ impl Particles {
 
     /// Reorders every attribute so that new index `i` holds old particle `order[i]`.
     pub fn permute(&mut self, order: &[u32]) {
-        fn gather<T: Copy>(values: &mut Vec<T>, order: &[u32]) {
-            *values = order.iter().map(|&p| values[p as usize]).collect();
+        fn gather<T: Copy + Send + Sync>(values: &mut Vec<T>, order: &[u32]) {
+            *values = order.par_iter().map(|&p| values[p as usize]).collect();
         }
         gather(&mut self.position, order);
         gather(&mut self.velocity, order);
