@@ -16,7 +16,7 @@ use std::marker::PhantomData;
 use glam::{IVec3, Mat3, Vec3, Vec4};
 use rayon::prelude::*;
 
-use firn_core::math::bspline::{StencilWeights, cubic_weights, quadratic_weights};
+use firn_core::math::bspline::{StencilWeights, cubic_weights, quadratic_values};
 use firn_core::math::lanes::Simd;
 
 use crate::binning::{Bins, OccupiedBlock};
@@ -224,7 +224,7 @@ pub fn scatter_apic(grid: &mut Grid, bins: &Bins, particles: &Particles, dt: f32
         let mut local = LocalNodes::around(block.coord);
         for &p in bins.particles_of(block) {
             let p = p as usize;
-            let weights = quadratic_weights(layout.to_grid(particles.position[p]));
+            let weights = quadratic_values(layout.to_grid(particles.position[p]));
             let mass = particles.mass[p];
             // Maps a node offset in cells to momentum: (m C − Δt M⁻¹ V0 τ) h.
             let affine = (particles.velocity_gradient[p] * mass
@@ -432,7 +432,7 @@ pub fn gather_apic(
 /// at grid coordinate `x`, from the nodes around its block.
 #[inline(always)]
 fn interpolate_apic(local: &LocalNodes, x: Vec3) -> (Vec3, Mat3) {
-    let weights = quadratic_weights(x);
+    let weights = quadratic_values(x);
     let corner = local.corner::<3>(weights.base);
     // Weighted velocities summed per x-slab, y-row and z-column of the
     // stencil: their totals give v_p, their first moments C_p.

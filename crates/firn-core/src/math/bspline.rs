@@ -162,6 +162,42 @@ pub fn quadratic_weights(x: Vec3) -> StencilWeights<3> {
     }
 }
 
+/// Per-axis weights of one particle over its stencil, without derivatives
+/// (APIC needs none): see [`StencilWeights`].
+#[derive(Clone, Copy, Debug)]
+pub struct StencilValues<const N: usize> {
+    /// Grid index of the stencil's first node on each axis.
+    pub base: IVec3,
+    /// Offset of the particle from the base node, in cells.
+    pub offset: Vec3,
+    /// 1D weights per stencil node and axis.
+    pub values: [Vec3; N],
+}
+
+/// [`quadratic_weights`]' values alone, without branches: the offset from
+/// the base node lies in [½, 3/2], so each node's piece of the spline is
+/// known, and each is evaluated with the same operations as [`quadratic`],
+/// giving the same bits.
+#[inline(always)]
+pub fn quadratic_values(x: Vec3) -> StencilValues<3> {
+    let base_node = floor(x - Vec3::splat(0.5));
+    let offset = x - base_node;
+    let half = Vec3::splat(0.5);
+    let three_halves = Vec3::splat(1.5);
+    let near = three_halves - offset;
+    let middle = offset - Vec3::ONE;
+    let far = three_halves - (offset - Vec3::splat(2.0)).abs();
+    StencilValues {
+        base: base_node.as_ivec3(),
+        offset,
+        values: [
+            half * near * near,
+            Vec3::splat(0.75) - middle * middle,
+            half * far * far,
+        ],
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -199,6 +235,30 @@ mod tests {
         }
     }
 
+    /// The pieces' edges: offsets of exactly ½ and just below 3/2.
+    #[test]
+    fn quadratic_values_match_at_the_pieces_edges() {
+        for k in 0..800 {
+            let x = k as f32 * 0.25;
+            for v in [
+                x,
+                f32::from_bits(x.to_bits() + 1),
+                f32::from_bits(x.to_bits().max(1) - 1),
+            ] {
+                let v = Vec3::splat(v);
+                let (fast, full) = (quadratic_values(v), quadratic_weights(v));
+                assert_eq!(fast.base, full.base, "{v}");
+                for k in 0..3 {
+                    assert_eq!(
+                        fast.values[k].to_array().map(f32::to_bits),
+                        full.values[k].to_array().map(f32::to_bits),
+                        "node {k} at {v}"
+                    );
+                }
+            }
+        }
+    }
+
     proptest! {
         #[test]
         fn cubic_is_a_partition_of_unity(x in 0.0f32..50.0, y in 0.0f32..50.0, z in 0.0f32..50.0) {
@@ -208,6 +268,17 @@ mod tests {
         #[test]
         fn quadratic_is_a_partition_of_unity(x in 0.0f32..50.0, y in 0.0f32..50.0, z in 0.0f32..50.0) {
             check_partition(quadratic_weights(Vec3::new(x, y, z)));
+        }
+
+        #[test]
+        fn quadratic_values_are_the_quadratic_weights_bits(x in -10.0f32..1100.0, y in 0.0f32..3.0, z in 0.0f32..1e5) {
+            let v = Vec3::new(x, y, z);
+            let (fast, full) = (quadratic_values(v), quadratic_weights(v));
+            prop_assert_eq!(fast.base, full.base);
+            prop_assert_eq!(fast.offset, full.offset);
+            for k in 0..3 {
+                prop_assert_eq!(fast.values[k].to_array().map(f32::to_bits), full.values[k].to_array().map(f32::to_bits), "node {}", k);
+            }
         }
 
         #[test]
