@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Runs `firn bench` and the peer Taichi script side by side on this machine,
 # at the same particle count and grid, and prints both figures and the ratio.
+# firn runs on the CPU (--backend cpu), as the peer does.
 #
 #   scripts/bench-vs-peer.sh [PARTICLES] [GRID] [STEPS]
 #
@@ -15,7 +16,7 @@ peer=${PEER:-../shared/peers/taichi_mpm3d.py}
 python=${PYTHON:-python3}
 
 cargo build --release --quiet
-./target/release/firn bench --particles "$particles" --grid "$grid" --steps "$steps" --warmup 10 \
+./target/release/firn bench --backend cpu --particles "$particles" --grid "$grid" --steps "$steps" --warmup 10 \
     --json target/bench-firn.json | tee target/bench-firn.txt
 "$python" "$peer" --particles "$particles" --grid "$grid" --steps "$steps" --shape ball | tee target/bench-peer.txt
 
