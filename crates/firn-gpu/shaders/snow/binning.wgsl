@@ -141,16 +141,14 @@ fn local_node(first: vec3<i32>, cell: vec3<i32>) -> u32 {
 
 // scatter_apic's sums for particle p, into the workgroup's nodes.
 fn scatter_local_apic(p: u32, first: vec3<i32>) {
-    let h = params.origin.w;
     let mass = position_mass[p].w;
     let weights = quadratic_weights(grid_coordinate(position_mass[p].xyz));
-    let affine_momentum = (affine[p] * mass - stress[p] * (state.dt * 4.0 / (h * h))) * h;
-    let at_base = velocity_volume[p].xyz * mass - affine_momentum * weights.offset;
+    let momentum_map = apic_momentum(p, weights.offset);
     for (var i = 0; i < 3; i++) {
         for (var j = 0; j < 3; j++) {
             for (var k = 0; k < 3; k++) {
                 let w = weights.values[i].x * weights.values[j].y * weights.values[k].z;
-                let momentum = (at_base + affine_momentum * vec3<f32>(f32(i), f32(j), f32(k))) * w;
+                let momentum = (momentum_map.at_base + momentum_map.affine * vec3<f32>(f32(i), f32(j), f32(k))) * w;
                 let n = local_node(first, weights.base + vec3<i32>(i, j, k));
                 add_local(4u, QUANTITY_MASS, n, mass * w * params.scales.x);
                 add_local(4u, QUANTITY_MOMENTUM_X, n, momentum.x * params.scales.y);
@@ -163,10 +161,9 @@ fn scatter_local_apic(p: u32, first: vec3<i32>) {
 
 // scatter_pic_flip's sums for particle p, into the workgroup's nodes.
 fn scatter_local_pic_flip(p: u32, first: vec3<i32>) {
-    let inverse_h = 1.0 / params.origin.w;
     let mass = position_mass[p].w;
     let momentum = velocity_volume[p].xyz * mass;
-    let impulse_stress = stress[p] * (-state.dt * inverse_h);
+    let impulse_map = impulse_stress(p);
     let weights = cubic_weights(grid_coordinate(position_mass[p].xyz));
     for (var i = 0; i < 4; i++) {
         for (var j = 0; j < 4; j++) {
@@ -174,7 +171,7 @@ fn scatter_local_pic_flip(p: u32, first: vec3<i32>) {
                 let w = weights.values[i].x * weights.values[j].y * weights.values[k].z;
                 let gradient = weight_gradient(weights.values[i], weights.values[j], weights.values[k],
                                                weights.slopes[i], weights.slopes[j], weights.slopes[k]);
-                let impulse = impulse_stress * gradient;
+                let impulse = impulse_map * gradient;
                 let n = local_node(first, weights.base + vec3<i32>(i, j, k));
                 add_local(7u, QUANTITY_MASS, n, mass * w * params.scales.x);
                 add_local(7u, QUANTITY_MOMENTUM_X, n, momentum.x * w * params.scales.y);

@@ -67,6 +67,27 @@ fn inside_grid(node: vec3<i32>) -> bool {
     return all(node >= vec3<i32>(0)) && all(node < vec3<i32>(params.dims.xyz));
 }
 
+// The momentum an APIC particle gives its stencil: node (i, j, k) gets
+// w (at_base + affine (i, j, k)), with affine = (m C_p - dt (4/h^2) V_p^0 tau_p) h
+// mapping a node offset in cells to momentum.
+struct ApicMomentum {
+    at_base: vec3<f32>,
+    affine: mat3x3<f32>,
+}
+
+fn apic_momentum(p: u32, offset: vec3<f32>) -> ApicMomentum {
+    let h = params.origin.w;
+    let mass = position_mass[p].w;
+    let affine_momentum = (affine[p] * mass - stress[p] * (state.dt * 4.0 / (h * h))) * h;
+    return ApicMomentum(velocity_volume[p].xyz * mass - affine_momentum * offset, affine_momentum);
+}
+
+// dt times the PIC/FLIP force on a node is this matrix times grad w (per
+// cell): -dt V_p^0 tau_p / h (eq. 31-33).
+fn impulse_stress(p: u32) -> mat3x3<f32> {
+    return stress[p] * (-state.dt / params.origin.w);
+}
+
 // Steps 1 and 3 for APIC (MLS-MPM form): node i gets
 // w_ip (m_p v_p + (m_p C_p - dt (4/h^2) V_p^0 tau_p)(x_i - x_p)) and w_ip m_p.
 @compute @workgroup_size(64)
@@ -76,11 +97,9 @@ fn scatter_apic(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups
     if p == NO_PARTICLE {
         return;
     }
-    let h = params.origin.w;
     let mass = position_mass[p].w;
     let weights = quadratic_weights(grid_coordinate(position_mass[p].xyz));
-    let affine_momentum = (affine[p] * mass - stress[p] * (state.dt * 4.0 / (h * h))) * h;
-    let at_base = velocity_volume[p].xyz * mass - affine_momentum * weights.offset;
+    let momentum_map = apic_momentum(p, weights.offset);
     let mass_scale = params.scales.x;
     let momentum_scale = params.scales.y;
     for (var i = 0; i < 3; i++) {
@@ -91,7 +110,7 @@ fn scatter_apic(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups
                     continue;
                 }
                 let w = weights.values[i].x * weights.values[j].y * weights.values[k].z;
-                let momentum = (at_base + affine_momentum * vec3<f32>(f32(i), f32(j), f32(k))) * w;
+                let momentum = (momentum_map.at_base + momentum_map.affine * vec3<f32>(f32(i), f32(j), f32(k))) * w;
                 let node = node_index(cell);
                 add_to_grid(QUANTITY_MASS, node, mass * w * mass_scale);
                 add_to_grid(QUANTITY_MOMENTUM_X, node, momentum.x * momentum_scale);
@@ -111,10 +130,9 @@ fn scatter_pic_flip(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgr
     if p == NO_PARTICLE {
         return;
     }
-    let inverse_h = 1.0 / params.origin.w;
     let mass = position_mass[p].w;
     let momentum = velocity_volume[p].xyz * mass;
-    let impulse_stress = stress[p] * (-state.dt * inverse_h);
+    let impulse_map = impulse_stress(p);
     let weights = cubic_weights(grid_coordinate(position_mass[p].xyz));
     let mass_scale = params.scales.x;
     let momentum_scale = params.scales.y;
@@ -128,7 +146,7 @@ fn scatter_pic_flip(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgr
                 let w = weights.values[i].x * weights.values[j].y * weights.values[k].z;
                 let gradient = weight_gradient(weights.values[i], weights.values[j], weights.values[k],
                                                weights.slopes[i], weights.slopes[j], weights.slopes[k]);
-                let impulse = impulse_stress * gradient;
+                let impulse = impulse_map * gradient;
                 let node = node_index(cell);
                 add_to_grid(QUANTITY_MASS, node, mass * w * mass_scale);
                 add_to_grid(QUANTITY_MOMENTUM_X, node, momentum.x * w * momentum_scale);

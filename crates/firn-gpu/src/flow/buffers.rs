@@ -8,7 +8,6 @@ use firn_flow::FlowParticles;
 use glam::Vec3;
 use wgpu::util::DeviceExt;
 
-use super::kernels;
 use super::layout::{self, FieldConstants, SubstepParams};
 use crate::buffers::{read_back, storage_buffer, zeroed_storage_buffer};
 use crate::context::GpuContext;
@@ -68,7 +67,8 @@ impl FieldBuffers {
             storage_buffer(context, "flow emitters", &layout::emitters(settings)),
             uniform_buffer::<SubstepParams>(context, "flow substep", &substep),
         ];
-        let group = kernels::bind_group(context, "flow field", group_layout, &buffers.each_ref());
+        let group =
+            crate::buffers::bind_group(context, "flow field", group_layout, &buffers.each_ref());
         FieldBuffers { buffers, group }
     }
 
@@ -115,7 +115,7 @@ impl ParticleBuffers {
         let lifetimes = words("flow lifetimes");
         let generations = words("flow generations");
         let emitters = words("flow emitter of particle");
-        let group = kernels::bind_group(
+        let group = crate::buffers::bind_group(
             context,
             "flow particles",
             group_layout,
@@ -275,7 +275,7 @@ impl TrailBuffers {
         let points = storage_buffer(context, "flow trail points", &points);
         let lengths = storage_buffer(context, "flow trail lengths", &lengths);
         let generations = storage_buffer(context, "flow trail generations", &generations);
-        let group = kernels::bind_group(
+        let group = crate::buffers::bind_group(
             context,
             "flow trails",
             group_layout,

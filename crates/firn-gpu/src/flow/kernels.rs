@@ -77,30 +77,6 @@ pub(crate) fn probe_layout(context: &GpuContext) -> wgpu::BindGroupLayout {
     )
 }
 
-/// A bind group of whole buffers, bound in order from binding 0.
-pub(crate) fn bind_group(
-    context: &GpuContext,
-    label: &str,
-    layout: &wgpu::BindGroupLayout,
-    buffers: &[&wgpu::Buffer],
-) -> wgpu::BindGroup {
-    let entries: Vec<_> = buffers
-        .iter()
-        .enumerate()
-        .map(|(binding, buffer)| wgpu::BindGroupEntry {
-            binding: binding as u32,
-            resource: buffer.as_entire_binding(),
-        })
-        .collect();
-    context
-        .device
-        .create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some(label),
-            layout,
-            entries: &entries,
-        })
-}
-
 /// The compute pipelines of `program`'s entry points, each with its bind
 /// group layouts (group 0 first).
 pub(crate) fn pipelines<const N: usize>(

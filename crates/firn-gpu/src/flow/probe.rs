@@ -108,7 +108,7 @@ impl FlowProbe {
         let input = storage_buffer(context, "flow probe input", input);
         let output_bytes = (items * per_item * size_of::<f32>()) as u64;
         let output = zeroed_storage_buffer(context, "flow probe output", output_bytes);
-        let group = kernels::bind_group(
+        let group = crate::buffers::bind_group(
             context,
             "flow probe",
             &self.probe_layout,

@@ -6,7 +6,7 @@ use firn_core::scene::Transfer;
 use firn_mpm::Particles;
 
 use super::layout::{GpuMat3, GpuPlastic, Params, StepState};
-use crate::buffers::{read_back, storage_buffer, zeroed_storage_buffer};
+use crate::buffers::{bind_group, read_back, storage_buffer, zeroed_storage_buffer};
 use crate::context::GpuContext;
 use crate::dispatch::workgroups;
 use crate::error::GpuError;
@@ -232,19 +232,7 @@ impl StepPipelines {
             &binning.work,
             distances,
         ]);
-        let entries: Vec<wgpu::BindGroupEntry> = buffers
-            .iter()
-            .enumerate()
-            .map(|(binding, buffer)| wgpu::BindGroupEntry {
-                binding: binding as u32,
-                resource: buffer.as_entire_binding(),
-            })
-            .collect();
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("snow step"),
-            layout: &layout,
-            entries: &entries,
-        });
+        let bind_group = bind_group(context, "snow step", &layout, &buffers);
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("snow step"),
             bind_group_layouts: &[Some(&layout)],
