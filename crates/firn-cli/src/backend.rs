@@ -133,7 +133,7 @@ fn choose_auto(scene: &Scene) -> Chosen {
 }
 
 /// The first line of a GPU error, without its fix (for `auto`'s note).
-fn first_line(error: &GpuError) -> String {
+pub fn first_line(error: &GpuError) -> String {
     match error {
         GpuError::Unsupported { what, .. } => {
             format!("the GPU backend cannot run this scene: {what}")

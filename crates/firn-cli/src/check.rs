@@ -6,9 +6,11 @@ use clap::Args;
 use firn_core::Scene;
 use firn_core::scene::{Domain, FlowSettings, Shape, TimeStep};
 use firn_flow::FlowSimulation;
+use firn_gpu::snow::MemoryEstimate;
 use firn_mpm::Simulation;
 
 use crate::Failure;
+use crate::backend::{first_line, gpu_supports};
 use crate::scene_source::load_scene;
 
 /// Arguments of `firn check`.
@@ -94,6 +96,10 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
         "memory      {:.1} MiB (sparse grid, bins and particles)",
         simulation.memory_bytes() as f64 / (1024.0 * 1024.0)
     );
+    println!(
+        "gpu         {}",
+        gpu_line(&scene, Some(simulation.particles().len()))
+    );
     let policy = match scene.time.step {
         TimeStep::Fixed { dt } => format!("fixed {dt:.2e} s"),
         TimeStep::Adaptive { cfl, max_dt } => {
@@ -112,6 +118,25 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
     );
     println!("output      {}", scene.output.directory.display());
     Ok(())
+}
+
+/// Whether the GPU backend runs the scene and, for snow with `particles`,
+/// the GPU memory it needs (no adapter is opened).
+fn gpu_line(scene: &Scene, particles: Option<usize>) -> String {
+    if let Err(error) = gpu_supports(scene) {
+        return format!("CPU only: {}", first_line(&error));
+    }
+    let Some(particles) = particles else {
+        return "the GPU backend runs this scene (--backend gpu)".into();
+    };
+    let estimate = MemoryEstimate::of(scene, particles as u64);
+    format!(
+        "the GPU backend runs this scene: {:.1} MiB of GPU buffers ({} bytes per particle, {} per node, {} nodes)",
+        estimate.total_bytes() as f64 / (1024.0 * 1024.0),
+        estimate.bytes_per_particle,
+        estimate.bytes_per_node,
+        estimate.nodes
+    )
 }
 
 /// The domain's corners as `[x, y, z] to [x, y, z]`.
@@ -154,6 +179,7 @@ fn check_flow(scene: &Scene, flow: &FlowSettings) -> Result<(), Failure> {
         "memory      {:.1} MiB",
         simulation.memory_bytes() as f64 / (1024.0 * 1024.0)
     );
+    println!("gpu         {}", gpu_line(scene, None));
     println!(
         "frames      {} at {} fps ({} s)",
         scene.time.frame_count(),

@@ -322,6 +322,36 @@ fn check_reports_particles_grid_and_first_step() {
     }
 }
 
+/// `firn check` says whether the GPU backend runs a scene and what it needs
+/// there, without opening an adapter.
+#[test]
+fn check_says_whether_the_gpu_backend_runs_the_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let explicit = write_scene(dir.path(), "small.toml", SMALL_SCENE);
+    let output = firn(&["check", explicit.to_str().unwrap()]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let stdout = text(&output.stdout);
+    assert!(
+        stdout.contains("the GPU backend runs this scene") && stdout.contains("MiB of GPU buffers"),
+        "{stdout}"
+    );
+    let implicit = write_scene(
+        dir.path(),
+        "implicit.toml",
+        &SMALL_SCENE.replace(
+            "[domain]",
+            "[solver]\nintegrator = \"semi-implicit\"\n\n[domain]",
+        ),
+    );
+    let output = firn(&["check", implicit.to_str().unwrap()]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let stdout = text(&output.stdout);
+    assert!(
+        stdout.contains("CPU only") && stdout.contains("semi-implicit"),
+        "{stdout}"
+    );
+}
+
 #[test]
 fn check_json_prints_the_resolved_scene() {
     let dir = tempfile::tempdir().unwrap();
