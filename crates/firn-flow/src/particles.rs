@@ -3,7 +3,10 @@
 //! are born and never reordered or removed; one that expires or leaves the
 //! domain is born again in place, with its generation counted up.
 
+use firn_core::scene::FlowEmitter;
 use glam::Vec3;
+
+use crate::emitters;
 
 /// The state of all particles.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -32,6 +35,27 @@ impl FlowParticles {
     /// Whether there are none.
     pub fn is_empty(&self) -> bool {
         self.positions.is_empty()
+    }
+
+    /// Appends the first life of particle `id` of emitter `index` (scene
+    /// seed `seed`), `age` seconds old: at its birth point, at rest (the
+    /// caller sets its velocity), with its drawn lifetime.
+    pub fn push_newborn(
+        &mut self,
+        emitter: &FlowEmitter,
+        index: usize,
+        seed: u64,
+        id: u64,
+        age: f32,
+    ) {
+        self.positions
+            .push(emitters::birth_position(emitter, seed, id, 0));
+        self.velocities.push(Vec3::ZERO);
+        self.ages.push(age.max(0.0));
+        self.lifetimes
+            .push(emitters::lifetime(emitter, seed, id, 0));
+        self.generations.push(0);
+        self.emitters.push(index as u32);
     }
 
     /// Bytes per particle (without trails).

@@ -418,20 +418,14 @@ impl FlowSimulation {
 
     /// Append the first life of a new particle of emitter `index`.
     fn push_newborn(&mut self, index: usize, age: f32) {
-        let emitter = &self.settings.emitters[index];
         let id = self.particles.len() as u64;
-        let seed = self.settings.seed;
-        let particles = &mut self.particles;
-        particles
-            .positions
-            .push(emitters::birth_position(emitter, seed, id, 0));
-        particles.velocities.push(Vec3::ZERO);
-        particles.ages.push(age.max(0.0));
-        particles
-            .lifetimes
-            .push(emitters::lifetime(emitter, seed, id, 0));
-        particles.generations.push(0);
-        particles.emitters.push(index as u32);
+        self.particles.push_newborn(
+            &self.settings.emitters[index],
+            index,
+            self.settings.seed,
+            id,
+            age,
+        );
     }
 
     fn push_out_of_obstacles_all(&mut self) {

@@ -33,7 +33,6 @@ use std::sync::Arc;
 use firn_core::Scene;
 use firn_core::scene::{FlowEmission, FlowSettings};
 use firn_flow::{FlowParticles, FlowSimulation, FlowSnapshot, emitters};
-use glam::Vec3;
 
 use self::buffers::{FieldBuffers, ParticleBuffers, TrailBuffers, TrailState};
 use self::layout::{NoiseDomains, SubstepParams};
@@ -300,16 +299,7 @@ impl GpuFlow {
             for k in self.births[index]..target {
                 let id = u64::from(self.count) + newborns.len() as u64;
                 let age = (t - emitters::birth_time(emitter, k)).max(0.0) as f32;
-                newborns
-                    .positions
-                    .push(emitters::birth_position(emitter, seed, id, 0));
-                newborns.velocities.push(Vec3::ZERO);
-                newborns.ages.push(age.max(0.0));
-                newborns
-                    .lifetimes
-                    .push(emitters::lifetime(emitter, seed, id, 0));
-                newborns.generations.push(0);
-                newborns.emitters.push(index as u32);
+                newborns.push_newborn(emitter, index, seed, id, age);
             }
             self.births[index] = self.births[index].max(target);
         }
