@@ -8,6 +8,7 @@
 //! - [`snow`]: the MPM substep on the GPU, checked against `firn-mpm`;
 //! - [`flow`]: the curl-noise flow on the GPU, checked against `firn-flow`;
 //! - [`dispatch`]: splitting work over the adapter's workgroup limits.
+//! - [`draw`]: the particle arrays as a renderer on the same device reads them.
 //!
 //! Particle and grid data stay on the GPU between substeps; the host reads
 //! back a few words per batch of substeps and the particles once per frame.
@@ -20,6 +21,7 @@
 pub mod buffers;
 pub mod context;
 pub mod dispatch;
+pub mod draw;
 pub mod error;
 pub mod flow;
 pub mod shaders;
