@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use firn_core::scene::{Attribute as SceneAttribute, CacheFormat, ColorBy, Scene};
+use firn_core::scene::{Attribute as SceneAttribute, CacheFormat, Scene};
 use firn_io::{Attribute, Checkpoint, FrameData, IoError, PvdCollection, write_ply, write_vtp};
 use firn_mpm::{Particles, Simulation, Snapshot};
 
@@ -104,18 +104,6 @@ fn attribute_data<'a>(
         SceneAttribute::Density => Attribute::scalar("density", &derived.density),
         SceneAttribute::Mass => Attribute::scalar("mass", &particles.mass),
         SceneAttribute::Material => Attribute::integer("material", &derived.material),
-    }
-}
-
-/// Per-particle values of the quantity pictures are coloured by (none for
-/// colourings that need no values).
-pub fn color_values(simulation: &Simulation, color_by: ColorBy) -> Option<Vec<f32>> {
-    let particles = simulation.particles();
-    match color_by {
-        ColorBy::Density => Some(simulation.densities()),
-        ColorBy::PlasticJ => Some(particles.plastic_j.clone()),
-        ColorBy::Speed => Some(particles.velocity.iter().map(|v| v.length()).collect()),
-        ColorBy::Position | ColorBy::Uniform => None,
     }
 }
 

@@ -18,6 +18,7 @@ mod render;
 mod run;
 mod scene_source;
 mod solver;
+mod view;
 
 use std::process::ExitCode;
 
@@ -52,6 +53,9 @@ enum Command {
     Compare(compare::CompareArgs),
     /// Show the CPU, the GPU adapters and which backend `--backend auto` takes.
     Info,
+    /// Open a window that runs a scene live (or plays back a run) with an
+    /// orbit camera and a parameter panel.
+    View(view::ViewArgs),
 }
 
 /// A failure, classified for the exit code.
@@ -93,6 +97,7 @@ fn main() -> ExitCode {
         Command::Render(args) => render::render(args),
         Command::Compare(args) => compare::compare(args),
         Command::Info => info::info(),
+        Command::View(args) => view::view(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -8,7 +8,7 @@ use clap::{Args, ValueEnum};
 use firn_core::Scene;
 use firn_core::scene::{ColorBy, Orbit, RenderStyle};
 use firn_io::{FrameRecord, Manifest, PlyCloud, read_ply};
-use firn_render::scene_view::FrameParticles;
+use firn_render::scene_view::{FrameParticles, cached_color_values};
 use glam::Vec3;
 
 use crate::Failure;
@@ -257,7 +257,7 @@ fn render_cached_frame(
             directory.join(cache_name()).display()
         ))
     })?;
-    let values = cached_values(cloud, scene.render.color_by).map_err(|column| {
+    let values = cached_color_values(cloud, scene.render.color_by).map_err(|column| {
         Failure::BadInput(format!(
             "error: {} has no `{column}` column to colour by\n  fix: pass --color-by with a cached quantity, or add it to [output] attributes and run again",
             directory.join(cache_name()).display()
@@ -271,20 +271,6 @@ fn render_cached_frame(
     };
     render_frame(scene, directory, record.index, record.time, frame)
         .map_err(|error| Failure::Failed(format!("error: {error}")))
-}
-
-/// Values of `color_by` from the cache columns; `Err(column)` when missing.
-fn cached_values(cloud: &PlyCloud, color_by: ColorBy) -> Result<Option<Vec<f32>>, &'static str> {
-    let column = |name: &'static str| cloud.floats(name).map(<[f32]>::to_vec).ok_or(name);
-    match color_by {
-        ColorBy::Density => column("density").map(Some),
-        ColorBy::PlasticJ => column("plastic_j").map(Some),
-        ColorBy::Speed => cloud
-            .vector("velocity")
-            .map(|velocity| Some(velocity.iter().map(|v| v.length()).collect()))
-            .ok_or("velocity"),
-        ColorBy::Position | ColorBy::Uniform => Ok(None),
-    }
 }
 
 #[cfg(test)]

@@ -21,7 +21,7 @@ use firn_render::trails::Trails;
 use glam::Vec3;
 
 use crate::backend::Placement;
-use crate::frames::{color_values, read_checkpoint, write_caches, write_checkpoint, write_frame};
+use crate::frames::{read_checkpoint, write_caches, write_checkpoint, write_frame};
 
 /// A running simulation of either kind.
 pub enum Solver {
@@ -215,7 +215,7 @@ impl Solver {
         match self.view() {
             View::Snow(simulation) => {
                 let particles = simulation.particles();
-                let values = color_values(simulation, simulation.scene().render.color_by);
+                let values = simulation.color_values(simulation.scene().render.color_by);
                 draw(FrameParticles {
                     positions: &particles.position,
                     masses: Some(&particles.mass),
@@ -309,19 +309,10 @@ pub fn frame_solver_stats(before: Option<SolverStats>, after: SolverStats) -> So
 /// The flow's trails (if it keeps them), oldest position first.
 fn flat_trails(flow: &FlowSimulation) -> Option<FlatTrails> {
     let trails = flow.trails()?;
-    let capacity = trails.capacity();
-    let count = trails.particle_count();
-    let mut points = vec![Vec3::ZERO; capacity * count];
-    let mut lengths = vec![0u32; count];
-    for particle in 0..count {
-        for (slot, point) in trails.iter(particle).enumerate() {
-            points[particle * capacity + slot] = point;
-        }
-        lengths[particle] = trails.len(particle) as u32;
-    }
+    let (points, lengths) = trails.oldest_first();
     Some(FlatTrails {
         points,
-        capacity,
+        capacity: trails.capacity(),
         lengths,
     })
 }

@@ -55,5 +55,7 @@ pub mod trails;
 pub use field::FlowField;
 pub use integrate::Simd;
 pub use particles::FlowParticles;
-pub use simulation::{FlowError, FlowSimulation, FlowSnapshot, position_color};
+pub use simulation::{
+    FlowError, FlowSimulation, FlowSnapshot, position_color, scene_with_settings,
+};
 pub use trails::Trails;

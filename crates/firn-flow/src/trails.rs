@@ -72,6 +72,20 @@ impl Trails {
         (0..length).map(move |i| ring[(oldest + i) % capacity])
     }
 
+    /// Every ring unrolled oldest first, as renderers read trails: particle
+    /// p's positions are `points[p * capacity..][..lengths[p]]`.
+    pub fn oldest_first(&self) -> (Vec<Vec3>, Vec<u32>) {
+        let count = self.particle_count();
+        let mut points = vec![Vec3::ZERO; self.capacity * count];
+        for particle in 0..count {
+            let row = &mut points[particle * self.capacity..][..self.capacity];
+            for (slot, point) in row.iter_mut().zip(self.iter(particle)) {
+                *slot = point;
+            }
+        }
+        (points, self.lengths.clone())
+    }
+
     /// Record the current positions as the newest trail points.
     pub fn record(&mut self, positions: &[Vec3], generations: &[u32]) {
         let count = positions.len();

@@ -72,10 +72,11 @@ fn instance(backends: wgpu::Backends) -> wgpu::Instance {
 }
 
 /// The adapters of the native APIs (Vulkan, Metal, DX12), or of GL where
-/// there are none (GL is asked only then: probing it prints EGL warnings).
+/// there are none (GL is asked only then: probing it prints EGL warnings);
+/// those that can run firn's kernels, best first.
 fn enumerate() -> Vec<wgpu::Adapter> {
     let found = |backends| {
-        usable(pollster::block_on(
+        rank_adapters(pollster::block_on(
             instance(backends).enumerate_adapters(backends),
         ))
     };
@@ -85,6 +86,16 @@ fn enumerate() -> Vec<wgpu::Adapter> {
     } else {
         native
     }
+}
+
+/// The adapters that can run firn's kernels, best first (discrete,
+/// integrated, virtual, then software; native APIs before GL). For a caller
+/// with adapters of its own `wgpu::Instance`, such as a viewer that needs
+/// one that presents to its window, before [`GpuContext::open`].
+pub fn rank_adapters(adapters: Vec<wgpu::Adapter>) -> Vec<wgpu::Adapter> {
+    let mut usable = usable(adapters);
+    usable.sort_by_cached_key(|adapter| rank(&AdapterReport::of(adapter)));
+    usable
 }
 
 /// The adapters that can run firn's kernels.
@@ -105,9 +116,7 @@ pub const MIN_STORAGE_BUFFERS: u32 = 28;
 
 /// Every adapter wgpu finds that can run firn's kernels, best first.
 pub fn adapters() -> Vec<AdapterReport> {
-    let mut found: Vec<AdapterReport> = enumerate().iter().map(AdapterReport::of).collect();
-    found.sort_by_key(rank);
-    found
+    enumerate().iter().map(AdapterReport::of).collect()
 }
 
 /// Orders adapters: discrete, integrated, virtual, then software; native
@@ -154,14 +163,20 @@ impl GpuContext {
     /// Opens a device on the best adapter `policy` allows, with that
     /// adapter's full limits (large scenes need more than WebGPU's defaults).
     pub fn new(policy: AdapterPolicy) -> Result<Arc<GpuContext>, GpuError> {
-        let mut candidates = enumerate();
-        candidates.sort_by_key(|adapter| rank(&AdapterReport::of(adapter)));
-        let adapter = candidates
+        let adapter = enumerate()
             .into_iter()
             .find(|adapter| {
                 policy == AdapterPolicy::AllowSoftware || !AdapterReport::of(adapter).is_software
             })
             .ok_or(GpuError::NoAdapter { policy })?;
+        GpuContext::open(&adapter)
+    }
+
+    /// Opens a device on `adapter`, which may come from the caller's own
+    /// `wgpu::Instance` (a viewer draws the simulation's buffers on the
+    /// device that presents to its window; see [`rank_adapters`]), with the
+    /// adapter's full limits, as [`GpuContext::new`] does.
+    pub fn open(adapter: &wgpu::Adapter) -> Result<Arc<GpuContext>, GpuError> {
         let limits = adapter.limits();
         let descriptor = wgpu::DeviceDescriptor {
             label: Some("firn"),
@@ -176,7 +191,7 @@ impl GpuContext {
         Ok(Arc::new(GpuContext {
             device,
             queue,
-            adapter: AdapterReport::of(&adapter),
+            adapter: AdapterReport::of(adapter),
             limits,
         }))
     }

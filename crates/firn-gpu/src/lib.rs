@@ -27,7 +27,9 @@ pub mod flow;
 pub mod shaders;
 pub mod snow;
 
-pub use context::{AdapterPolicy, AdapterReport, GpuContext, adapters, choose, context_for_tests};
+pub use context::{
+    AdapterPolicy, AdapterReport, GpuContext, adapters, choose, context_for_tests, rank_adapters,
+};
 pub use error::GpuError;
 pub use flow::GpuFlow;
 pub use snow::GpuSnow;

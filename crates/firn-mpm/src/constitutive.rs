@@ -37,11 +37,36 @@ impl MaterialConstants {
         }
     }
 
+    /// The constants of each of a scene's materials, in its order (particles
+    /// index them by material).
+    pub fn of_each(materials: &[Material]) -> Vec<MaterialConstants> {
+        materials.iter().map(MaterialConstants::new).collect()
+    }
+
     /// Hardening factor e^{ξ(1 − J_P)} (eq. 35).
     #[inline(always)]
     pub fn hardening_factor(&self, plastic_j: f32) -> f32 {
         hardening_factor(self.hardening, plastic_j)
     }
+}
+
+/// The largest squared elastic wave speed c² = (λ0 + 2μ0) / ρ0 · e^{ξ(1 − J_P)}
+/// over particles of materials `material` (indices into `constants`) and
+/// plastic volume changes `plastic_j`, as the gather reports it: what the
+/// adaptive Δt starts from after the materials changed (both backends).
+pub fn max_wave_speed_squared(
+    constants: &[MaterialConstants],
+    material: &[u16],
+    plastic_j: &[f32],
+) -> f32 {
+    material
+        .iter()
+        .zip(plastic_j)
+        .map(|(&m, &j)| {
+            let constants = &constants[usize::from(m)];
+            constants.wave_speed_squared * constants.hardening_factor(j)
+        })
+        .fold(0.0, f32::max)
 }
 
 /// e^{ξ(1 − J_P)} (eq. 35): how much compaction has stiffened the snow.

@@ -20,10 +20,12 @@
 #![warn(missing_docs)]
 
 pub mod binning;
+mod coloring;
 pub mod constitutive;
 pub mod contact;
 pub mod grid;
 pub mod implicit;
+pub mod live;
 pub mod particles;
 pub mod profile;
 pub mod simulation;

@@ -4,11 +4,11 @@
 use firn_core::math::bspline::{cubic_weights, quadratic_weights};
 use firn_core::math::lanes::Simd;
 use firn_core::scene::sampling::sample_bodies;
-use firn_core::scene::{Integrator, Scene, TimeStep, Transfer};
+use firn_core::scene::{Integrator, Material, Scene, SceneError, TimeStep, Transfer};
 use glam::{Mat3, Vec3};
 
 use crate::binning::Bins;
-use crate::constitutive::MaterialConstants;
+use crate::constitutive::{MaterialConstants, max_wave_speed_squared};
 use crate::contact::ColliderSet;
 use crate::grid::{Grid, GridLayout};
 use crate::implicit::{ImplicitSolver, ImplicitStep, SolverStats};
@@ -54,6 +54,10 @@ pub enum SimulationError {
     /// A snapshot does not fit the scene it is restored into.
     #[error("the checkpoint does not match the scene: {0}")]
     SnapshotMismatch(String),
+    /// Materials that cannot replace the running scene's
+    /// ([`Simulation::set_materials`]); the error's key names the field.
+    #[error("{0}")]
+    Materials(Box<SceneError>),
 }
 
 /// The full state needed to continue a run bit for bit.
@@ -175,7 +179,7 @@ impl Simulation {
     fn with_particles(scene: Scene, particles: Particles, time: f64, steps: u64) -> Simulation {
         let domain = &scene.domain;
         Simulation {
-            materials: scene.materials.iter().map(MaterialConstants::new).collect(),
+            materials: MaterialConstants::of_each(&scene.materials),
             grid: Grid::new(domain.min, domain.max, domain.cell_size),
             colliders: ColliderSet::new(domain, &scene.colliders),
             bins: Bins::default(),
@@ -223,17 +227,31 @@ impl Simulation {
             .iter()
             .map(|v| v.length_squared())
             .fold(0.0, f32::max);
-        let max_wave_speed_squared = self
-            .particles
-            .material
-            .iter()
-            .map(|&m| self.materials[m as usize].wave_speed_squared)
-            .fold(0.0, f32::max);
         GatherStats {
             max_speed_squared,
-            max_wave_speed_squared,
+            max_wave_speed_squared: self.max_wave_speed_squared(),
             problem: None,
         }
+    }
+
+    /// The largest squared wave speed of the particles as they are, with
+    /// the current materials (what the last gather would have reported).
+    fn max_wave_speed_squared(&self) -> f32 {
+        let particles = &self.particles;
+        max_wave_speed_squared(&self.materials, &particles.material, &particles.plastic_j)
+    }
+
+    /// Replaces the scene's materials while the simulation runs (an
+    /// interactive viewer's parameter panel), from the next substep on: the
+    /// snow model's constants and the elastic wave speed of the adaptive Δt.
+    /// Refused, with nothing changed, when the materials differ in number,
+    /// names, order or density, or break a rule of the scene format
+    /// ([`crate::live::scene_with_materials`]). The particles keep their state.
+    pub fn set_materials(&mut self, materials: &[Material]) -> Result<(), SimulationError> {
+        self.scene = crate::live::scene_with_materials(&self.scene, materials)?;
+        self.materials = MaterialConstants::of_each(&self.scene.materials);
+        self.stats.max_wave_speed_squared = self.max_wave_speed_squared();
+        Ok(())
     }
 
     /// The Δt the next substep will take (before clipping to a frame end):

@@ -4,6 +4,7 @@
 use std::borrow::Cow;
 
 use firn_core::Scene;
+use firn_io::PlyCloud;
 use firn_core::scene::{ColliderGeometry, ColorBy, RenderStyle};
 use glam::Vec3;
 
@@ -70,10 +71,7 @@ pub fn scene_picture<'a>(
             positions: particles.positions,
             masses,
             coloring,
-            radius: scene
-                .render
-                .point_radius
-                .unwrap_or(RADIUS_PER_SPACING * spacing),
+            radius: sprite_radius(scene),
             look: SnowLook::for_density(
                 reference_density(scene),
                 MEAN_FREE_PATH_SPACINGS * spacing,
@@ -128,6 +126,15 @@ pub fn scene_stage(scene: &Scene, t: f64) -> Stage {
         colliders,
         ..Stage::default()
     }
+}
+
+/// The radius particles are drawn with: the scene's `point_radius`, or a
+/// little over half the particle spacing.
+pub fn sprite_radius(scene: &Scene) -> f32 {
+    scene
+        .render
+        .point_radius
+        .unwrap_or(RADIUS_PER_SPACING * particle_spacing(scene))
 }
 
 /// Distance between neighbouring particles of the densest-sampled body (for
@@ -209,6 +216,21 @@ fn reference_speed(scene: &Scene) -> f32 {
     let height = scene.domain.max.y - scene.domain.min.y;
     let fall = (2.0 * scene.solver.gravity.length() * height).sqrt();
     (thrown + fall).max(1e-3)
+}
+
+/// Values of `color_by` from a PLY cache's columns (`firn render` and the
+/// viewer's playback); `Err(column)` names the missing column.
+pub fn cached_color_values(cloud: &PlyCloud, color_by: ColorBy) -> Result<Option<Vec<f32>>, &'static str> {
+    let column = |name: &'static str| cloud.floats(name).map(<[f32]>::to_vec).ok_or(name);
+    match color_by {
+        ColorBy::Density => column("density").map(Some),
+        ColorBy::PlasticJ => column("plastic_j").map(Some),
+        ColorBy::Speed => cloud
+            .vector("velocity")
+            .map(|velocity| Some(velocity.iter().map(|v| v.length()).collect()))
+            .ok_or("velocity"),
+        ColorBy::Position | ColorBy::Uniform => Ok(None),
+    }
 }
 
 /// The legend for a ramp colouring (none for position or uniform colours).

@@ -87,8 +87,10 @@ impl FieldBuffers {
 
 /// Group 1: the particle arrays, with room for `capacity` particles.
 pub(crate) struct ParticleBuffers {
-    positions: wgpu::Buffer,
-    velocities: wgpu::Buffer,
+    /// x, y, z per particle.
+    pub positions: wgpu::Buffer,
+    /// x, y, z per particle.
+    pub velocities: wgpu::Buffer,
     ages: wgpu::Buffer,
     lifetimes: wgpu::Buffer,
     generations: wgpu::Buffer,
@@ -241,8 +243,10 @@ pub(crate) struct TrailState {
 
 /// Group 2: every particle's trail ring, with room for `capacity` particles.
 pub(crate) struct TrailBuffers {
-    points: wgpu::Buffer,
-    lengths: wgpu::Buffer,
+    /// Rings, particle-major, x, y, z per point.
+    pub points: wgpu::Buffer,
+    /// Valid points per ring.
+    pub lengths: wgpu::Buffer,
     generations: wgpu::Buffer,
     /// The bind group of the three arrays.
     pub group: wgpu::BindGroup,

@@ -37,6 +37,7 @@ use firn_flow::{FlowParticles, FlowSimulation, FlowSnapshot, emitters};
 use self::buffers::{FieldBuffers, ParticleBuffers, TrailBuffers, TrailState};
 use self::layout::{NoiseDomains, SubstepParams};
 use crate::context::GpuContext;
+use crate::draw::{ParticleArrays, StridedArray, TrailArrays};
 use crate::error::GpuError;
 use crate::shaders::FLOW_STEP;
 
@@ -78,6 +79,8 @@ pub struct GpuFlow {
     settings: FlowSettings,
     domains: NoiseDomains,
     kernels: StepKernels,
+    /// The layout of group 0, to rebuild the field for new settings.
+    field_layout: wgpu::BindGroupLayout,
     field: FieldBuffers,
     particles: ParticleBuffers,
     trails: Option<TrailBuffers>,
@@ -126,6 +129,7 @@ impl GpuFlow {
         Ok(GpuFlow {
             domains: NoiseDomains::new(&settings),
             kernels,
+            field_layout,
             births,
             context,
             scene,
@@ -137,6 +141,78 @@ impl GpuFlow {
             substeps,
             count,
         })
+    }
+
+    /// Replaces the field's parameters between [`GpuFlow::advance_to`] calls
+    /// (an interactive viewer's parameter panel), from the next substep on, as
+    /// `firn_flow::FlowSimulation::set_settings` does, with the same checks
+    /// ([`firn_flow::scene_with_settings`]: the emitters and substeps cannot
+    /// change). The field's buffers are built anew; particles inside a new
+    /// or grown sphere are pushed out and every velocity is taken from the
+    /// new field.
+    pub fn set_settings(&mut self, settings: FlowSettings) -> Result<(), GpuError> {
+        let scene = firn_flow::scene_with_settings(&self.scene, settings)?;
+        let settings = flow_settings(&scene)?.clone();
+        self.field = FieldBuffers::new(&self.context, &scene, &settings, &self.field_layout);
+        self.domains = NoiseDomains::new(&settings);
+        self.settings = settings;
+        self.scene = scene;
+        self.settle_all();
+        Ok(())
+    }
+
+    /// Every particle pushed out of the spheres, with its velocity in the
+    /// field at the current time (the newborns' kernel over all particles).
+    fn settle_all(&self) {
+        let t = self.time();
+        let mut params = SubstepParams::new(&self.domains, t, t, self.count);
+        params.newborn_first = 0;
+        self.field.write_substep(&self.context, &params);
+        self.run_pass("flow settle", |pass| {
+            let groups = [&self.field.group, &self.particles.group];
+            let kernel = &self.kernels.settle_newborns;
+            kernels::dispatch(&self.context, pass, kernel, &groups, self.count);
+        });
+    }
+
+    /// Records one compute pass with `record` and submits it.
+    fn run_pass(&self, label: &str, record: impl FnOnce(&mut wgpu::ComputePass)) {
+        let context = &self.context;
+        let mut encoder = context
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
+        record(
+            &mut encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(label),
+                timestamp_writes: None,
+            }),
+        );
+        context.queue.submit([encoder.finish()]);
+    }
+
+    /// The particle arrays in the GPU buffers the substeps use, for a
+    /// renderer on the same device (no copy): packed x, y, z per particle,
+    /// and the trail rings when the flow keeps trails. They hold the state
+    /// of the last [`GpuFlow::advance_to`] until the next one.
+    pub fn particle_arrays(&self) -> ParticleArrays<'_> {
+        let xyz = |buffer| StridedArray {
+            buffer,
+            stride: 3,
+            offset: 0,
+        };
+        ParticleArrays {
+            count: self.count,
+            positions: xyz(&self.particles.positions),
+            velocities: xyz(&self.particles.velocities),
+            snow: None,
+            trails: self.trails.as_ref().map(|trails| TrailArrays {
+                points: &trails.points,
+                lengths: &trails.lengths,
+                capacity: trails.capacity,
+                head: trails.head,
+                count: trails.count,
+            }),
+        }
     }
 
     /// `Ok` when the GPU backend runs this scene: every flow scene whose
@@ -254,35 +330,19 @@ impl GpuFlow {
 
     /// Records and submits the dispatches of one substep.
     fn submit(&self, params: &SubstepParams, record: bool) {
-        let context = &self.context;
-        let mut encoder = context
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("flow substep"),
-            });
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("flow substep"),
-                timestamp_writes: None,
-            });
+        self.run_pass("flow substep", |pass| {
+            let context = &self.context;
             let groups = [&self.field.group, &self.particles.group];
             let kernels = &self.kernels;
-            kernels::dispatch(context, &mut pass, &kernels.advance, &groups, params.count);
+            kernels::dispatch(context, pass, &kernels.advance, &groups, params.count);
             let newborns = params.newborn_end - params.newborn_first;
-            kernels::dispatch(
-                context,
-                &mut pass,
-                &kernels.settle_newborns,
-                &groups,
-                newborns,
-            );
+            kernels::dispatch(context, pass, &kernels.settle_newborns, &groups, newborns);
             if let Some(trails) = self.trails.as_ref().filter(|_| record) {
                 let groups = [&self.field.group, &self.particles.group, &trails.group];
                 let end = params.newborn_end;
-                kernels::dispatch(context, &mut pass, &kernels.record_trails, &groups, end);
+                kernels::dispatch(context, pass, &kernels.record_trails, &groups, end);
             }
-        }
-        context.queue.submit([encoder.finish()]);
+        });
     }
 
     /// The particles `rate` emitters make by time `t` that are not born yet,

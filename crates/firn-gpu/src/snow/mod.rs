@@ -28,14 +28,15 @@ mod pipelines;
 use std::sync::Arc;
 
 use firn_core::Scene;
-use firn_core::scene::{Integrator, SceneKind, TimeStep, Transfer};
-use firn_mpm::constitutive::MaterialConstants;
+use firn_core::scene::{Integrator, Material, SceneKind, TimeStep, Transfer};
+use firn_mpm::constitutive::{MaterialConstants, max_wave_speed_squared};
 use firn_mpm::grid::GridLayout;
 use firn_mpm::{Particles, SimulationError, Snapshot};
 use glam::{Mat3, Vec3};
 
 use crate::buffers::{read_back, storage_buffer};
 use crate::context::GpuContext;
+use crate::draw::{ParticleArrays, SnowArrays, StridedArray};
 use crate::error::GpuError;
 use fixed_point::{QUANTITY_NAMES, Scales};
 use layout::{GpuMat3, GpuMaterial, GpuPlastic, NO_PARTICLE, Params, StepState, pack_colliders};
@@ -57,6 +58,8 @@ pub struct GpuSnow {
     scene: Scene,
     scales: Scales,
     params: Params,
+    /// One `GpuMaterial` per scene material, rewritten by [`GpuSnow::set_materials`].
+    materials: wgpu::Buffer,
     particles: ParticleBuffers,
     grid: GridBuffers,
     pipelines: StepPipelines,
@@ -85,11 +88,8 @@ impl GpuSnow {
         GpuSnow::check_supported(&scene)?;
         let estimate = MemoryEstimate::of(&scene, snapshot.particles.len() as u64);
         check_fits(&context, &estimate)?;
-        let materials: Vec<GpuMaterial> = scene
-            .materials
-            .iter()
-            .map(|material| GpuMaterial::from(&MaterialConstants::new(material)))
-            .collect();
+        let constants = MaterialConstants::of_each(&scene.materials);
+        let materials = storage_buffer(&context, "materials", &gpu_materials(&constants));
         let scales = Scales::of(&scene);
         let domain = &scene.domain;
         let layout = GridLayout::new(domain.min, domain.max, domain.cell_size);
@@ -112,7 +112,7 @@ impl GpuSnow {
             scene.solver.transfer,
             &params,
             &state,
-            &storage_buffer(&context, "materials", &materials),
+            &materials,
             [
                 &storage_buffer(&context, "colliders", &packed.colliders),
                 &storage_buffer(&context, "collider keys", &packed.keys),
@@ -126,6 +126,7 @@ impl GpuSnow {
             context,
             scales,
             params,
+            materials,
             particles,
             grid,
             pipelines,
@@ -310,6 +311,65 @@ impl GpuSnow {
         })
     }
 
+    /// Replaces the scene's materials between [`GpuSnow::advance_to`] calls
+    /// (an interactive viewer's parameter panel), from the next substep on:
+    /// the snow model's constants and the elastic wave speed the next
+    /// adaptive Δt starts from, as `firn_mpm::Simulation::set_materials`
+    /// does, with the same checks ([`firn_mpm::live::scene_with_materials`];
+    /// the density cannot change, so the fixed-point scales stay). The
+    /// particles keep their state.
+    pub fn set_materials(&mut self, materials: &[Material]) -> Result<(), GpuError> {
+        let scene = firn_mpm::live::scene_with_materials(&self.scene, materials)?;
+        let constants = MaterialConstants::of_each(&scene.materials);
+        let wave_speed_squared = self.max_wave_speed_squared(&constants)?;
+        let gpu = gpu_materials(&constants);
+        let queue = &self.context.queue;
+        queue.write_buffer(&self.materials, 0, bytemuck::cast_slice(&gpu));
+        self.pipelines
+            .write_max_wave_speed(&self.context, wave_speed_squared);
+        self.last.max_wave_bits = wave_speed_squared.to_bits();
+        self.scene = scene;
+        Ok(())
+    }
+
+    /// The largest squared wave speed of the particles as they are, for
+    /// materials of `constants` (their J_P and materials read back).
+    fn max_wave_speed_squared(&self, constants: &[MaterialConstants]) -> Result<f32, GpuError> {
+        let buffers = [(&self.particles.plastic, self.particle_count)];
+        let plastic = read_back::<GpuPlastic>(&self.context, &buffers)?.remove(0);
+        let material: Vec<u16> = plastic.iter().map(|p| p.material as u16).collect();
+        let plastic_j: Vec<f32> = plastic.iter().map(|p| p.plastic_j).collect();
+        Ok(max_wave_speed_squared(constants, &material, &plastic_j))
+    }
+
+    /// The particle arrays in the GPU buffers the substeps use, for a
+    /// renderer on the same device (no copy): positions and masses share
+    /// one `vec4` per particle, velocities and initial volumes another.
+    /// They hold the state of the last [`GpuSnow::advance_to`] until the
+    /// next one.
+    pub fn particle_arrays(&self) -> ParticleArrays<'_> {
+        let array = |buffer, stride, offset| StridedArray {
+            buffer,
+            stride,
+            offset,
+        };
+        let vec4 = words::<[f32; 4]>();
+        let plastic_j = (std::mem::offset_of!(GpuPlastic, plastic_j) / 4) as u32;
+        let particles = &self.particles;
+        ParticleArrays {
+            count: self.particle_count as u32,
+            positions: array(&particles.position_mass, vec4, 0),
+            velocities: array(&particles.velocity_volume, vec4, 0),
+            snow: Some(SnowArrays {
+                mass: array(&particles.position_mass, vec4, 3),
+                volume0: array(&particles.velocity_volume, vec4, 3),
+                elastic: array(&particles.elastic, words::<GpuMat3>(), 0),
+                plastic_j: array(&particles.plastic, words::<GpuPlastic>(), plastic_j),
+            }),
+            trails: None,
+        }
+    }
+
     /// The scatter in use ([`Scatter::Binned`] by default where the
     /// adapter's workgroup memory allows it).
     pub fn scatter(&self) -> Scatter {
@@ -336,6 +396,16 @@ impl GpuSnow {
     pub fn context(&self) -> &Arc<GpuContext> {
         &self.context
     }
+}
+
+/// The materials' constants as the kernels read them.
+fn gpu_materials(constants: &[MaterialConstants]) -> Vec<GpuMaterial> {
+    constants.iter().map(GpuMaterial::from).collect()
+}
+
+/// 32-bit words in a `T`: the stride of an array of `T` in a renderer's terms.
+fn words<T>() -> u32 {
+    (size_of::<T>() / 4) as u32
 }
 
 /// `Params` of a run: grid, stepping, scales; the frame window is set per frame.

@@ -320,6 +320,16 @@ impl StepPipelines {
             .write_buffer(&self.state, 0, bytemuck::cast_slice(&head));
     }
 
+    /// Sets the largest squared wave speed the next substep's Δt starts from
+    /// (after the materials changed); the rest of the state stays.
+    pub fn write_max_wave_speed(&self, context: &GpuContext, wave_speed_squared: f32) {
+        let offset = std::mem::offset_of!(StepState, max_wave_bits) as u64;
+        let bits = wave_speed_squared.to_bits();
+        context
+            .queue
+            .write_buffer(&self.state, offset, bytemuck::bytes_of(&bits));
+    }
+
     /// Records and runs `substeps` substeps (those after the frame's end do
     /// nothing), then reads the state back.
     pub fn run_batch(

@@ -1,0 +1,95 @@
+//! Changing a running simulation's materials (an interactive viewer's
+//! parameter panel): which changes are allowed, checked once here for both
+//! backends (`firn-gpu` calls [`scene_with_materials`] too).
+
+use firn_core::scene::{Material, Scene, SceneError};
+
+use crate::simulation::SimulationError;
+
+/// `scene` with its materials replaced by `materials`, for a change while
+/// the simulation runs. Refused, with an error whose key names the field:
+///
+/// - another number of materials or other names, or another order (bodies
+///   and particles refer to materials by index);
+/// - another density ρ0 (the particles' masses were sampled from it, so a
+///   new ρ0 would not reach them);
+/// - anything the scene loader refuses ([`Scene::validate`], e.g. ν ≥ 0.5).
+pub fn scene_with_materials(
+    scene: &Scene,
+    materials: &[Material],
+) -> Result<Scene, SimulationError> {
+    check_same_materials(&scene.materials, materials)?;
+    let mut changed = scene.clone();
+    changed.materials = materials.to_vec();
+    changed
+        .validate()
+        .map_err(|error| SimulationError::Materials(Box::new(error)))?;
+    Ok(changed)
+}
+
+/// The materials may change their parameters, but not their number, names,
+/// order or density.
+fn check_same_materials(running: &[Material], new: &[Material]) -> Result<(), SimulationError> {
+    if new.len() != running.len() {
+        return Err(refusal(
+            "materials".into(),
+            format!(
+                "materials: {} given, but the running scene has {}; materials cannot be added \
+                 or removed while it runs",
+                new.len(),
+                running.len()
+            ),
+            "pass every material of scene().materials, in its order, with changed parameters",
+        ));
+    }
+    running
+        .iter()
+        .zip(new)
+        .enumerate()
+        .try_for_each(|(index, (old, new))| check_same_material(index, old, new))
+}
+
+/// Material `index` may change its parameters, but not its name or density.
+fn check_same_material(
+    index: usize,
+    old: &Material,
+    new: &Material,
+) -> Result<(), SimulationError> {
+    if new.name != old.name {
+        let key = format!("materials.{}", new.name);
+        return Err(refusal(
+            key.clone(),
+            format!(
+                "{key} is not material {index} of the running scene, which is \"{}\"; \
+                 materials cannot be renamed or reordered while it runs",
+                old.name
+            ),
+            "keep the names and order of scene().materials",
+        ));
+    }
+    if new.density.to_bits() != old.density.to_bits() {
+        let key = format!("materials.{}.density", old.name);
+        return Err(refusal(
+            key.clone(),
+            format!(
+                "{key} cannot change while the simulation runs (it is {}, {} was given): \
+                 the particles' masses were sampled from it",
+                old.density, new.density
+            ),
+            "keep density; to try another one, restart from a scene with it",
+        ));
+    }
+    Ok(())
+}
+
+/// A refused change, keyed like a scene error so a panel can point at the field.
+fn refusal(key: String, message: String, hint: &str) -> SimulationError {
+    SimulationError::Materials(Box::new(SceneError {
+        file: String::new(),
+        line: None,
+        column: None,
+        key: Some(key),
+        message,
+        hint: hint.to_string(),
+    }))
+}
