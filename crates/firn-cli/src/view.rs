@@ -82,7 +82,10 @@ pub fn view(args: ViewArgs) -> Result<(), Failure> {
 /// Checks the arguments and loads the input.
 fn options(args: ViewArgs) -> Result<ViewOptions, Failure> {
     let size = parse_size(&args.size)?;
-    if let Some(fps) = args.display_fps.filter(|fps| !(fps.is_finite() && *fps > 0.0)) {
+    if let Some(fps) = args
+        .display_fps
+        .filter(|fps| !(fps.is_finite() && *fps > 0.0))
+    {
         return Err(Failure::BadInput(format!(
             "error: --display-fps {fps} is not a frame rate\n  fix: pass a positive number, e.g. --display-fps 60"
         )));

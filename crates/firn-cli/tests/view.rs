@@ -188,16 +188,25 @@ fn assert_ball_and_panel(image: &image::RgbImage) {
     println!("ball {ball:?}, sky {sky:?}");
     assert!(ball[2] > ball[0] + 20.0, "the ball is not bluish: {ball:?}");
     let difference: f32 = (0..3).map(|c| (ball[c] - sky[c]).abs()).sum();
-    assert!(difference > 60.0, "ball {ball:?} looks like the sky {sky:?}");
+    assert!(
+        difference > 60.0,
+        "ball {ball:?} looks like the sky {sky:?}"
+    );
     let panel: Vec<u8> = (0..400)
         .flat_map(|y| (0..250).map(move |x| (x, y)))
         .map(|(x, y)| image.get_pixel(x, y)[1])
         .collect();
     let bright = panel.iter().filter(|&&g| g > 150).count();
     let dark = panel.iter().filter(|&&g| g < 60).count();
-    println!("panel: {bright} bright and {dark} dark pixels of {}", panel.len());
+    println!(
+        "panel: {bright} bright and {dark} dark pixels of {}",
+        panel.len()
+    );
     assert!(bright > 500, "no panel text: {bright} bright pixels");
-    assert!(dark > panel.len() / 2, "no panel background: {dark} dark pixels");
+    assert!(
+        dark > panel.len() / 2,
+        "no panel background: {dark} dark pixels"
+    );
 }
 
 #[test]
@@ -299,5 +308,9 @@ fn bad_viewer_options_are_refused_with_a_fix() {
     assert!(stderr(&output).contains("--frames"), "{}", stderr(&output));
     let output = firn(&["view", "--display-fps", "0", "--frames", "1"]);
     assert_eq!(output.status.code(), Some(2));
-    assert!(stderr(&output).contains("--display-fps"), "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("--display-fps"),
+        "{}",
+        stderr(&output)
+    );
 }

@@ -122,9 +122,9 @@ fn render_points(picture: &Picture<'_>) -> RgbImage {
 }
 
 /// Brightness a billboard adds at its centre, and a ribbon at its newest end.
-const ADDITIVE_INTENSITY: f32 = 0.35;
+pub const ADDITIVE_INTENSITY: f32 = 0.35;
 /// Width of trail ribbons in output pixels.
-const RIBBON_WIDTH_PIXELS: f32 = 1.6;
+pub const RIBBON_WIDTH_PIXELS: f32 = 1.6;
 
 /// Billboards, or trails where the picture has them (billboards otherwise),
 /// added over the stage.

@@ -4,8 +4,8 @@
 use std::borrow::Cow;
 
 use firn_core::Scene;
-use firn_io::PlyCloud;
 use firn_core::scene::{ColliderGeometry, ColorBy, RenderStyle};
+use firn_io::PlyCloud;
 use glam::Vec3;
 
 use crate::camera::{CameraView, automatic_framing};
@@ -220,7 +220,10 @@ fn reference_speed(scene: &Scene) -> f32 {
 
 /// Values of `color_by` from a PLY cache's columns (`firn render` and the
 /// viewer's playback); `Err(column)` names the missing column.
-pub fn cached_color_values(cloud: &PlyCloud, color_by: ColorBy) -> Result<Option<Vec<f32>>, &'static str> {
+pub fn cached_color_values(
+    cloud: &PlyCloud,
+    color_by: ColorBy,
+) -> Result<Option<Vec<f32>>, &'static str> {
     let column = |name: &'static str| cloud.floats(name).map(<[f32]>::to_vec).ok_or(name);
     match color_by {
         ColorBy::Density => column("density").map(Some),

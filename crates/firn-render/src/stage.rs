@@ -62,11 +62,11 @@ impl Default for Stage {
 }
 
 /// Albedo of sphere and box colliders.
-const COLLIDER_ALBEDO: Vec3 = Vec3::new(0.55, 0.24, 0.18);
+pub const COLLIDER_ALBEDO: Vec3 = Vec3::new(0.55, 0.24, 0.18);
 /// Albedo of plane colliders (walls).
-const WALL_ALBEDO: Vec3 = Vec3::new(0.42, 0.45, 0.50);
+pub const WALL_ALBEDO: Vec3 = Vec3::new(0.42, 0.45, 0.50);
 /// Albedo of the two tones of the ground's checkerboard.
-const GROUND_ALBEDO: [f32; 2] = [0.16, 0.185];
+pub const GROUND_ALBEDO: [f32; 2] = [0.16, 0.185];
 
 /// What a ray hit first.
 struct SurfaceHit {
@@ -94,7 +94,7 @@ impl Stage {
         shadow: &(dyn Fn(Vec3) -> f32 + Sync),
     ) {
         let height = film.height as f32;
-        let fog = self.fog_range(camera);
+        let fog = self.fog_range(camera.eye);
         let tile = self.ground_tile();
         film.par_bands(|_, band| {
             for y in band.rows() {
@@ -141,7 +141,7 @@ impl Stage {
     }
 
     /// Edge of the ground's checker tiles: a round number near a tenth of the container.
-    fn ground_tile(&self) -> f32 {
+    pub fn ground_tile(&self) -> f32 {
         self.container.map_or(0.1, |(min, max)| {
             let extent = (max - min).max_element();
             10f32.powf((extent * 0.1).log10().round())
@@ -211,14 +211,14 @@ impl Stage {
         color
     }
 
-    /// Where the ground starts fading into the sky and over what distance,
-    /// so the far plane meets the horizon softly.
-    fn fog_range(&self, camera: &CameraView) -> (f32, f32) {
+    /// Where the ground starts fading into the sky and over what distance
+    /// from `eye`, so the far plane meets the horizon softly.
+    pub fn fog_range(&self, eye: Vec3) -> (f32, f32) {
         let Some((min, max)) = self.container else {
             return (f32::INFINITY, 1.0);
         };
         let center = 0.5 * (min + max);
-        let reach = (camera.eye - center).length() + (max - min).length();
+        let reach = (eye - center).length() + (max - min).length();
         (reach * 0.6, reach * 1.4)
     }
 }

@@ -7,7 +7,7 @@ use crate::camera::CameraView;
 use crate::film::Film;
 
 /// Colour of the container's edges (linear RGB).
-const EDGE_COLOR: Vec3 = Vec3::new(0.55, 0.58, 0.64);
+pub const EDGE_COLOR: Vec3 = Vec3::new(0.55, 0.58, 0.64);
 
 /// A line segment on screen with depth at both ends.
 #[derive(Clone, Copy)]

@@ -6,7 +6,24 @@
 //! Particles come either from the host (a CPU simulation or a cache, uploaded
 //! per frame) or straight from a GPU simulation's own buffers on the same
 //! device ([`ParticleSource::Device`]), which are never copied back.
+//!
+//! Targets may have an sRGB format (shaders output linear colours and the
+//! target encodes them) or a plain 8-bit one (shaders encode to sRGB
+//! themselves; additive styles then add encoded values, slightly brighter
+//! than on an sRGB target, so the viewer should prefer an sRGB view).
 
+mod backdrop;
+mod capture;
+mod frame;
+mod geometry;
+mod gpu;
+mod particle_pipelines;
+mod particles;
+mod solids;
+mod values;
+mod wireframe;
+
+pub use capture::capture;
 use firn_core::Scene;
 use firn_core::scene::ColorBy;
 use firn_gpu::draw::ParticleArrays;
@@ -14,6 +31,13 @@ use firn_render::ramp::ValueRange;
 use firn_render::stage::Stage;
 use firn_render::trails::Trails;
 use glam::{Mat4, Vec3};
+
+use self::backdrop::Backdrop;
+use self::frame::FrameBindings;
+use self::gpu::{ColorTarget, DepthTarget};
+use self::particles::Particles;
+use self::solids::Solids;
+use self::wireframe::Wireframe;
 
 /// How particles are drawn.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -75,17 +99,48 @@ pub struct DrawFrame<'a> {
 }
 
 /// The pipelines and buffers that draw frames of one scene.
-pub struct SceneRenderer {}
+pub struct SceneRenderer {
+    frame: FrameBindings,
+    depth: DepthTarget,
+    backdrop: Backdrop,
+    solids: Solids,
+    wireframe: Wireframe,
+    particles: Particles,
+    /// The scene's domain: the box of colour by position when the stage has
+    /// no container.
+    domain: (Vec3, Vec3),
+}
 
 impl SceneRenderer {
     /// Pipelines for targets of `color_format`, and the scene's static
-    /// geometry (mesh colliders' triangles, the container).
-    pub fn new(device: &wgpu::Device, color_format: wgpu::TextureFormat, scene: &Scene) -> SceneRenderer {
-        let _ = (device, color_format, scene);
-        todo!()
+    /// geometry (mesh colliders' triangles, the container). A mesh collider
+    /// whose file cannot be read again is not drawn.
+    pub fn new(
+        device: &wgpu::Device,
+        color_format: wgpu::TextureFormat,
+        scene: &Scene,
+    ) -> SceneRenderer {
+        let target = ColorTarget {
+            format: color_format,
+        };
+        let frame = FrameBindings::new(device);
+        let layout = frame.layout();
+        SceneRenderer {
+            depth: DepthTarget::new(device, [1, 1]),
+            backdrop: Backdrop::new(device, target, layout),
+            solids: Solids::new(device, target, layout, scene),
+            wireframe: Wireframe::new(device, target, layout),
+            particles: Particles::new(device, target, layout),
+            frame,
+            domain: (scene.domain.min, scene.domain.max),
+        }
     }
 
-    /// Records the drawing of `frame` into `target` (cleared first).
+    /// Records the drawing of `frame` into `target` (cleared first): the
+    /// device's colour values of the particles (a compute pass), then the
+    /// backdrop, colliders, container and particles (one render pass).
+    /// Uniforms are written through `queue`, so submit `encoder` before
+    /// drawing the next frame.
     pub fn draw(
         &mut self,
         device: &wgpu::Device,
@@ -94,14 +149,47 @@ impl SceneRenderer {
         target: &wgpu::TextureView,
         frame: &DrawFrame<'_>,
     ) {
-        let _ = (device, queue, encoder, target, frame);
-        todo!()
+        let look = self
+            .particles
+            .prepare(device, queue, encoder, frame, self.domain);
+        self.frame
+            .write(queue, &frame.view, frame.stage, look.coloring, look.sprites);
+        self.solids.prepare(device, queue, frame.stage);
+        self.wireframe.prepare(queue, frame.stage);
+        let depth = self.depth.view_for(device, frame.view.size);
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("firn-view scene"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: target,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(sky_clear_color(frame.stage)),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: depth,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(1.0),
+                    store: wgpu::StoreOp::Discard,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        let group = self.frame.group();
+        self.backdrop.draw(&mut pass, group);
+        self.solids.draw(&mut pass, group);
+        self.wireframe.draw(&mut pass, group);
+        self.particles.draw(&mut pass, group);
     }
 }
 
-/// Reads `texture` (a render target with `COPY_SRC`) back as an sRGB RGBA
-/// image, whatever its channel order.
-pub fn capture(device: &wgpu::Device, queue: &wgpu::Queue, texture: &wgpu::Texture) -> image::RgbaImage {
-    let _ = (device, queue, texture);
-    todo!()
+/// The clear colour: the top of the sky (the backdrop covers it anyway).
+fn sky_clear_color(stage: &Stage) -> wgpu::Color {
+    let [r, g, b] = stage.sky_top.to_array().map(f64::from);
+    wgpu::Color { r, g, b, a: 1.0 }
 }

@@ -1,0 +1,267 @@
+//! Colliders as shaded triangles (`solids.wgsl`): spheres (a flow's
+//! obstacles too) and boxes scale a unit shape, mesh colliders keep the
+//! triangles loaded once and move with their centre, and planes are clipped
+//! to the container each frame.
+
+use std::ops::Range;
+
+use bytemuck::{Pod, Zeroable};
+use firn_core::Scene;
+use firn_core::scene::{ColliderGeometry, MeshCollider, MeshPlacement};
+use firn_render::stage::{COLLIDER_ALBEDO, Stage, WALL_ALBEDO};
+use glam::Vec3;
+
+use super::geometry::{SurfaceVertex, mesh_triangles, plane_polygon, unit_cube, unit_sphere};
+use super::gpu::{
+    ColorTarget, DepthUse, GrowingBuffer, PipelineSpec, fill_at_creation, render_pipeline,
+    shader_module,
+};
+
+/// Blinn-Phong exponent of spheres, boxes and meshes (as firn_render::stage shades them).
+const COLLIDER_SHININESS: f32 = 48.0;
+/// Blinn-Phong exponent of walls (as firn_render::stage shades them).
+const WALL_SHININESS: f32 = 16.0;
+
+const SHADER: [&str; 2] = [
+    include_str!("../../shaders/frame.wgsl"),
+    include_str!("../../shaders/solids.wgsl"),
+];
+
+/// Where and how one collider is drawn (`SolidIn` locations 2 to 5).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct SolidInstance {
+    offset: [f32; 3],
+    scale: [f32; 3],
+    albedo: [f32; 3],
+    shininess: f32,
+}
+
+impl SolidInstance {
+    fn new(offset: Vec3, scale: Vec3, albedo: Vec3, shininess: f32) -> SolidInstance {
+        SolidInstance {
+            offset: offset.to_array(),
+            scale: scale.to_array(),
+            albedo: albedo.to_array(),
+            shininess,
+        }
+    }
+}
+
+const SURFACE_ATTRIBUTES: [wgpu::VertexAttribute; 2] =
+    wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
+const INSTANCE_ATTRIBUTES: [wgpu::VertexAttribute; 4] =
+    wgpu::vertex_attr_array![2 => Float32x3, 3 => Float32x3, 4 => Float32x3, 5 => Float32];
+
+/// Triangles in a vertex buffer.
+struct Shape {
+    vertices: wgpu::Buffer,
+    count: u32,
+}
+
+impl Shape {
+    fn new(device: &wgpu::Device, label: &str, vertices: &[SurfaceVertex]) -> Shape {
+        Shape {
+            vertices: fill_at_creation(
+                device,
+                label,
+                wgpu::BufferUsages::VERTEX,
+                bytemuck::cast_slice(vertices),
+            ),
+            count: vertices.len() as u32,
+        }
+    }
+}
+
+/// A mesh collider's triangles at its time-zero placement.
+struct PlacedShape {
+    placement: MeshPlacement,
+    shape: Shape,
+}
+
+/// Which triangles one collider draws.
+#[derive(Clone, Debug)]
+enum Triangles {
+    Sphere,
+    Cube,
+    Mesh(usize),
+    /// A range of this frame's plane vertices.
+    Planes(Range<u32>),
+}
+
+/// One collider of this frame: its triangles and its instance.
+struct SolidDraw {
+    triangles: Triangles,
+    instance: u32,
+}
+
+/// The colliders' pipeline, shapes and per-frame instances.
+pub(super) struct Solids {
+    pipeline: wgpu::RenderPipeline,
+    sphere: Shape,
+    cube: Shape,
+    meshes: Vec<PlacedShape>,
+    instances: GrowingBuffer,
+    planes: GrowingBuffer,
+    draws: Vec<SolidDraw>,
+}
+
+impl Solids {
+    /// The pipeline, the unit shapes, and the triangles of the scene's mesh
+    /// colliders. A mesh whose file cannot be read again is not drawn.
+    pub(super) fn new(
+        device: &wgpu::Device,
+        target: ColorTarget,
+        frame_layout: &wgpu::BindGroupLayout,
+        scene: &Scene,
+    ) -> Solids {
+        let module = shader_module(device, "firn-view solids", &SHADER);
+        let buffers = [
+            Some(wgpu::VertexBufferLayout {
+                array_stride: size_of::<SurfaceVertex>() as u64,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &SURFACE_ATTRIBUTES,
+            }),
+            Some(wgpu::VertexBufferLayout {
+                array_stride: size_of::<SolidInstance>() as u64,
+                step_mode: wgpu::VertexStepMode::Instance,
+                attributes: &INSTANCE_ATTRIBUTES,
+            }),
+        ];
+        let pipeline = render_pipeline(
+            device,
+            target,
+            &PipelineSpec {
+                label: "firn-view solids",
+                groups: &[frame_layout],
+                module: &module,
+                vertex: "vertex_solid",
+                fragment: "fragment_solid",
+                buffers: &buffers,
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                depth: DepthUse::TestAndWrite,
+                additive: false,
+            },
+        );
+        Solids {
+            pipeline,
+            sphere: Shape::new(device, "firn-view unit sphere", &unit_sphere()),
+            cube: Shape::new(device, "firn-view unit cube", &unit_cube()),
+            meshes: load_meshes(device, scene),
+            instances: GrowingBuffer::new(
+                device,
+                "firn-view collider instances",
+                wgpu::BufferUsages::VERTEX,
+            ),
+            planes: GrowingBuffer::new(device, "firn-view planes", wgpu::BufferUsages::VERTEX),
+            draws: Vec::new(),
+        }
+    }
+
+    /// Uploads where the stage's colliders are now.
+    pub(super) fn prepare(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, stage: &Stage) {
+        let mut instances = Vec::new();
+        let mut plane_vertices = Vec::new();
+        self.draws.clear();
+        for collider in &stage.colliders {
+            let Some((triangles, instance)) =
+                self.placed(collider, stage.container, &mut plane_vertices)
+            else {
+                continue;
+            };
+            self.draws.push(SolidDraw {
+                triangles,
+                instance: instances.len() as u32,
+            });
+            instances.push(instance);
+        }
+        self.instances
+            .write(device, queue, bytemuck::cast_slice(&instances));
+        self.planes
+            .write(device, queue, bytemuck::cast_slice(&plane_vertices));
+    }
+
+    /// The triangles and instance that draw `collider`; a plane's clipped
+    /// polygon is appended to `plane_vertices`. `None` for a mesh that was
+    /// not loaded.
+    fn placed(
+        &self,
+        collider: &ColliderGeometry,
+        container: Option<(Vec3, Vec3)>,
+        plane_vertices: &mut Vec<SurfaceVertex>,
+    ) -> Option<(Triangles, SolidInstance)> {
+        let solid =
+            |offset, scale| SolidInstance::new(offset, scale, COLLIDER_ALBEDO, COLLIDER_SHININESS);
+        Some(match *collider {
+            ColliderGeometry::Sphere { center, radius } => {
+                (Triangles::Sphere, solid(center, Vec3::splat(radius)))
+            }
+            ColliderGeometry::Box { center, size } => (Triangles::Cube, solid(center, size)),
+            ColliderGeometry::Mesh(ref mesh) => {
+                let shift = mesh.center - mesh.placement.center;
+                (
+                    Triangles::Mesh(self.mesh_index(mesh)?),
+                    solid(shift, Vec3::ONE),
+                )
+            }
+            ColliderGeometry::HalfPlane { point, normal } => {
+                let start = plane_vertices.len() as u32;
+                plane_vertices.extend(plane_polygon(point, normal, container));
+                (
+                    Triangles::Planes(start..plane_vertices.len() as u32),
+                    SolidInstance::new(Vec3::ZERO, Vec3::ONE, WALL_ALBEDO, WALL_SHININESS),
+                )
+            }
+        })
+    }
+
+    /// Draws the colliders of the last [`Solids::prepare`].
+    pub(super) fn draw(&self, pass: &mut wgpu::RenderPass<'_>, frame_group: &wgpu::BindGroup) {
+        if self.draws.is_empty() {
+            return;
+        }
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, frame_group, &[]);
+        pass.set_vertex_buffer(1, self.instances.buffer().slice(..));
+        for draw in &self.draws {
+            let (buffer, vertices) = match &draw.triangles {
+                Triangles::Sphere => (&self.sphere.vertices, 0..self.sphere.count),
+                Triangles::Cube => (&self.cube.vertices, 0..self.cube.count),
+                Triangles::Mesh(index) => {
+                    let shape = &self.meshes[*index].shape;
+                    (&shape.vertices, 0..shape.count)
+                }
+                Triangles::Planes(range) => (self.planes.buffer(), range.clone()),
+            };
+            pass.set_vertex_buffer(0, buffer.slice(..));
+            pass.draw(vertices, draw.instance..draw.instance + 1);
+        }
+    }
+
+    /// The loaded triangles of a mesh collider, found by its placement.
+    fn mesh_index(&self, mesh: &MeshCollider) -> Option<usize> {
+        self.meshes
+            .iter()
+            .position(|placed| placed.placement == mesh.placement)
+    }
+}
+
+/// The triangles of the scene's mesh colliders at their time-zero placement.
+fn load_meshes(device: &wgpu::Device, scene: &Scene) -> Vec<PlacedShape> {
+    scene
+        .colliders
+        .iter()
+        .filter_map(|collider| match &collider.geometry {
+            ColliderGeometry::Mesh(mesh) => Some(&mesh.placement),
+            _ => None,
+        })
+        .filter_map(|placement| {
+            let placed = placement.load().ok()?;
+            let label = format!("firn-view mesh {}", placement.file.display());
+            Some(PlacedShape {
+                placement: placement.clone(),
+                shape: Shape::new(device, &label, &mesh_triangles(&placed.mesh)),
+            })
+        })
+        .collect()
+}
