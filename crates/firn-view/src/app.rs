@@ -20,7 +20,7 @@ use crate::error::ViewError;
 use crate::graphics::Graphics;
 use crate::input::{Input, KeyCommand};
 use crate::live::HostParticles;
-use crate::panel::{self, ViewToggles};
+use crate::panel::{self, PanelOutput, ViewToggles};
 use crate::playback::Playback;
 use crate::session::{Action, Content, Session};
 use crate::{ViewBackend, ViewInput, ViewOptions, ViewReport};
@@ -45,6 +45,8 @@ struct Running {
     session: Session,
     camera: OrbitCamera,
     toggles: ViewToggles,
+    /// Window pixels on the left covered by the panel.
+    covered: u32,
     input: Input,
     started: Instant,
     last_frame: Instant,
@@ -117,7 +119,9 @@ impl App {
         );
         let egui = EguiLayer::new(&window, &graphics);
         let size = window.inner_size();
-        let aspect = size.width.max(1) as f32 / size.height.max(1) as f32;
+        let covered = (panel::PANEL_WIDTH * window.scale_factor() as f32).ceil() as u32;
+        let visible = size.width.saturating_sub(covered).max(1);
+        let aspect = visible as f32 / size.height.max(1) as f32;
         let camera = OrbitCamera::of_scene(session.scene(), 0.0, aspect);
         let mut session = session;
         session.apply(Action::SetTimeScale(self.options.time_scale));
@@ -136,6 +140,7 @@ impl App {
                 scene_camera: self.options.scene_camera,
                 ..ViewToggles::default()
             },
+            covered,
             input: Input::default(),
             started: now,
             last_frame: now,
@@ -230,16 +235,17 @@ impl Running {
     fn lay_out_panel(&mut self) -> PanelFrame {
         let egui = &mut self.egui;
         let raw = egui.state.take_egui_input(&self.window);
-        let mut actions = Vec::new();
+        let mut panel = PanelOutput::default();
         let session = &self.session;
         let toggles = &mut self.toggles;
         let note = self.note.as_deref();
         let output = egui.context.run_ui(raw, |ui| {
-            actions = panel::show(ui, session, toggles, note);
+            panel = panel::show(ui, session, toggles, note);
         });
         egui.state
             .handle_platform_output(&self.window, output.platform_output);
-        for action in actions {
+        self.covered = (panel.width * output.pixels_per_point).ceil() as u32;
+        for action in panel.actions {
             self.session.apply(action);
         }
         let size = self.window.inner_size();
@@ -269,9 +275,11 @@ impl Running {
         }
     }
 
+    /// Width over height of the part of the window beside the panel.
     fn aspect(&self) -> f32 {
         let config = &self.graphics.config;
-        config.width.max(1) as f32 / config.height.max(1) as f32
+        let visible = config.width.saturating_sub(self.covered).max(1);
+        visible as f32 / config.height.max(1) as f32
     }
 
     /// Where this frame's picture is written, if anywhere.
@@ -354,9 +362,10 @@ impl Running {
         };
         let stage = scene_stage(scene, time);
         let frame = DrawFrame {
-            view: self
-                .camera
-                .view_setup([self.graphics.config.width, self.graphics.config.height]),
+            view: self.camera.view_setup(
+                [self.graphics.config.width, self.graphics.config.height],
+                self.covered,
+            ),
             style: self.session.style(),
             color_by,
             range: ramp_range(scene, color_by),

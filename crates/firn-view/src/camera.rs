@@ -4,7 +4,7 @@
 
 use firn_core::Scene;
 use firn_render::camera::automatic_framing;
-use glam::Vec3;
+use glam::{Mat4, Vec3, Vec4};
 
 use crate::draw::ViewSetup;
 
@@ -109,9 +109,14 @@ impl OrbitCamera {
         self.distance *= ZOOM_PER_STEP.powf(steps);
     }
 
-    /// What the renderer needs for a target of `size` pixels.
-    pub fn view_setup(&self, size: [u32; 2]) -> ViewSetup {
-        let aspect = size[0].max(1) as f32 / size[1].max(1) as f32;
+    /// What the renderer needs for a target of `size` pixels whose left
+    /// `covered` pixels are hidden (by the panel): the picture is framed and
+    /// centred on the visible rest, and the sky still fills the whole target.
+    pub fn view_setup(&self, size: [u32; 2], covered: u32) -> ViewSetup {
+        let width = size[0].max(1) as f32;
+        let covered = (covered as f32).min(width - 1.0);
+        let visible = width - covered;
+        let aspect = visible / size[1].max(1) as f32;
         let fov_y_radians = self.fov_degrees.to_radians();
         let eye = self.eye();
         // wgpu's clip space is DirectX's: depth 0..1, y up.
@@ -121,9 +126,17 @@ impl OrbitCamera {
             NEAR_PER_DISTANCE * self.distance,
             FAR_PER_DISTANCE * self.distance,
         );
+        // Squeeze clip-space x into the visible part: x' = s x + t w.
+        let (scale, shift) = (visible / width, covered / width);
+        let onto_visible = Mat4::from_cols(
+            Vec4::new(scale, 0.0, 0.0, 0.0),
+            Vec4::Y,
+            Vec4::Z,
+            Vec4::new(shift, 0.0, 0.0, 1.0),
+        );
         let view = glam::camera::rh::view::look_at_mat4(eye, self.target, Vec3::Y);
         ViewSetup {
-            view_projection: projection * view,
+            view_projection: onto_visible * projection * view,
             eye,
             fov_y_radians,
             size,
@@ -160,14 +173,14 @@ mod tests {
         let mut camera = OrbitCamera::looking(Vec3::new(0.0, 1.0, 4.0), Vec3::ZERO, 40.0);
         camera.orbit_by_keys(0.0, 1.0, 100.0);
         assert!(camera.pitch <= PITCH_LIMIT);
-        assert!(camera.view_setup([100, 100]).view_projection.is_finite());
+        assert!(camera.view_setup([100, 100], 0).view_projection.is_finite());
     }
 
     #[test]
     fn the_target_projects_to_the_centre_and_panning_moves_it_with_the_mouse() {
         let mut camera = OrbitCamera::looking(Vec3::new(2.0, 1.0, 4.0), Vec3::ZERO, 40.0);
         let clip = camera
-            .view_setup([200, 100])
+            .view_setup([200, 100], 0)
             .view_projection
             .project_point3(Vec3::ZERO);
         assert!(clip.x.abs() < 1e-5 && clip.y.abs() < 1e-5);
@@ -175,10 +188,26 @@ mod tests {
         // half the half-width of a 200-pixel view is NDC x = 0.5.
         camera.pan_by_pixels(50.0, 0.0, 100.0);
         let moved = camera
-            .view_setup([200, 100])
+            .view_setup([200, 100], 0)
             .view_projection
             .project_point3(Vec3::ZERO);
         assert!((moved.x - 0.5).abs() < 1e-3, "{moved}");
+    }
+
+    #[test]
+    fn the_picture_is_centred_beside_the_panel() {
+        let camera = OrbitCamera::looking(Vec3::new(2.0, 1.0, 4.0), Vec3::ZERO, 40.0);
+        // A 100-pixel panel on a 400-pixel target: the visible centre is at
+        // pixel 250, NDC x = 0.25.
+        let matrix = camera.view_setup([400, 100], 100).view_projection;
+        let target = matrix.project_point3(Vec3::ZERO);
+        assert!((target.x - 0.25).abs() < 1e-5, "{target}");
+        // The visible part has the aspect of 300x100, not 400x100.
+        let alone = camera.view_setup([300, 100], 0).view_projection;
+        let point = Vec3::new(0.3, 0.2, 0.1);
+        let (beside, own) = (matrix.project_point3(point), alone.project_point3(point));
+        assert!((beside.x - (0.25 + 0.75 * own.x)).abs() < 1e-5);
+        assert!((beside.y - own.y).abs() < 1e-5);
     }
 
     #[test]
@@ -195,7 +224,7 @@ mod tests {
         let mut camera = OrbitCamera::looking(Vec3::new(30.0, 0.0, 0.0), Vec3::splat(9.0), 40.0);
         let (min, max) = (Vec3::ZERO, Vec3::new(2.0, 1.0, 1.0));
         camera.frame_all(min, max, 2.0);
-        let matrix = camera.view_setup([200, 100]).view_projection;
+        let matrix = camera.view_setup([200, 100], 0).view_projection;
         for corner in 0..8 {
             let p = Vec3::select(
                 glam::BVec3::new(corner & 1 == 0, corner & 2 == 0, corner & 4 == 0),

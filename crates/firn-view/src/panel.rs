@@ -25,6 +25,15 @@ pub struct ViewToggles {
     pub screenshot: bool,
 }
 
+/// What the panel asked for in one frame, and the room it took.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PanelOutput {
+    /// The session changes asked for.
+    pub actions: Vec<Action>,
+    /// Width of the panel in logical pixels (the scene is framed beside it).
+    pub width: f32,
+}
+
 /// Draws the panel on the left of `ui`, with `note` (e.g. where a
 /// screenshot went) at the bottom; returns what it asks for.
 pub fn show(
@@ -32,9 +41,9 @@ pub fn show(
     session: &Session,
     toggles: &mut ViewToggles,
     note: Option<&str>,
-) -> Vec<Action> {
+) -> PanelOutput {
     let mut actions = Vec::new();
-    egui::Panel::left("firn-panel")
+    let response = egui::Panel::left("firn-panel")
         .exact_size(PANEL_WIDTH)
         .resizable(false)
         .show(ui, |ui| {
@@ -52,7 +61,10 @@ pub fn show(
                 }
             });
         });
-    actions
+    PanelOutput {
+        actions,
+        width: response.response.rect.max.x,
+    }
 }
 
 /// Play, pause, step, restart, time scale, and the timeline of a playback.

@@ -20,6 +20,9 @@ use crate::playback::Playback;
 /// of what is owed waits for the next frame (the clock reports falling behind).
 const PHYSICS_BUDGET: Duration = Duration::from_millis(40);
 
+/// Wall-clock seconds over which the live figures are averaged.
+const FIGURE_WINDOW_SECONDS: f64 = 0.5;
+
 /// What is shown.
 pub enum Content {
     /// A scene simulated as it is shown.
@@ -53,7 +56,7 @@ pub enum Action {
     Seek(f64),
 }
 
-/// The figures the panel shows, updated once a second.
+/// The figures the panel shows, updated twice a second.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Figures {
     /// Display frames per wall-clock second.
@@ -193,7 +196,7 @@ impl Session {
         self.rejected.as_deref()
     }
 
-    /// The live figures of the last second.
+    /// The live figures of the last half second.
     pub fn figures(&self) -> Figures {
         self.figures
     }
@@ -328,13 +331,13 @@ impl Session {
         self.failure = Some(reason);
     }
 
-    /// Counts a frame and its substeps; closes the figures' window each second.
+    /// Counts a frame and its substeps; closes the figures' window twice a second.
     fn count_figures(&mut self, substeps: u64) {
         let window = &mut self.window;
         window.frames += 1;
         window.substeps += substeps;
         let seconds = window.started.elapsed().as_secs_f64();
-        if seconds >= 1.0 {
+        if seconds >= FIGURE_WINDOW_SECONDS {
             self.figures = Figures {
                 fps: f64::from(window.frames) / seconds,
                 substeps_per_second: window.substeps as f64 / seconds,
