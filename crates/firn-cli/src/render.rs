@@ -72,6 +72,19 @@ pub enum ColorByArg {
     Uniform,
 }
 
+impl ColorByArg {
+    /// The scene model's colour quantity.
+    pub fn color_by(self) -> ColorBy {
+        match self {
+            ColorByArg::Density => ColorBy::Density,
+            ColorByArg::PlasticJ => ColorBy::PlasticJ,
+            ColorByArg::Speed => ColorBy::Speed,
+            ColorByArg::Position => ColorBy::Position,
+            ColorByArg::Uniform => ColorBy::Uniform,
+        }
+    }
+}
+
 /// Renders every frame of the run in `args.run_dir`.
 pub fn render(args: RenderArgs) -> Result<(), Failure> {
     let directory = args.run_dir.clone();
@@ -140,13 +153,7 @@ fn apply_overrides(scene: &mut Scene, args: &RenderArgs) -> Result<(), Failure> 
         scene.render.size = parse_size(size)?;
     }
     if let Some(color_by) = args.color_by {
-        scene.render.color_by = match color_by {
-            ColorByArg::Density => ColorBy::Density,
-            ColorByArg::PlasticJ => ColorBy::PlasticJ,
-            ColorByArg::Speed => ColorBy::Speed,
-            ColorByArg::Position => ColorBy::Position,
-            ColorByArg::Uniform => ColorBy::Uniform,
-        };
+        scene.render.color_by = color_by.color_by();
     }
     scene.render.legend |= args.legend;
     Ok(())

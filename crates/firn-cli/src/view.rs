@@ -3,13 +3,14 @@
 
 use std::path::PathBuf;
 
-use clap::Args;
+use clap::{Args, ValueEnum};
 use firn_core::scene::Backend;
+use firn_view::draw::DrawStyle;
 use firn_view::{ViewBackend, ViewError, ViewInput, ViewOptions};
 
 use crate::Failure;
 use crate::backend::BackendChoice;
-use crate::render::parse_size;
+use crate::render::{ColorByArg, parse_size};
 use crate::scene_source::load_scene;
 
 /// Arguments of `firn view`.
@@ -36,7 +37,8 @@ pub struct ViewArgs {
     #[arg(long)]
     pub record: Option<PathBuf>,
     /// Count each display frame as 1/FPS seconds instead of the measured
-    /// time: the same frames every time, and recordings at a steady rate.
+    /// time, and run all the physics each frame owes however long it takes:
+    /// the same frames every time, and recordings at a steady rate.
     #[arg(long)]
     pub display_fps: Option<f64>,
     /// Follow the scene's camera (its path, orbit or fixed eye) from the start.
@@ -48,6 +50,23 @@ pub struct ViewArgs {
     /// Start paused.
     #[arg(long)]
     pub paused: bool,
+    /// How particles are drawn at the start (default: the scene's first style).
+    #[arg(long, value_enum)]
+    pub style: Option<ViewStyleArg>,
+    /// What colours particles at the start (default: the scene's).
+    #[arg(long, value_enum)]
+    pub color_by: Option<ColorByArg>,
+}
+
+/// Render modes of the viewer on the command line.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum ViewStyleArg {
+    /// Sphere-shaded points on the colour ramp.
+    Points,
+    /// Soft additive sprites.
+    Billboards,
+    /// Fading lines through recent positions (flows that keep trails).
+    Trails,
 }
 
 /// Opens the viewer; prints what it did when it closes.
@@ -131,5 +150,11 @@ fn options(args: ViewArgs) -> Result<ViewOptions, Failure> {
         scene_camera: args.scene_camera,
         time_scale: args.time_scale,
         paused: args.paused,
+        style: args.style.map(|style| match style {
+            ViewStyleArg::Points => DrawStyle::Points,
+            ViewStyleArg::Billboards => DrawStyle::Billboards,
+            ViewStyleArg::Trails => DrawStyle::Trails,
+        }),
+        color_by: args.color_by.map(ColorByArg::color_by),
     })
 }

@@ -222,6 +222,37 @@ fn the_viewer_shows_a_live_scene_and_its_panel() {
 }
 
 #[test]
+fn the_viewer_opens_on_the_bundled_default_scene() {
+    let Some(display) = VirtualDisplay::start() else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let shot = dir.path().join("default.png");
+    let output = display.firn(&[
+        "view",
+        "--size",
+        "640x400",
+        "--frames",
+        "3",
+        "--display-fps",
+        "60",
+        "--screenshot",
+        shot.to_str().unwrap(),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let image = image::open(&shot).unwrap().to_rgb8();
+    image.save("/tmp/firn-view-default.png").ok();
+    // The snowball: strongly blue pixels, which neither the grey sky, the
+    // ground nor the wall have.
+    let snow = image
+        .pixels()
+        .filter(|p| i32::from(p[2]) > i32::from(p[0]) + 50)
+        .count();
+    println!("{snow} snow pixels");
+    assert!(snow > 800, "only {snow} snow pixels");
+}
+
+#[test]
 fn the_viewer_draws_a_gpu_simulation_from_its_own_buffers() {
     let Some(display) = VirtualDisplay::start() else {
         return;

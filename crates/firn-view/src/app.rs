@@ -128,6 +128,15 @@ impl App {
         if self.options.paused {
             session.apply(Action::Pause);
         }
+        if self.options.display_fps.is_some() {
+            session.run_every_tick_owed();
+        }
+        if let Some(style) = self.options.style {
+            session.apply(Action::SetStyle(style));
+        }
+        if let Some(color_by) = self.options.color_by {
+            session.apply(Action::SetColorBy(color_by));
+        }
         let now = Instant::now();
         Ok(Running {
             window,

@@ -68,8 +68,8 @@ pub struct ViewOptions {
     /// Write every displayed frame into this directory as PNGs.
     pub record: Option<PathBuf>,
     /// Count every display frame as 1/fps wall-clock seconds instead of
-    /// measuring them (reproducible automation, and recordings at a steady
-    /// rate).
+    /// measuring them, and run every physics tick owed however long it
+    /// takes: reproducible automation, and recordings at a steady rate.
     pub display_fps: Option<f64>,
     /// Start following the scene's camera.
     pub scene_camera: bool,
@@ -77,6 +77,10 @@ pub struct ViewOptions {
     pub time_scale: f64,
     /// Start paused.
     pub paused: bool,
+    /// How particles are drawn at the start (default: the scene's first style).
+    pub style: Option<draw::DrawStyle>,
+    /// What colours particles at the start (default: the scene's `color_by`).
+    pub color_by: Option<firn_core::scene::ColorBy>,
 }
 
 /// What a viewing session did, for the closing line.

@@ -14,6 +14,15 @@ use crate::session::{Action, Content, Session};
 /// Width of the panel in logical pixels.
 pub const PANEL_WIDTH: f32 = 270.0;
 
+/// The keys and mouse gestures (see `input`), as the panel lists them.
+const KEY_HELP: &[&str] = &[
+    "left drag: orbit · right drag: pan · wheel: zoom",
+    "arrows: orbit · + / -: zoom · F: frame all",
+    "C: scene camera · space: play / pause",
+    ". or N: step · R: restart · P or F12: screenshot",
+    "1 2 3: points, billboards, trails",
+];
+
 /// View choices the panel makes that are not the session's.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ViewToggles {
@@ -55,6 +64,12 @@ pub fn show(
                 look(ui, session, toggles, &mut actions);
                 ui.separator();
                 parameters(ui, session, &mut actions);
+                ui.separator();
+                ui.collapsing("keys and mouse", |ui| {
+                    for line in KEY_HELP {
+                        ui.label(*line);
+                    }
+                });
                 if let Some(note) = note {
                     ui.separator();
                     ui.label(note);
@@ -219,7 +234,9 @@ fn parameters(ui: &mut egui::Ui, session: &Session, actions: &mut Vec<Action>) {
         }
         SceneKind::Flow(settings) => {
             let mut edited = (**settings).clone();
-            if flow_editor(ui, &mut edited) {
+            let domain = &session.scene().domain;
+            let largest_radius = 0.5 * (domain.max - domain.min).min_element();
+            if flow_editor(ui, &mut edited, largest_radius) {
                 actions.push(Action::SetFlow(Box::new(edited)));
             }
         }
@@ -247,8 +264,9 @@ fn material_editor(ui: &mut egui::Ui, material: &mut Material) -> bool {
         .fold(false, |changed, slider| ui.add(slider).changed() | changed)
 }
 
-/// Controls for the flow (seed 002 eq. 1-4); true when one moved.
-fn flow_editor(ui: &mut egui::Ui, settings: &mut FlowSettings) -> bool {
+/// Controls for the flow (seed 002 eq. 1-4), obstacle radii up to
+/// `largest_radius`; true when one moved.
+fn flow_editor(ui: &mut egui::Ui, settings: &mut FlowSettings, largest_radius: f32) -> bool {
     ui.label("curl-noise flow");
     let mut changed = false;
     changed |= ui
@@ -285,11 +303,11 @@ fn flow_editor(ui: &mut egui::Ui, settings: &mut FlowSettings) -> bool {
         }
     }
     for (index, obstacle) in settings.obstacles.iter_mut().enumerate() {
-        let max = 4.0 * obstacle.radius.max(0.1);
+        let smallest = 0.01 * largest_radius;
         changed |= ui
             .add(
-                egui::Slider::new(&mut obstacle.radius, 0.01..=max)
-                    .text(format!("obstacle {} radius (m)", index + 1)),
+                egui::Slider::new(&mut obstacle.radius, smallest..=largest_radius)
+                    .text(format!("obstacle {} (m)", index + 1)),
             )
             .changed();
     }

@@ -91,6 +91,8 @@ pub struct Session {
     rejected: Option<String>,
     figures: Figures,
     window: FigureWindow,
+    /// Wall-clock time a display frame may spend on physics.
+    physics_budget: Duration,
 }
 
 impl Session {
@@ -120,6 +122,7 @@ impl Session {
                 frames: 0,
                 substeps: 0,
             },
+            physics_budget: PHYSICS_BUDGET,
             scene,
         }
     }
@@ -128,6 +131,13 @@ impl Session {
     pub fn live(scene: Scene, gpu: Option<Arc<GpuContext>>) -> Result<Session, String> {
         let live = LiveSimulation::start(scene, gpu.as_ref())?;
         Ok(Session::new(Content::Live(Box::new(live)), gpu))
+    }
+
+    /// Lets every display frame run all the ticks it owes, however long
+    /// they take: with display frames of a fixed length (`--display-fps`),
+    /// the same frames then always show the same simulated times.
+    pub fn run_every_tick_owed(&mut self) {
+        self.physics_budget = Duration::MAX;
     }
 
     /// What is shown.
@@ -235,7 +245,7 @@ impl Session {
         if self.playing {
             match &mut self.content {
                 Content::Live(live) => {
-                    let result = self.clock.run_frame(real, PHYSICS_BUDGET, |end| {
+                    let result = self.clock.run_frame(real, self.physics_budget, |end| {
                         substeps += u64::from(live.advance_to(end)?);
                         Ok::<(), String>(())
                     });
