@@ -10,9 +10,9 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::io::{BufRead, BufReader};
+use std::path::Path;
 use std::process::{Child, Command, Output, Stdio};
-use std::time::{Duration, Instant};
 
 use common::{firn, stderr, text, write_scene};
 
@@ -65,44 +65,40 @@ struct VirtualDisplay {
 }
 
 impl VirtualDisplay {
-    /// Starts Xvfb on the first free display from :91 on; `None` (after
-    /// saying why) when Xvfb is missing, unless FIRN_REQUIRE_GPU=1.
+    /// Starts Xvfb on a display number it picks itself (`-displayfd`, so
+    /// tests running at once never share one); `None` (after saying why)
+    /// when Xvfb is missing, unless FIRN_REQUIRE_GPU=1.
     fn start() -> Option<VirtualDisplay> {
-        for number in 91..140 {
-            let name = format!(":{number}");
-            if Path::new(&format!("/tmp/.X11-unix/X{number}")).exists() {
-                continue;
-            }
-            let spawned = Command::new("Xvfb")
-                .args([&name, "-screen", "0", "1024x768x24", "-nolisten", "tcp"])
-                .stdout(Stdio::null())
-                .stderr(Stdio::null())
-                .spawn();
-            let Ok(server) = spawned else {
-                return skip_or_fail("Xvfb is not installed");
-            };
-            let mut display = VirtualDisplay { server, name };
-            if display.wait_ready(number) {
-                return Some(display);
+        let spawned = Command::new("Xvfb")
+            .args([
+                "-displayfd",
+                "1",
+                "-screen",
+                "0",
+                "1024x768x24",
+                "-nolisten",
+                "tcp",
+            ])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn();
+        let Ok(mut server) = spawned else {
+            return skip_or_fail("Xvfb is not installed");
+        };
+        // Xvfb writes its display number once it accepts connections.
+        let mut number = String::new();
+        let stdout = server.stdout.take().expect("piped");
+        let read = BufReader::new(stdout).read_line(&mut number);
+        match (read, number.trim().parse::<u32>()) {
+            (Ok(_), Ok(number)) => Some(VirtualDisplay {
+                server,
+                name: format!(":{number}"),
+            }),
+            _ => {
+                let _ = server.kill();
+                skip_or_fail("Xvfb did not start")
             }
         }
-        skip_or_fail("no free X display number for Xvfb")
-    }
-
-    /// Waits until the server's socket exists; false if the server died.
-    fn wait_ready(&mut self, number: u32) -> bool {
-        let socket = PathBuf::from(format!("/tmp/.X11-unix/X{number}"));
-        let deadline = Instant::now() + Duration::from_secs(10);
-        while Instant::now() < deadline {
-            if let Ok(Some(_)) = self.server.try_wait() {
-                return false;
-            }
-            if socket.exists() {
-                return true;
-            }
-            std::thread::sleep(Duration::from_millis(50));
-        }
-        false
     }
 
     /// Runs `firn` with `args` on this display.
