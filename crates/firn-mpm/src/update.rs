@@ -291,8 +291,9 @@ fn finish_particle(
 }
 
 /// Steps 7-10 for every particle, block by block in parallel:
-/// `local_grid` copies what the gather needs of the nodes around a block
-/// (once per block), `interpolate` reads it at a particle (position, old
+/// `local_grid` fills a copy of what the gather needs of the nodes around a
+/// block (once per block, into a copy made by `new_local` and reused from
+/// block to block), `interpolate` reads it at a particle (position, old
 /// velocity) and returns its new velocity and ∇v_p; the rest is the snow
 /// model and the advection, 16 particles of the block per batch.
 pub(crate) fn gather_with<L>(
@@ -300,22 +301,24 @@ pub(crate) fn gather_with<L>(
     bins: &Bins,
     context: &UpdateContext,
     simd: Simd,
-    local_grid: impl Fn(IVec3) -> L + Sync,
+    new_local: impl Fn() -> L + Sync + Send,
+    local_grid: impl Fn(&mut L, IVec3) + Sync,
     interpolate: impl Fn(&L, Vec3, Vec3) -> (Vec3, Mat3) + Sync,
 ) -> GatherStats {
     let simd = checked_simd(simd);
     let arrays = ParticleArrays::new(particles);
     bins.occupied
         .par_iter()
-        .map(|block| {
-            let local = local_grid(block.coord);
+        .map_init(new_local, |local, block| {
+            local_grid(local, block.coord);
+            let local = &*local;
             bins.particles_of(block)
                 .chunks(BATCH)
                 .map(|batch| {
                     // SAFETY: the particles of a block are this task's alone.
                     unsafe {
                         update_batch(&arrays, batch, context, simd, |position, velocity| {
-                            interpolate(&local, position, velocity)
+                            interpolate(local, position, velocity)
                         })
                     }
                 })
