@@ -130,20 +130,24 @@ impl LocalNodes {
         ((corner.x * REACH + corner.y) * REACH + corner.z) as usize
     }
 
-    /// Overwrites the copy with the grid's nodes around `block`, for the
-    /// gather; nodes outside the grid (which no particle's stencil reaches)
-    /// are zero. Every block within one block of an occupied one has
-    /// storage (see [`crate::binning`]), so the copy is made neighbouring
-    /// block by neighbouring block, one slot lookup each, in runs of nodes
-    /// that are contiguous along z in both the block and the copy. The copy
-    /// is reused from block to block, so it is never cleared or moved whole.
-    fn copy_from(&mut self, table: &PageTable, nodes: &[Node], block: IVec3) {
-        /// Per axis of the copy, in three parts: the neighbouring block
-        /// (−1, 0, +1), the first node taken from it, the first place in
-        /// the copy and the number of nodes.
+    /// Calls `run(to, from, len)` for each run of the nodes around a block
+    /// (the first at `first_node`) that is contiguous along z both in
+    /// `sums` and in the grid: `sums[to..to + len]` are the grid's nodes
+    /// `from..from + len`, or lie outside the grid where `from` is `None`.
+    /// Every block within one block of an occupied one has storage (see
+    /// [`crate::binning`]), so one slot lookup per neighbouring block finds
+    /// all.
+    fn runs(
+        first_node: IVec3,
+        table: &PageTable,
+        mut run: impl FnMut(usize, Option<usize>, usize),
+    ) {
+        /// Per axis, in three parts: the neighbouring block (−1, 0, +1),
+        /// the first node taken from it, the first place here and the
+        /// number of nodes.
         const PARTS: [(i32, usize, usize, usize); 3] = [(-1, 3, 0, 1), (0, 0, 1, 4), (1, 0, 5, 2)];
         const WIDTH: usize = BLOCK_WIDTH as usize;
-        self.first_node = block * BLOCK_WIDTH - IVec3::ONE;
+        let block = (first_node + IVec3::ONE) / BLOCK_WIDTH;
         let blocks = table.layout.blocks.as_ivec3();
         for (dx, from_x, to_x, len_x) in PARTS {
             for (dy, from_y, to_y, len_y) in PARTS {
@@ -151,29 +155,40 @@ impl LocalNodes {
                     let neighbour = block + IVec3::new(dx, dy, dz);
                     let inside =
                         neighbour.cmpge(IVec3::ZERO).all() && neighbour.cmplt(blocks).all();
-                    let block_nodes = inside.then(|| {
+                    let first = inside.then(|| {
                         let slot = table
                             .slot(table.layout.block_index(neighbour))
                             .expect("the blocks around an occupied block have storage");
-                        &nodes[slot * BLOCK_NODES..(slot + 1) * BLOCK_NODES]
+                        slot * BLOCK_NODES
                     });
                     for x in 0..len_x {
                         for y in 0..len_y {
                             let to =
                                 ((to_x + x) * REACH as usize + to_y + y) * REACH as usize + to_z;
-                            let run = &mut self.sums[to..to + len_z];
-                            match block_nodes {
-                                Some(block_nodes) => {
-                                    let from = ((from_x + x) * WIDTH + from_y + y) * WIDTH + from_z;
-                                    run.copy_from_slice(&block_nodes[from..from + len_z]);
-                                }
-                                None => run.fill(Node::default()),
-                            }
+                            let from = first.map(|first| {
+                                first + ((from_x + x) * WIDTH + from_y + y) * WIDTH + from_z
+                            });
+                            run(to, from, len_z);
                         }
                     }
                 }
             }
         }
+    }
+
+    /// Overwrites the copy with the grid's nodes around `block`, for the
+    /// gather; nodes outside the grid (which no particle's stencil reaches)
+    /// are zero. The copy is made run by run ([`LocalNodes::runs`]) and
+    /// reused from block to block, so it is never cleared or moved whole.
+    fn copy_from(&mut self, table: &PageTable, nodes: &[Node], block: IVec3) {
+        self.first_node = block * BLOCK_WIDTH - IVec3::ONE;
+        LocalNodes::runs(self.first_node, table, |to, from, len| {
+            let run = &mut self.sums[to..to + len];
+            match from {
+                Some(from) => run.copy_from_slice(&nodes[from..from + len]),
+                None => run.fill(Node::default()),
+            }
+        });
     }
 
     /// The node (i, j, k) of a stencil whose first node is at `corner`.
@@ -183,23 +198,21 @@ impl LocalNodes {
     }
 
     /// Adds the sums into the grid's nodes (those a particle reached: every
-    /// reached node has mass, and only they are sure to exist).
+    /// reached node has mass, and only they are sure to exist), run by run
+    /// ([`LocalNodes::runs`]).
     fn add_to(&self, table: &PageTable, writer: &NodeWriter<Node>) {
-        for (local, sum) in self.sums.iter().enumerate() {
-            if sum.mass() == 0.0 {
-                continue;
+        LocalNodes::runs(self.first_node, table, |to, from, len| {
+            for (n, sum) in self.sums[to..to + len].iter().enumerate() {
+                if sum.mass() == 0.0 {
+                    continue;
+                }
+                let from = from.expect("a reached node lies inside the grid");
+                writer.update(from + n, |node| {
+                    node.velocity_mass += sum.velocity_mass;
+                    node.velocity_new += sum.velocity_new;
+                });
             }
-            let local = local as i32;
-            let offset = IVec3::new(
-                local / (REACH * REACH),
-                local / REACH % REACH,
-                local % REACH,
-            );
-            writer.update(table.node_index(self.first_node + offset), |node| {
-                node.velocity_mass += sum.velocity_mass;
-                node.velocity_new += sum.velocity_new;
-            });
-        }
+        });
     }
 }
 
