@@ -21,7 +21,7 @@ use firn_core::math::lanes::Simd;
 
 use crate::binning::{Bins, OccupiedBlock};
 use crate::contact::{PlacedCollider, collide_all};
-use crate::grid::{BLOCK_WIDTH, Grid, GridLayout, Node, PageTable};
+use crate::grid::{BLOCK_NODES, BLOCK_WIDTH, Grid, GridLayout, Node, PageTable};
 use crate::particles::Particles;
 use crate::update::{GatherStats, UpdateContext, gather_with};
 
@@ -112,6 +112,11 @@ impl LocalNodes {
         }
     }
 
+    /// A copy for [`LocalNodes::copy_from`] to fill.
+    fn for_gather() -> LocalNodes {
+        LocalNodes::around(IVec3::ZERO)
+    }
+
     /// Index in `sums` of an `N`-wide stencil's first node `base`; its node
     /// (i, j, k) is `(i REACH + j) REACH + k` further. Binning puts the
     /// stencil of every particle of the block inside (panics otherwise).
@@ -125,26 +130,65 @@ impl LocalNodes {
         ((corner.x * REACH + corner.y) * REACH + corner.z) as usize
     }
 
-    /// The grid's nodes around `block`, for the gather; nodes outside the
-    /// grid (which no particle's stencil reaches) stay zero. Every block
-    /// within one block of an occupied one has storage (see
-    /// [`crate::binning`]), so one slot per neighbouring block finds all.
-    fn copied_from(table: &PageTable, nodes: &[Node], block: IVec3) -> LocalNodes {
-        let mut local = LocalNodes::around(block);
-        let dims = table.layout.node_dims().as_ivec3();
-        for (index, copy) in local.sums.iter_mut().enumerate() {
-            let index = index as i32;
-            let offset = IVec3::new(
-                index / (REACH * REACH),
-                index / REACH % REACH,
-                index % REACH,
-            );
-            let node = local.first_node + offset;
-            if node.cmpge(IVec3::ZERO).all() && node.cmplt(dims).all() {
-                *copy = nodes[table.node_index(node)];
+    /// Calls `run(to, from, len)` for each run of the nodes around a block
+    /// (the first at `first_node`) that is contiguous along z both in
+    /// `sums` and in the grid: `sums[to..to + len]` are the grid's nodes
+    /// `from..from + len`, or lie outside the grid where `from` is `None`.
+    /// Every block within one block of an occupied one has storage (see
+    /// [`crate::binning`]), so one slot lookup per neighbouring block finds
+    /// all.
+    fn runs(
+        first_node: IVec3,
+        table: &PageTable,
+        mut run: impl FnMut(usize, Option<usize>, usize),
+    ) {
+        /// Per axis, in three parts: the neighbouring block (−1, 0, +1),
+        /// the first node taken from it, the first place here and the
+        /// number of nodes.
+        const PARTS: [(i32, usize, usize, usize); 3] = [(-1, 3, 0, 1), (0, 0, 1, 4), (1, 0, 5, 2)];
+        const WIDTH: usize = BLOCK_WIDTH as usize;
+        let block = (first_node + IVec3::ONE) / BLOCK_WIDTH;
+        let blocks = table.layout.blocks.as_ivec3();
+        for (dx, from_x, to_x, len_x) in PARTS {
+            for (dy, from_y, to_y, len_y) in PARTS {
+                for (dz, from_z, to_z, len_z) in PARTS {
+                    let neighbour = block + IVec3::new(dx, dy, dz);
+                    let inside =
+                        neighbour.cmpge(IVec3::ZERO).all() && neighbour.cmplt(blocks).all();
+                    let first = inside.then(|| {
+                        let slot = table
+                            .slot(table.layout.block_index(neighbour))
+                            .expect("the blocks around an occupied block have storage");
+                        slot * BLOCK_NODES
+                    });
+                    for x in 0..len_x {
+                        for y in 0..len_y {
+                            let to =
+                                ((to_x + x) * REACH as usize + to_y + y) * REACH as usize + to_z;
+                            let from = first.map(|first| {
+                                first + ((from_x + x) * WIDTH + from_y + y) * WIDTH + from_z
+                            });
+                            run(to, from, len_z);
+                        }
+                    }
+                }
             }
         }
-        local
+    }
+
+    /// Overwrites the copy with the grid's nodes around `block`, for the
+    /// gather; nodes outside the grid (which no particle's stencil reaches)
+    /// are zero. The copy is made run by run ([`LocalNodes::runs`]) and
+    /// reused from block to block, so it is never cleared or moved whole.
+    fn copy_from(&mut self, table: &PageTable, nodes: &[Node], block: IVec3) {
+        self.first_node = block * BLOCK_WIDTH - IVec3::ONE;
+        LocalNodes::runs(self.first_node, table, |to, from, len| {
+            let run = &mut self.sums[to..to + len];
+            match from {
+                Some(from) => run.copy_from_slice(&nodes[from..from + len]),
+                None => run.fill(Node::default()),
+            }
+        });
     }
 
     /// The node (i, j, k) of a stencil whose first node is at `corner`.
@@ -154,23 +198,21 @@ impl LocalNodes {
     }
 
     /// Adds the sums into the grid's nodes (those a particle reached: every
-    /// reached node has mass, and only they are sure to exist).
+    /// reached node has mass, and only they are sure to exist), run by run
+    /// ([`LocalNodes::runs`]).
     fn add_to(&self, table: &PageTable, writer: &NodeWriter<Node>) {
-        for (local, sum) in self.sums.iter().enumerate() {
-            if sum.mass() == 0.0 {
-                continue;
+        LocalNodes::runs(self.first_node, table, |to, from, len| {
+            for (n, sum) in self.sums[to..to + len].iter().enumerate() {
+                if sum.mass() == 0.0 {
+                    continue;
+                }
+                let from = from.expect("a reached node lies inside the grid");
+                writer.update(from + n, |node| {
+                    node.velocity_mass += sum.velocity_mass;
+                    node.velocity_new += sum.velocity_new;
+                });
             }
-            let local = local as i32;
-            let offset = IVec3::new(
-                local / (REACH * REACH),
-                local / REACH % REACH,
-                local % REACH,
-            );
-            writer.update(table.node_index(self.first_node + offset), |node| {
-                node.velocity_mass += sum.velocity_mass;
-                node.velocity_new += sum.velocity_new;
-            });
-        }
+        });
     }
 }
 
@@ -371,12 +413,13 @@ pub fn gather_pic_flip(
     let table = grid.page_table();
     let layout = table.layout;
     let inverse_h = 1.0 / layout.cell_size;
-    let local_grid = |block| LocalNodes::copied_from(&table, &grid.nodes, block);
+    let local_grid = |local: &mut LocalNodes, block| local.copy_from(&table, &grid.nodes, block);
     gather_with(
         particles,
         bins,
         context,
         simd,
+        LocalNodes::for_gather,
         local_grid,
         |local, position, velocity| {
             let weights = cubic_weights(layout.to_grid(position));
@@ -414,12 +457,13 @@ pub fn gather_apic(
     let layout = table.layout;
     // (4/h²) times the offset in world units (cells · h).
     let affine_scale = 4.0 / layout.cell_size;
-    let local_grid = |block| LocalNodes::copied_from(&table, &grid.nodes, block);
+    let local_grid = |local: &mut LocalNodes, block| local.copy_from(&table, &grid.nodes, block);
     gather_with(
         particles,
         bins,
         context,
         simd,
+        LocalNodes::for_gather,
         local_grid,
         |local, position, _| {
             let (velocity, affine) = interpolate_apic(local, layout.to_grid(position));

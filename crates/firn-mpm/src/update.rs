@@ -1,8 +1,8 @@
 //! The particle update after the gather (steps 7 to 10), block by block
 //! and 16 particles at a time: the nodes around a block are copied once
 //! into a dense local array, each particle's grid velocity and ∇v_p are
-//! interpolated from it one by one, then the SVD, plasticity and stress of
-//! the whole batch run in SIMD lanes ([`crate::constitutive::ElasticUpdate`]),
+//! interpolated from it one by one, then the trial F̂_E, SVD, plasticity and
+//! stress of the whole batch run in SIMD lanes ([`crate::constitutive::ElasticUpdate`]),
 //! then each particle collides and moves.
 //!
 //! Batches are formed from a block's particles (the last one is padded with
@@ -89,12 +89,12 @@ pub struct UpdateContext<'a> {
     pub upper: Vec3,
 }
 
-/// What the grid gave one particle, and the trial F̂_E it implies, for a whole
+/// What the grid gave one particle, with the particle's F_E, for a whole
 /// batch.
 struct Interpolated {
     velocity: [Vec3; BATCH],
-    velocity_gradient: [Mat3; BATCH],
-    trial_elastic: Mat3s<BATCH>,
+    velocity_gradient: Mat3s<BATCH>,
+    elastic: Mat3s<BATCH>,
     plastic_j: F32s<BATCH>,
     volume0: F32s<BATCH>,
     materials: MaterialLanes<BATCH>,
@@ -106,8 +106,8 @@ impl Interpolated {
     fn padded(padding: &MaterialConstants) -> Interpolated {
         Interpolated {
             velocity: [Vec3::ZERO; BATCH],
-            velocity_gradient: [Mat3::ZERO; BATCH],
-            trial_elastic: Mat3s::splat(Mat3::IDENTITY),
+            velocity_gradient: Mat3s::splat(Mat3::ZERO),
+            elastic: Mat3s::splat(Mat3::IDENTITY),
             plastic_j: F32s::splat(1.0),
             volume0: F32s::splat(0.0),
             materials: MaterialLanes::splat(padding),
@@ -115,24 +115,29 @@ impl Interpolated {
     }
 }
 
-/// Steps 7 and 9 for a batch, compiled for the chosen instruction set.
-fn elastic_update(simd: Simd, batch: &Interpolated) -> ElasticUpdate<BATCH> {
+/// Steps 7 and 9 for a batch over a substep of `dt`, compiled for the
+/// chosen instruction set.
+fn elastic_update(simd: Simd, batch: &Interpolated, dt: f32) -> ElasticUpdate<BATCH> {
     match simd {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: `Simd::Avx512` is only used where the CPU has AVX-512F
         // (checked by `checked_simd`).
-        Simd::Avx512 => unsafe { elastic_update_avx512(batch) },
+        Simd::Avx512 => unsafe { elastic_update_avx512(batch, dt) },
         #[cfg(target_arch = "x86_64")]
         // SAFETY: as above, for AVX2.
-        Simd::Avx2 => unsafe { elastic_update_avx2(batch) },
-        _ => elastic_update_portable(batch),
+        Simd::Avx2 => unsafe { elastic_update_avx2(batch, dt) },
+        _ => elastic_update_portable(batch, dt),
     }
 }
 
+/// The trial F̂_E = (I + Δt ∇v_p) F_E is formed in the lanes too, with the
+/// operations glam's `Mat3` does in the same order (so the bits of
+/// `(Mat3::IDENTITY + gradient * dt) * elastic`).
 #[inline(always)]
-fn elastic_update_portable(batch: &Interpolated) -> ElasticUpdate<BATCH> {
+fn elastic_update_portable(batch: &Interpolated, dt: f32) -> ElasticUpdate<BATCH> {
+    let step = Mat3s::splat(Mat3::IDENTITY).add(&batch.velocity_gradient.scale(F32s::splat(dt)));
     ElasticUpdate::new(
-        &batch.trial_elastic,
+        &step.mul_mat(&batch.elastic),
         batch.plastic_j,
         batch.volume0,
         &batch.materials,
@@ -142,15 +147,15 @@ fn elastic_update_portable(batch: &Interpolated) -> ElasticUpdate<BATCH> {
 /// [`elastic_update_portable`] in 512-bit registers.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-fn elastic_update_avx512(batch: &Interpolated) -> ElasticUpdate<BATCH> {
-    elastic_update_portable(batch)
+fn elastic_update_avx512(batch: &Interpolated, dt: f32) -> ElasticUpdate<BATCH> {
+    elastic_update_portable(batch, dt)
 }
 
 /// [`elastic_update_portable`] in 256-bit registers.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn elastic_update_avx2(batch: &Interpolated) -> ElasticUpdate<BATCH> {
-    elastic_update_portable(batch)
+fn elastic_update_avx2(batch: &Interpolated, dt: f32) -> ElasticUpdate<BATCH> {
+    elastic_update_portable(batch, dt)
 }
 
 /// The instruction set the solver uses unless told otherwise: AVX2 where the
@@ -259,7 +264,7 @@ fn finish_particle(
     *state.elastic = elastic;
     *state.plastic_j = update.plastic_j.lane(lane);
     *state.stress = update.stress.lane(lane);
-    *state.velocity_gradient = batch.velocity_gradient[lane];
+    *state.velocity_gradient = batch.velocity_gradient.lane(lane);
 
     let velocity = batch.velocity[lane];
     let predicted = *state.position + velocity * context.dt;
@@ -291,8 +296,9 @@ fn finish_particle(
 }
 
 /// Steps 7-10 for every particle, block by block in parallel:
-/// `local_grid` copies what the gather needs of the nodes around a block
-/// (once per block), `interpolate` reads it at a particle (position, old
+/// `local_grid` fills a copy of what the gather needs of the nodes around a
+/// block (once per block, into a copy made by `new_local` and reused from
+/// block to block), `interpolate` reads it at a particle (position, old
 /// velocity) and returns its new velocity and ∇v_p; the rest is the snow
 /// model and the advection, 16 particles of the block per batch.
 pub(crate) fn gather_with<L>(
@@ -300,22 +306,24 @@ pub(crate) fn gather_with<L>(
     bins: &Bins,
     context: &UpdateContext,
     simd: Simd,
-    local_grid: impl Fn(IVec3) -> L + Sync,
+    new_local: impl Fn() -> L + Sync + Send,
+    local_grid: impl Fn(&mut L, IVec3) + Sync,
     interpolate: impl Fn(&L, Vec3, Vec3) -> (Vec3, Mat3) + Sync,
 ) -> GatherStats {
     let simd = checked_simd(simd);
     let arrays = ParticleArrays::new(particles);
     bins.occupied
         .par_iter()
-        .map(|block| {
-            let local = local_grid(block.coord);
+        .map_init(new_local, |local, block| {
+            local_grid(local, block.coord);
+            let local = &*local;
             bins.particles_of(block)
                 .chunks(BATCH)
                 .map(|batch| {
                     // SAFETY: the particles of a block are this task's alone.
                     unsafe {
                         update_batch(&arrays, batch, context, simd, |position, velocity| {
-                            interpolate(&local, position, velocity)
+                            interpolate(local, position, velocity)
                         })
                     }
                 })
@@ -342,17 +350,16 @@ unsafe fn update_batch(
         // SAFETY: exclusive by the caller's contract; the borrow ends here.
         let state = unsafe { arrays.state(p) };
         let (new_velocity, gradient) = interpolate(*state.position, *state.velocity);
-        let trial = (Mat3::IDENTITY + gradient * context.dt) * *state.elastic;
         interpolated.velocity[lane] = new_velocity;
-        interpolated.velocity_gradient[lane] = gradient;
-        interpolated.trial_elastic.set_lane(lane, trial);
+        interpolated.velocity_gradient.set_lane(lane, gradient);
+        interpolated.elastic.set_lane(lane, *state.elastic);
         interpolated.plastic_j.0[lane] = *state.plastic_j;
         interpolated.volume0.0[lane] = arrays.volume0[p];
         interpolated
             .materials
             .set_lane(lane, &context.materials[arrays.material[p] as usize]);
     }
-    let update = elastic_update(simd, &interpolated);
+    let update = elastic_update(simd, &interpolated, context.dt);
     let mut stats = GatherStats::default();
     for (lane, &p) in batch.iter().enumerate() {
         let p = p as usize;
