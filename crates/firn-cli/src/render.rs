@@ -7,7 +7,8 @@ use std::path::{Path, PathBuf};
 use clap::{Args, ValueEnum};
 use firn_core::Scene;
 use firn_core::scene::{ColorBy, Orbit, RenderStyle};
-use firn_io::{FrameRecord, Manifest, PlyCloud, read_ply};
+use firn_io::{FrameRecord, PlyCloud};
+use firn_render::run_dir::{frame_cache_name, open_run, read_frame_cache};
 use firn_render::scene_view::{FrameParticles, cached_color_values};
 use glam::Vec3;
 
@@ -89,29 +90,14 @@ impl ColorByArg {
 pub fn render(args: RenderArgs) -> Result<(), Failure> {
     let directory = args.run_dir.clone();
     let manifest_path = directory.join(MANIFEST_FILE);
-    let mut manifest = Manifest::read(&manifest_path).map_err(|error| {
-        Failure::BadInput(format!(
-            "error: {error}\n  fix: pass the directory of a run made by `firn run` (it holds {MANIFEST_FILE})"
-        ))
-    })?;
-    let mut scene: Scene = serde_json::from_value(manifest.scene.clone()).map_err(|error| {
-        Failure::BadInput(format!(
-            "error: {}: the scene in the manifest cannot be read: {error}\n  fix: re-run the scene with this version of firn",
-            manifest_path.display()
-        ))
-    })?;
-    scene.load_meshes().map_err(|error| {
-        Failure::BadInput(format!(
-            "error: {}: a mesh of the scene cannot be loaded again: {error}",
-            manifest_path.display()
-        ))
-    })?;
+    let bad_input = |message: String| Failure::BadInput(format!("error: {message}"));
+    let (mut manifest, mut scene) = open_run(&directory).map_err(bad_input)?;
     apply_overrides(&mut scene, &args)?;
     prepare_image_dirs(&scene, &directory)?;
     let progress = progress_bar(manifest.frames.len() as u32, 0, args.quiet);
     let mut rendered = Vec::with_capacity(manifest.frames.len());
     for record in &manifest.frames {
-        let cloud = read_cache(&directory, record)?;
+        let cloud = read_frame_cache(&directory, record).map_err(bad_input)?;
         let images = render_cached_frame(&scene, &directory, record, &cloud)?;
         rendered.push(images);
         progress.inc(1);
@@ -223,26 +209,6 @@ pub(crate) fn parse_size(text: &str) -> Result<[u32; 2], Failure> {
     }
 }
 
-/// Reads the PLY cache of a frame, naming the file in any error.
-fn read_cache(directory: &Path, record: &FrameRecord) -> Result<PlyCloud, Failure> {
-    let name = record
-        .files
-        .iter()
-        .find(|file| file.ends_with(".ply"))
-        .ok_or_else(|| {
-            Failure::BadInput(format!(
-                "error: frame {} has no PLY cache in {}\n  fix: add \"ply\" to [output] formats and run the scene again",
-                record.index,
-                directory.display()
-            ))
-        })?;
-    read_ply(&directory.join(name)).map_err(|error| {
-        Failure::BadInput(format!(
-            "error: {error}\n  fix: re-run the scene (firn run --resume continues an interrupted run), or remove the damaged frame's record"
-        ))
-    })
-}
-
 /// Renders one frame from its cache; returns the written image paths.
 fn render_cached_frame(
     scene: &Scene,
@@ -250,14 +216,7 @@ fn render_cached_frame(
     record: &FrameRecord,
     cloud: &PlyCloud,
 ) -> Result<Vec<String>, Failure> {
-    let cache_name = || {
-        record
-            .files
-            .iter()
-            .find(|file| file.ends_with(".ply"))
-            .cloned()
-            .unwrap_or_default()
-    };
+    let cache_name = || frame_cache_name(record).unwrap_or_default();
     let positions = cloud.positions().ok_or_else(|| {
         Failure::BadInput(format!(
             "error: {} has no x, y, z columns\n  fix: re-run the scene to rewrite its caches",

@@ -60,8 +60,7 @@ pub struct RunArgs {
 
 /// File name of the checkpoint inside the output directory.
 const CHECKPOINT_FILE: &str = "checkpoint.firnckpt";
-/// File name of the manifest inside the output directory.
-pub const MANIFEST_FILE: &str = "manifest.json";
+pub use firn_io::MANIFEST_FILE;
 
 /// Runs the simulation described by `args`.
 pub fn run(args: RunArgs) -> Result<(), Failure> {

@@ -29,6 +29,6 @@ pub use atomic::{ensure_writable_dir, write_atomically};
 pub use checkpoint::Checkpoint;
 pub use error::IoError;
 pub use frame::{Attribute, AttributeValues, FrameData, FrameError};
-pub use manifest::{FrameRecord, Manifest, RunStatus, SolverFrameStats};
+pub use manifest::{FrameRecord, MANIFEST_FILE, Manifest, RunStatus, SolverFrameStats};
 pub use ply::{PlyCloud, PlyColumn, PlyValues, read_ply, write_ply};
 pub use vtk::{PvdCollection, PvdEntry, write_vtp};

@@ -10,6 +10,9 @@ use serde::{Deserialize, Deserializer, Serialize};
 use crate::IoError;
 use crate::atomic::write_atomically;
 
+/// The manifest's file name in a run directory.
+pub const MANIFEST_FILE: &str = "manifest.json";
+
 /// Everything worth knowing about a run and its outputs.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Manifest {

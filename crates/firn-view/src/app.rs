@@ -360,7 +360,7 @@ impl Running {
         let scene = self.session.scene();
         let time = self.session.time();
         let color_by = self.session.color_by();
-        let host: Option<HostParticles> = match self.session.content() {
+        let host: Option<HostParticles<'_>> = match self.session.content() {
             Content::Live(live) => live.host_particles(color_by),
             Content::Playback(_) => None,
         };

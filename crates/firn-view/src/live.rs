@@ -25,21 +25,22 @@ pub enum LiveSimulation {
     GpuFlow(Box<GpuFlow>),
 }
 
-/// A frame's particles on the host, owned (for simulations on the CPU).
-pub struct HostParticles {
+/// A frame's particles on the host (for simulations on the CPU): the
+/// simulation's own positions, and the values and trails made for drawing.
+pub struct HostParticles<'a> {
     /// Positions.
-    pub positions: Vec<Vec3>,
+    pub positions: &'a [Vec3],
     /// Values of the colour quantity, if it is a ramp quantity.
     pub values: Option<Vec<f32>>,
     /// Trail rings oldest first, their capacity, and their lengths.
     pub trails: Option<(Vec<Vec3>, usize, Vec<u32>)>,
 }
 
-impl HostParticles {
+impl HostParticles<'_> {
     /// The renderer's view of these particles.
     pub fn source(&self) -> ParticleSource<'_> {
         ParticleSource::Host {
-            positions: &self.positions,
+            positions: self.positions,
             values: self.values.as_deref(),
             trails: self.trails.as_ref().map(|(points, capacity, lengths)| {
                 firn_render::trails::Trails {
@@ -155,15 +156,15 @@ impl LiveSimulation {
 
     /// The particles of a CPU simulation, with the values of `color_by`
     /// (`None` on the GPU: see [`LiveSimulation::device_source`]).
-    pub fn host_particles(&self, color_by: ColorBy) -> Option<HostParticles> {
+    pub fn host_particles(&self, color_by: ColorBy) -> Option<HostParticles<'_>> {
         match self {
             LiveSimulation::CpuSnow(simulation) => Some(HostParticles {
-                positions: simulation.particles().position.clone(),
+                positions: &simulation.particles().position,
                 values: simulation.color_values(color_by),
                 trails: None,
             }),
             LiveSimulation::CpuFlow(flow) => Some(HostParticles {
-                positions: flow.positions().to_vec(),
+                positions: flow.positions(),
                 values: (color_by == ColorBy::Speed)
                     .then(|| flow.velocities().iter().map(|v| v.length()).collect()),
                 trails: flow.trails().map(|trails| {

@@ -1,19 +1,17 @@
-//! Playing back a finished (or interrupted) run from its PLY caches, as
-//! `firn render` reads them: the scene from the run's manifest, one cloud
+//! Playing back a finished (or interrupted) run from its PLY caches, read
+//! as `firn render` reads them (`firn_render::run_dir`): the scene from the run's manifest, one cloud
 //! per recorded frame, loaded when the timeline reaches it.
 
 use std::path::{Path, PathBuf};
 
 use firn_core::Scene;
 use firn_core::scene::ColorBy;
-use firn_io::{FrameRecord, Manifest, PlyCloud, read_ply};
+use firn_io::{FrameRecord, MANIFEST_FILE};
+use firn_render::run_dir::{frame_cache_name, open_run, read_frame_cache};
 use firn_render::scene_view::cached_color_values;
 use glam::Vec3;
 
 use crate::draw::ParticleSource;
-
-/// The manifest file a run directory holds (written by `firn run`).
-pub const MANIFEST_FILE: &str = "manifest.json";
 
 /// A run directory opened for playback.
 pub struct Playback {
@@ -40,26 +38,11 @@ impl Playback {
 
     /// Opens the run in `directory`: its manifest, scene and frame list.
     pub fn open(directory: &Path) -> Result<Playback, String> {
-        let manifest_path = directory.join(MANIFEST_FILE);
-        let manifest = Manifest::read(&manifest_path).map_err(|error| {
-            format!("{error}\n  fix: pass a scene file, or the directory of a run made by `firn run` (it holds {MANIFEST_FILE})")
-        })?;
-        let mut scene: Scene = serde_json::from_value(manifest.scene.clone()).map_err(|error| {
-            format!(
-                "{}: the scene in the manifest cannot be read: {error}\n  fix: re-run the scene with this version of firn",
-                manifest_path.display()
-            )
-        })?;
-        scene.load_meshes().map_err(|error| {
-            format!(
-                "{}: a mesh of the scene cannot be loaded again: {error}",
-                manifest_path.display()
-            )
-        })?;
+        let (manifest, scene) = open_run(directory)?;
         if manifest.frames.is_empty() {
             return Err(format!(
                 "{}: the run has no frames yet\n  fix: let `firn run` write at least one frame (firn run --resume continues it)",
-                manifest_path.display()
+                directory.join(MANIFEST_FILE).display()
             ));
         }
         Ok(Playback {
@@ -100,10 +83,10 @@ impl Playback {
             return Ok(());
         }
         let record = &self.frames[index];
-        let cloud = read_cache(&self.directory, record)?;
+        let cloud = read_frame_cache(&self.directory, record)?;
         let path = || {
             self.directory
-                .join(ply_name(record).map_or("", String::as_str))
+                .join(frame_cache_name(record).unwrap_or_default())
         };
         let positions = cloud
             .positions()
@@ -138,21 +121,4 @@ impl Playback {
             trails: None,
         })
     }
-}
-
-/// The PLY cache named in a frame's record.
-fn ply_name(record: &FrameRecord) -> Option<&String> {
-    record.files.iter().find(|file| file.ends_with(".ply"))
-}
-
-/// Reads the PLY cache of a frame, naming the file in any error.
-fn read_cache(directory: &Path, record: &FrameRecord) -> Result<PlyCloud, String> {
-    let name = ply_name(record).ok_or_else(|| {
-        format!(
-            "frame {} has no PLY cache in {}\n  fix: add \"ply\" to [output] formats and run the scene again",
-            record.index,
-            directory.display()
-        )
-    })?;
-    read_ply(&directory.join(name)).map_err(|error| error.to_string())
 }
