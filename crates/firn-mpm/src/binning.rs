@@ -204,7 +204,7 @@ fn runs_of(keys: &[u32]) -> Vec<Run> {
 
 /// Linear index of the block holding the cell of `position`.
 fn block_key(grid: &GridLayout, position: Vec3) -> usize {
-    let cell = floor(grid.to_grid(position)).as_ivec3();
+    let (_, cell) = floor(grid.to_grid(position));
     let last = grid.blocks.as_ivec3() - IVec3::ONE;
     grid.block_index((cell.div_euclid(IVec3::splat(BLOCK_WIDTH))).clamp(IVec3::ZERO, last))
 }

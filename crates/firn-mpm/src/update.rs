@@ -17,7 +17,7 @@ use firn_core::math::lanes::{F32s, Mat3s, Simd};
 use glam::{IVec3, Mat3, Vec3};
 use rayon::prelude::*;
 
-use crate::binning::Bins;
+use crate::binning::{Bins, OccupiedBlock};
 use crate::constitutive::{ElasticUpdate, MaterialConstants, MaterialLanes};
 use crate::contact::{PlacedCollider, collide_all};
 use crate::particles::Particles;
@@ -312,24 +312,82 @@ pub(crate) fn gather_with<L>(
 ) -> GatherStats {
     let simd = checked_simd(simd);
     let arrays = ParticleArrays::new(particles);
+    let gather_block = |local: &mut L, block: &OccupiedBlock| {
+        local_grid(local, block.coord);
+        let local = &*local;
+        let interpolate = |position, velocity| interpolate(local, position, velocity);
+        let particles = bins.particles_of(block);
+        match simd {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `Simd::Avx512` is only used where the CPU has AVX-512F
+            // (`checked_simd`); the block's particles are this task's alone.
+            Simd::Avx512 => unsafe { update_block_avx512(&arrays, particles, context, interpolate) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: as above, for AVX2.
+            Simd::Avx2 => unsafe { update_block_avx2(&arrays, particles, context, interpolate) },
+            // SAFETY: the block's particles are this task's alone.
+            _ => unsafe { update_block(&arrays, particles, context, Simd::Portable, interpolate) },
+        }
+    };
     bins.occupied
         .par_iter()
-        .map_init(new_local, |local, block| {
-            local_grid(local, block.coord);
-            let local = &*local;
-            bins.particles_of(block)
-                .chunks(BATCH)
-                .map(|batch| {
-                    // SAFETY: the particles of a block are this task's alone.
-                    unsafe {
-                        update_batch(&arrays, batch, context, simd, |position, velocity| {
-                            interpolate(local, position, velocity)
-                        })
-                    }
-                })
-                .fold(GatherStats::default(), GatherStats::merge)
-        })
+        .map_init(new_local, gather_block)
         .reduce(GatherStats::default, GatherStats::merge)
+}
+
+/// Steps 7-10 for the particles of one block, batch by batch.
+///
+/// # Safety
+/// No other task may touch these particles meanwhile.
+#[inline(always)]
+unsafe fn update_block(
+    arrays: &ParticleArrays,
+    particles: &[u32],
+    context: &UpdateContext,
+    simd: Simd,
+    interpolate: impl Fn(Vec3, Vec3) -> (Vec3, Mat3),
+) -> GatherStats {
+    particles
+        .chunks(BATCH)
+        .map(|batch| {
+            // SAFETY: by the caller's contract.
+            unsafe { update_batch(arrays, batch, context, simd, &interpolate) }
+        })
+        .fold(GatherStats::default(), GatherStats::merge)
+}
+
+/// [`update_block`] compiled for AVX-512 throughout: the interpolation and
+/// the particle bookkeeping get its 3-operand encodings too. No fused
+/// multiply-add is enabled, so the bits stay those of portable code.
+///
+/// # Safety
+/// The CPU must have AVX-512F, and as for [`update_block`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn update_block_avx512(
+    arrays: &ParticleArrays,
+    particles: &[u32],
+    context: &UpdateContext,
+    interpolate: impl Fn(Vec3, Vec3) -> (Vec3, Mat3),
+) -> GatherStats {
+    // SAFETY: by the caller's contract.
+    unsafe { update_block(arrays, particles, context, Simd::Avx512, interpolate) }
+}
+
+/// [`update_block_avx512`] for AVX2.
+///
+/// # Safety
+/// The CPU must have AVX2, and as for [`update_block`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn update_block_avx2(
+    arrays: &ParticleArrays,
+    particles: &[u32],
+    context: &UpdateContext,
+    interpolate: impl Fn(Vec3, Vec3) -> (Vec3, Mat3),
+) -> GatherStats {
+    // SAFETY: by the caller's contract.
+    unsafe { update_block(arrays, particles, context, Simd::Avx2, interpolate) }
 }
 
 /// Steps 7-10 for one batch of particle indices.

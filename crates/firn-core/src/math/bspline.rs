@@ -102,20 +102,42 @@ impl<const N: usize> StencilWeights<N> {
     }
 }
 
-/// ⌊x⌋ per component without a libm call (plain x86-64 lacks SSE4.1's
-/// rounding instruction): truncate, then step down where truncation rounded
-/// up. Exact for |x| < 2³¹, far beyond any grid.
+/// ⌊x⌋ per component, as a number and as a grid index, without a libm call
+/// (plain x86-64 lacks SSE4.1's rounding instruction): truncate, then step
+/// down where truncation rounded up. Exact for |x| < 2³¹, far beyond any grid.
 #[inline(always)]
-pub fn floor(x: Vec3) -> Vec3 {
-    let truncated = x.as_ivec3().as_vec3();
-    truncated - Vec3::select(truncated.cmpgt(x), Vec3::ONE, Vec3::ZERO)
+pub fn floor(x: Vec3) -> (Vec3, IVec3) {
+    let truncated = IVec3::new(truncate(x.x), truncate(x.y), truncate(x.z));
+    let rounded_up = truncated.as_vec3().cmpgt(x);
+    (
+        truncated.as_vec3() - Vec3::select(rounded_up, Vec3::ONE, Vec3::ZERO),
+        truncated - IVec3::select(rounded_up, IVec3::ONE, IVec3::ZERO),
+    )
+}
+
+/// `x` rounded toward zero: one `cvttss2si` on x86-64, where Rust's
+/// saturating `as i32` takes several instructions. Beyond the `i32` range
+/// (no grid comes near) the result is `i32::MIN` there.
+#[inline(always)]
+fn truncate(x: f32) -> i32 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_cvttss_si32, _mm_set_ss};
+        // SAFETY: SSE, all these need, is part of x86-64.
+        unsafe { _mm_cvttss_si32(_mm_set_ss(x)) }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        x as i32
+    }
 }
 
 /// Cubic B-spline weights over the 4x4x4 stencil of a particle at grid
 /// coordinate `x` (nodes ⌊x⌋−1 … ⌊x⌋+2 per axis).
 #[inline(always)]
 pub fn cubic_weights(x: Vec3) -> StencilWeights<4> {
-    let base_node = floor(x) - Vec3::ONE;
+    let (cell, cell_index) = floor(x);
+    let base_node = cell - Vec3::ONE;
     let offset = x - base_node;
     let mut values = [Vec3::ZERO; 4];
     let mut slopes = [Vec3::ZERO; 4];
@@ -130,7 +152,7 @@ pub fn cubic_weights(x: Vec3) -> StencilWeights<4> {
         );
     }
     StencilWeights {
-        base: base_node.as_ivec3(),
+        base: cell_index - IVec3::ONE,
         offset,
         values,
         slopes,
@@ -141,7 +163,7 @@ pub fn cubic_weights(x: Vec3) -> StencilWeights<4> {
 /// coordinate `x` (nodes ⌊x − ½⌋ … ⌊x − ½⌋+2 per axis).
 #[inline(always)]
 pub fn quadratic_weights(x: Vec3) -> StencilWeights<3> {
-    let base_node = floor(x - Vec3::splat(0.5));
+    let (base_node, base) = floor(x - Vec3::splat(0.5));
     let offset = x - base_node;
     let mut values = [Vec3::ZERO; 3];
     let mut slopes = [Vec3::ZERO; 3];
@@ -155,7 +177,7 @@ pub fn quadratic_weights(x: Vec3) -> StencilWeights<3> {
         );
     }
     StencilWeights {
-        base: base_node.as_ivec3(),
+        base,
         offset,
         values,
         slopes,
@@ -180,7 +202,7 @@ pub struct StencilValues<const N: usize> {
 /// giving the same bits.
 #[inline(always)]
 pub fn quadratic_values(x: Vec3) -> StencilValues<3> {
-    let base_node = floor(x - Vec3::splat(0.5));
+    let (base_node, base) = floor(x - Vec3::splat(0.5));
     let offset = x - base_node;
     let half = Vec3::splat(0.5);
     let three_halves = Vec3::splat(1.5);
@@ -188,7 +210,7 @@ pub fn quadratic_values(x: Vec3) -> StencilValues<3> {
     let middle = offset - Vec3::ONE;
     let far = three_halves - (offset - Vec3::splat(2.0)).abs();
     StencilValues {
-        base: base_node.as_ivec3(),
+        base,
         offset,
         values: [
             half * near * near,
@@ -284,7 +306,7 @@ mod tests {
         #[test]
         fn floor_matches_the_library_floor(x in -1e6f32..1e6, y in -3.0f32..3.0, z in -1.0f32..1.0) {
             let v = Vec3::new(x, y, z);
-            prop_assert_eq!(floor(v), v.floor());
+            prop_assert_eq!(floor(v), (v.floor(), v.floor().as_ivec3()));
         }
 
         #[test]
