@@ -26,6 +26,7 @@ pub mod contact;
 pub mod grid;
 pub mod implicit;
 pub mod live;
+mod local_nodes;
 pub mod particles;
 pub mod profile;
 pub mod simulation;

@@ -295,7 +295,7 @@ impl Simulation {
                 transfer::scatter_pic_flip(&mut self.grid, &self.bins, &self.particles)
             }
             Transfer::Apic => {
-                transfer::scatter_apic(&mut self.grid, &self.bins, &self.particles, dt)
+                transfer::scatter_apic(&mut self.grid, &self.bins, &self.particles, dt, self.simd)
             }
         }
         clock.lap(&mut self.profile.scatter);

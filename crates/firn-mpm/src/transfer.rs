@@ -21,9 +21,10 @@ use firn_core::math::lanes::Simd;
 
 use crate::binning::{Bins, OccupiedBlock};
 use crate::contact::{PlacedCollider, collide_all};
-use crate::grid::{BLOCK_NODES, BLOCK_WIDTH, Grid, GridLayout, Node, PageTable};
+use crate::grid::{Grid, GridLayout, Node};
+use crate::local_nodes::{CUBIC_SPAN, LocalNodes, QUADRATIC_SPAN, at};
 use crate::particles::Particles;
-use crate::update::{GatherStats, UpdateContext, gather_with};
+use crate::update::{GatherStats, Interpolation, UpdateContext, checked_simd, gather_with};
 
 /// Writes into grid nodes from several threads at once. The nodes are stored
 /// slot by slot, [`BLOCK_NODES`] per block: the grid's [`Node`]s, or the
@@ -89,133 +90,6 @@ fn scatter_blocks_by_colour<T: Send>(
     }
 }
 
-/// Nodes per axis that the particles of one block reach: from one before
-/// the block to two past it (see [`crate::binning`]).
-const REACH: i32 = BLOCK_WIDTH + 3;
-
-/// The scatter's sums for the nodes around one block, in a dense local
-/// array: particles add to it at fixed offsets from their stencil's corner,
-/// with no page-table lookups, and the sums go to the grid once per block.
-struct LocalNodes {
-    /// Grid coordinate of `sums[0]`.
-    first_node: IVec3,
-    /// Sums over the block's particles, x-major.
-    sums: [Node; (REACH * REACH * REACH) as usize],
-}
-
-impl LocalNodes {
-    /// Empty sums around `block`.
-    fn around(block: IVec3) -> LocalNodes {
-        LocalNodes {
-            first_node: block * BLOCK_WIDTH - IVec3::ONE,
-            sums: [Node::default(); (REACH * REACH * REACH) as usize],
-        }
-    }
-
-    /// A copy for [`LocalNodes::copy_from`] to fill.
-    fn for_gather() -> LocalNodes {
-        LocalNodes::around(IVec3::ZERO)
-    }
-
-    /// Index in `sums` of an `N`-wide stencil's first node `base`; its node
-    /// (i, j, k) is `(i REACH + j) REACH + k` further. Binning puts the
-    /// stencil of every particle of the block inside (panics otherwise).
-    #[inline(always)]
-    fn corner<const N: usize>(&self, base: IVec3) -> usize {
-        let corner = base - self.first_node;
-        assert!(
-            corner.cmpge(IVec3::ZERO).all() && corner.cmple(IVec3::splat(REACH - N as i32)).all(),
-            "a particle's stencil at {base} leaves the reach of its block"
-        );
-        ((corner.x * REACH + corner.y) * REACH + corner.z) as usize
-    }
-
-    /// Calls `run(to, from, len)` for each run of the nodes around a block
-    /// (the first at `first_node`) that is contiguous along z both in
-    /// `sums` and in the grid: `sums[to..to + len]` are the grid's nodes
-    /// `from..from + len`, or lie outside the grid where `from` is `None`.
-    /// Every block within one block of an occupied one has storage (see
-    /// [`crate::binning`]), so one slot lookup per neighbouring block finds
-    /// all.
-    fn runs(
-        first_node: IVec3,
-        table: &PageTable,
-        mut run: impl FnMut(usize, Option<usize>, usize),
-    ) {
-        /// Per axis, in three parts: the neighbouring block (−1, 0, +1),
-        /// the first node taken from it, the first place here and the
-        /// number of nodes.
-        const PARTS: [(i32, usize, usize, usize); 3] = [(-1, 3, 0, 1), (0, 0, 1, 4), (1, 0, 5, 2)];
-        const WIDTH: usize = BLOCK_WIDTH as usize;
-        let block = (first_node + IVec3::ONE) / BLOCK_WIDTH;
-        let blocks = table.layout.blocks.as_ivec3();
-        for (dx, from_x, to_x, len_x) in PARTS {
-            for (dy, from_y, to_y, len_y) in PARTS {
-                for (dz, from_z, to_z, len_z) in PARTS {
-                    let neighbour = block + IVec3::new(dx, dy, dz);
-                    let inside =
-                        neighbour.cmpge(IVec3::ZERO).all() && neighbour.cmplt(blocks).all();
-                    let first = inside.then(|| {
-                        let slot = table
-                            .slot(table.layout.block_index(neighbour))
-                            .expect("the blocks around an occupied block have storage");
-                        slot * BLOCK_NODES
-                    });
-                    for x in 0..len_x {
-                        for y in 0..len_y {
-                            let to =
-                                ((to_x + x) * REACH as usize + to_y + y) * REACH as usize + to_z;
-                            let from = first.map(|first| {
-                                first + ((from_x + x) * WIDTH + from_y + y) * WIDTH + from_z
-                            });
-                            run(to, from, len_z);
-                        }
-                    }
-                }
-            }
-        }
-    }
-
-    /// Overwrites the copy with the grid's nodes around `block`, for the
-    /// gather; nodes outside the grid (which no particle's stencil reaches)
-    /// are zero. The copy is made run by run ([`LocalNodes::runs`]) and
-    /// reused from block to block, so it is never cleared or moved whole.
-    fn copy_from(&mut self, table: &PageTable, nodes: &[Node], block: IVec3) {
-        self.first_node = block * BLOCK_WIDTH - IVec3::ONE;
-        LocalNodes::runs(self.first_node, table, |to, from, len| {
-            let run = &mut self.sums[to..to + len];
-            match from {
-                Some(from) => run.copy_from_slice(&nodes[from..from + len]),
-                None => run.fill(Node::default()),
-            }
-        });
-    }
-
-    /// The node (i, j, k) of a stencil whose first node is at `corner`.
-    #[inline(always)]
-    fn at(&self, corner: usize, i: usize, j: usize, k: usize) -> &Node {
-        &self.sums[corner + (i * REACH as usize + j) * REACH as usize + k]
-    }
-
-    /// Adds the sums into the grid's nodes (those a particle reached: every
-    /// reached node has mass, and only they are sure to exist), run by run
-    /// ([`LocalNodes::runs`]).
-    fn add_to(&self, table: &PageTable, writer: &NodeWriter<Node>) {
-        LocalNodes::runs(self.first_node, table, |to, from, len| {
-            for (n, sum) in self.sums[to..to + len].iter().enumerate() {
-                if sum.mass() == 0.0 {
-                    continue;
-                }
-                let from = from.expect("a reached node lies inside the grid");
-                writer.update(from + n, |node| {
-                    node.velocity_mass += sum.velocity_mass;
-                    node.velocity_new += sum.velocity_new;
-                });
-            }
-        });
-    }
-}
-
 /// Runs `visit` on the 64 nodes of every block with storage (the active
 /// blocks of the last [`Grid::allocate`]), blocks in parallel.
 pub(crate) fn for_each_active_block(grid: &mut Grid, visit: impl Fn(IVec3, &mut [Node]) + Sync) {
@@ -231,18 +105,18 @@ pub fn scatter_pic_flip(grid: &mut Grid, bins: &Bins, particles: &Particles) {
     let layout = table.layout;
     let inverse_h = 1.0 / layout.cell_size;
     scatter_blocks_by_colour(nodes, bins, |block, writer| {
-        let mut local = LocalNodes::around(block.coord);
+        let mut local = LocalNodes::<Node>::around(block.coord);
         for &p in bins.particles_of(block) {
             let p = p as usize;
             let weights = cubic_weights(layout.to_grid(particles.position[p]));
             let mass = particles.mass[p];
             let momentum_mass = (particles.velocity[p] * mass).extend(mass);
             let stress = particles.stress[p];
-            let corner = local.corner::<4>(weights.base);
+            let window = local.window_mut::<4, CUBIC_SPAN>(weights.base);
             for i in 0..4 {
                 for j in 0..4 {
-                    let row = corner + (i * REACH as usize + j) * REACH as usize;
-                    for (k, sum) in local.sums[row..row + 4].iter_mut().enumerate() {
+                    for k in 0..4 {
+                        let sum = &mut window[at(i, j, k)];
                         let w = weights.weight(i, j, k);
                         let force = -(stress * (weights.gradient(i, j, k) * inverse_h));
                         sum.velocity_mass += momentum_mass * w;
@@ -251,47 +125,137 @@ pub fn scatter_pic_flip(grid: &mut Grid, bins: &Bins, particles: &Particles) {
                 }
             }
         }
-        local.add_to(&table, writer);
+        local.add_nodes_to(&table, writer);
     });
 }
 
 /// Steps 1 and 3 for APIC: mass and affine momentum including the force
-/// impulse, summed per block in [`LocalNodes`].
-pub fn scatter_apic(grid: &mut Grid, bins: &Bins, particles: &Particles, dt: f32) {
+/// impulse, summed per block in a [`LocalNodes`] of `Vec4`s (momentum, mass).
+/// With AVX2 (`simd` not portable, where the CPU has it) two of a stencil
+/// row's three nodes are added in one 256-bit register; every lane does
+/// the same IEEE operations either way, so the sums have the same bits.
+pub fn scatter_apic(grid: &mut Grid, bins: &Bins, particles: &Particles, dt: f32, simd: Simd) {
     let (table, nodes) = grid.parts_mut();
-    let layout = table.layout;
-    let h = layout.cell_size;
-    let inverse_inertia = 4.0 / (h * h);
+    let scatter = ApicScatter {
+        layout: table.layout,
+        dt,
+        particles,
+    };
+    let simd = checked_simd(simd);
     scatter_blocks_by_colour(nodes, bins, |block, writer| {
         let mut local = LocalNodes::around(block.coord);
-        for &p in bins.particles_of(block) {
+        let block_particles = bins.particles_of(block);
+        match simd {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: AVX-512F CPUs have AVX2 too, and `checked_simd` only
+            // keeps an instruction set the CPU has.
+            Simd::Avx2 | Simd::Avx512 => unsafe { scatter.block_avx2(&mut local, block_particles) },
+            _ => scatter.block::<false>(&mut local, block_particles),
+        }
+        local.add_momentum_to(&table, writer);
+    });
+}
+
+/// What the APIC scatter reads.
+struct ApicScatter<'a> {
+    layout: GridLayout,
+    dt: f32,
+    particles: &'a Particles,
+}
+
+impl ApicScatter<'_> {
+    /// Sums the particles `block` into `local`, stencil rows added in AVX2
+    /// registers if `AVX2`.
+    #[inline(always)]
+    fn block<const AVX2: bool>(&self, local: &mut LocalNodes<Vec4>, block: &[u32]) {
+        let (layout, particles) = (self.layout, self.particles);
+        let h = layout.cell_size;
+        let inverse_inertia = 4.0 / (h * h);
+        for &p in block {
             let p = p as usize;
             let weights = quadratic_values(layout.to_grid(particles.position[p]));
             let mass = particles.mass[p];
             // Maps a node offset in cells to momentum: (m C − Δt M⁻¹ V0 τ) h.
             let affine = (particles.velocity_gradient[p] * mass
-                - particles.stress[p] * (dt * inverse_inertia))
+                - particles.stress[p] * (self.dt * inverse_inertia))
                 * h;
             // Node (i, j, k) gets w (m v + affine ((i, j, k) − offset), m):
             // the affine part grows by one column per stencil step.
             let at_base = (particles.velocity[p] * mass - affine * weights.offset).extend(mass);
             let step = |column: Vec3, n: usize| column.extend(0.0) * n as f32;
-            let corner = local.corner::<3>(weights.base);
+            let row = StencilRow {
+                steps: [0, 1, 2].map(|k| step(affine.z_axis, k)),
+                weights: [0, 1, 2].map(|k| weights.values[k].z),
+            };
+            let window = local.window_mut::<3, QUADRATIC_SPAN>(weights.base);
             for i in 0..3 {
                 let at_i = at_base + step(affine.x_axis, i);
                 for j in 0..3 {
                     let at_ij = at_i + step(affine.y_axis, j);
                     let wxy = weights.values[i].x * weights.values[j].y;
-                    let row = corner + (i * REACH as usize + j) * REACH as usize;
-                    for (k, sum) in local.sums[row..row + 3].iter_mut().enumerate() {
-                        sum.velocity_mass +=
-                            (at_ij + step(affine.z_axis, k)) * (wxy * weights.values[k].z);
+                    let sums = (&mut window[at(i, j, 0)..at(i, j, 3)])
+                        .try_into()
+                        .expect("a stencil row has three nodes");
+                    if AVX2 {
+                        // SAFETY: `AVX2` is only set inside `block_avx2`.
+                        unsafe { row.add_avx2(sums, at_ij, wxy) };
+                    } else {
+                        row.add(sums, at_ij, wxy);
                     }
                 }
             }
         }
-        local.add_to(&table, writer);
-    });
+    }
+
+    /// [`ApicScatter::block`] compiled for AVX2.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn block_avx2(&self, local: &mut LocalNodes<Vec4>, block: &[u32]) {
+        self.block::<true>(local, block);
+    }
+}
+
+/// A particle's terms along a stencil row (i, j, 0…2): node k gets
+/// (a_ij + steps[k]) (w_xy weights[k]).
+struct StencilRow {
+    /// The affine part's growth along z: k times its z column.
+    steps: [Vec4; 3],
+    /// The z weights w_k.
+    weights: [f32; 3],
+}
+
+impl StencilRow {
+    /// Adds the row's three terms to `sums`.
+    #[inline(always)]
+    fn add(&self, sums: &mut [Vec4; 3], at_ij: Vec4, wxy: f32) {
+        for ((sum, step), weight) in sums.iter_mut().zip(self.steps).zip(self.weights) {
+            *sum += (at_ij + step) * (wxy * weight);
+        }
+    }
+
+    /// [`StencilRow::add`] with nodes 0 and 1 in one 256-bit register: the
+    /// same operations lane by lane, so the same bits.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn add_avx2(&self, sums: &mut [Vec4; 3], at_ij: Vec4, wxy: f32) {
+        use std::arch::x86_64::*;
+        let first_two = |v: [Vec4; 3]| _mm256_set_m128(v[1].into(), v[0].into());
+        let steps = first_two(self.steps);
+        let weights = first_two(self.weights.map(Vec4::splat));
+        let at = _mm256_set_m128(at_ij.into(), at_ij.into());
+        let terms = _mm256_mul_ps(
+            _mm256_add_ps(at, steps),
+            _mm256_mul_ps(_mm256_set1_ps(wxy), weights),
+        );
+        let first = sums.as_mut_ptr().cast::<f32>();
+        // SAFETY: `sums` holds 12 floats; nodes 0 and 1 are its first 8.
+        unsafe { _mm256_storeu_ps(first, _mm256_add_ps(_mm256_loadu_ps(first), terms)) };
+        sums[2] += (at_ij + self.steps[2]) * (wxy * self.weights[2]);
+    }
 }
 
 /// Mass only, for the one-time density estimate (step 2).
@@ -410,38 +374,8 @@ pub fn gather_pic_flip(
     context: &UpdateContext,
     simd: Simd,
 ) -> GatherStats {
-    let table = grid.page_table();
-    let layout = table.layout;
-    let inverse_h = 1.0 / layout.cell_size;
-    let local_grid = |local: &mut LocalNodes, block| local.copy_from(&table, &grid.nodes, block);
-    gather_with(
-        particles,
-        bins,
-        context,
-        simd,
-        LocalNodes::for_gather,
-        local_grid,
-        |local, position, velocity| {
-            let weights = cubic_weights(layout.to_grid(position));
-            let corner = local.corner::<4>(weights.base);
-            let mut pic = Vec3::ZERO;
-            let mut change = Vec3::ZERO;
-            let mut gradient = Mat3::ZERO;
-            for i in 0..4 {
-                for j in 0..4 {
-                    for k in 0..4 {
-                        let node = local.at(corner, i, j, k);
-                        let w = weights.weight(i, j, k);
-                        let grad_w = weights.gradient(i, j, k) * inverse_h;
-                        pic += node.velocity_new() * w;
-                        change += (node.velocity_new() - node.velocity()) * w;
-                        gradient += outer(node.velocity_new(), grad_w);
-                    }
-                }
-            }
-            (pic * (1.0 - flip) + (velocity + change) * flip, gradient)
-        },
-    )
+    let interpolation = PicFlipInterpolation { grid, flip };
+    gather_with(particles, bins, context, simd, &interpolation)
 }
 
 /// Steps 7-10 for APIC: v_p = Σ w_ip v_i, C_p = (4/h²) Σ w_ip v_i (x_i − x_p)ᵀ,
@@ -453,31 +387,102 @@ pub fn gather_apic(
     context: &UpdateContext,
     simd: Simd,
 ) -> GatherStats {
-    let table = grid.page_table();
-    let layout = table.layout;
-    // (4/h²) times the offset in world units (cells · h).
-    let affine_scale = 4.0 / layout.cell_size;
-    let local_grid = |local: &mut LocalNodes, block| local.copy_from(&table, &grid.nodes, block);
-    gather_with(
-        particles,
-        bins,
-        context,
-        simd,
-        LocalNodes::for_gather,
-        local_grid,
-        |local, position, _| {
-            let (velocity, affine) = interpolate_apic(local, layout.to_grid(position));
-            (velocity, affine * affine_scale)
-        },
-    )
+    gather_with(particles, bins, context, simd, &ApicInterpolation { grid })
+}
+
+/// The PIC/FLIP blend with cubic B-splines, read from [`LocalNodes`].
+struct PicFlipInterpolation<'a> {
+    grid: &'a Grid,
+    /// FLIP share α.
+    flip: f32,
+}
+
+impl Interpolation for PicFlipInterpolation<'_> {
+    type Local = LocalNodes<Node>;
+
+    #[inline(always)]
+    fn new_local(&self) -> LocalNodes<Node> {
+        LocalNodes::for_gather()
+    }
+
+    #[inline(always)]
+    fn fill_local(&self, local: &mut LocalNodes<Node>, block: IVec3) {
+        local.copy_from(&self.grid.page_table(), &self.grid.nodes, block, |node| {
+            *node
+        });
+    }
+
+    #[inline(always)]
+    fn interpolate(
+        &self,
+        local: &LocalNodes<Node>,
+        position: Vec3,
+        velocity: Vec3,
+    ) -> (Vec3, Mat3) {
+        let layout = self.grid.layout;
+        let inverse_h = 1.0 / layout.cell_size;
+        let weights = cubic_weights(layout.to_grid(position));
+        let window = local.window::<4, CUBIC_SPAN>(weights.base);
+        let mut pic = Vec3::ZERO;
+        let mut change = Vec3::ZERO;
+        let mut gradient = Mat3::ZERO;
+        for i in 0..4 {
+            for j in 0..4 {
+                for k in 0..4 {
+                    let node = &window[at(i, j, k)];
+                    let w = weights.weight(i, j, k);
+                    let grad_w = weights.gradient(i, j, k) * inverse_h;
+                    pic += node.velocity_new() * w;
+                    change += (node.velocity_new() - node.velocity()) * w;
+                    gradient += outer(node.velocity_new(), grad_w);
+                }
+            }
+        }
+        let flip = self.flip;
+        (pic * (1.0 - flip) + (velocity + change) * flip, gradient)
+    }
+}
+
+/// APIC with quadratic B-splines, read from [`LocalNodes`].
+struct ApicInterpolation<'a> {
+    grid: &'a Grid,
+}
+
+impl Interpolation for ApicInterpolation<'_> {
+    type Local = LocalNodes<Vec4>;
+
+    #[inline(always)]
+    fn new_local(&self) -> LocalNodes<Vec4> {
+        LocalNodes::for_gather()
+    }
+
+    #[inline(always)]
+    fn fill_local(&self, local: &mut LocalNodes<Vec4>, block: IVec3) {
+        let velocity_new = |node: &Node| node.velocity_new;
+        local.copy_from(
+            &self.grid.page_table(),
+            &self.grid.nodes,
+            block,
+            velocity_new,
+        );
+    }
+
+    #[inline(always)]
+    fn interpolate(&self, local: &LocalNodes<Vec4>, position: Vec3, _: Vec3) -> (Vec3, Mat3) {
+        let layout = self.grid.layout;
+        // (4/h²) times the offset in world units (cells · h).
+        let affine_scale = 4.0 / layout.cell_size;
+        let (velocity, affine) = interpolate_apic(local, layout.to_grid(position));
+        (velocity, affine * affine_scale)
+    }
 }
 
 /// v_p = Σ w_ip v_i and Σ w_ip v_i (x_i − x_p)ᵀ in cells, for one particle
 /// at grid coordinate `x`, from the nodes around its block.
 #[inline(always)]
-fn interpolate_apic(local: &LocalNodes, x: Vec3) -> (Vec3, Mat3) {
+fn interpolate_apic(local: &LocalNodes<Vec4>, x: Vec3) -> (Vec3, Mat3) {
     let weights = quadratic_values(x);
-    let corner = local.corner::<3>(weights.base);
+    let window = local.window::<3, QUADRATIC_SPAN>(weights.base);
     // Weighted velocities summed per x-slab, y-row and z-column of the
     // stencil: their totals give v_p, their first moments C_p.
     let (mut slabs, mut rows, mut columns) = ([Vec4::ZERO; 3], [Vec4::ZERO; 3], [Vec4::ZERO; 3]);
@@ -485,7 +490,7 @@ fn interpolate_apic(local: &LocalNodes, x: Vec3) -> (Vec3, Mat3) {
         for (j, row) in rows.iter_mut().enumerate() {
             let wxy = weights.values[i].x * weights.values[j].y;
             for (k, column) in columns.iter_mut().enumerate() {
-                let weighted = local.at(corner, i, j, k).velocity_new * (wxy * weights.values[k].z);
+                let weighted = window[at(i, j, k)] * (wxy * weights.values[k].z);
                 *slab += weighted;
                 *row += weighted;
                 *column += weighted;

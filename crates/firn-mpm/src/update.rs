@@ -59,6 +59,7 @@ pub enum ProblemKind {
 
 impl GatherStats {
     /// Combines two partial results; order-independent, hence deterministic.
+    #[inline(always)]
     fn merge(self, other: GatherStats) -> GatherStats {
         let problem = match (self.problem, other.problem) {
             (Some(a), Some(b)) => Some(if a.particle <= b.particle { a } else { b }),
@@ -117,6 +118,7 @@ impl Interpolated {
 
 /// Steps 7 and 9 for a batch over a substep of `dt`, compiled for the
 /// chosen instruction set.
+#[inline(always)]
 fn elastic_update(simd: Simd, batch: &Interpolated, dt: f32) -> ElasticUpdate<BATCH> {
     match simd {
         #[cfg(target_arch = "x86_64")]
@@ -172,7 +174,7 @@ pub fn preferred_simd() -> Simd {
 }
 
 /// `simd` where the running CPU has it, else portable code.
-fn checked_simd(simd: Simd) -> Simd {
+pub(crate) fn checked_simd(simd: Simd) -> Simd {
     if simd.is_available() {
         simd
     } else {
@@ -295,65 +297,86 @@ fn finish_particle(
     }
 }
 
-/// Steps 7-10 for every particle, block by block in parallel:
-/// `local_grid` fills a copy of what the gather needs of the nodes around a
-/// block (once per block, into a copy made by `new_local` and reused from
-/// block to block), `interpolate` reads it at a particle (position, old
-/// velocity) and returns its new velocity and ∇v_p; the rest is the snow
-/// model and the advection, 16 particles of the block per batch.
-pub(crate) fn gather_with<L>(
+/// How a transfer scheme reads the grid at a particle (step 8): from a
+/// copy of the nodes around the particle's block, made once per block.
+/// Its methods are `#[inline(always)]` in every implementation, so that
+/// the whole particle update compiles into one function per instruction set.
+pub(crate) trait Interpolation: Sync {
+    /// The copy of the nodes around one block.
+    type Local: Send;
+
+    /// An empty copy, reused from block to block by one task.
+    fn new_local(&self) -> Self::Local;
+
+    /// Fills `local` with the nodes around `block`.
+    fn fill_local(&self, local: &mut Self::Local, block: IVec3);
+
+    /// The new velocity and ∇v_p of a particle at `position` with the old
+    /// `velocity`.
+    fn interpolate(&self, local: &Self::Local, position: Vec3, velocity: Vec3) -> (Vec3, Mat3);
+}
+
+/// Steps 7-10 for every particle, block by block in parallel: the nodes
+/// around a block are copied once, each particle reads them through
+/// `interpolation`; the rest is the snow model and the advection, 16
+/// particles of the block per batch.
+pub(crate) fn gather_with<I: Interpolation>(
     particles: &mut Particles,
     bins: &Bins,
     context: &UpdateContext,
     simd: Simd,
-    new_local: impl Fn() -> L + Sync + Send,
-    local_grid: impl Fn(&mut L, IVec3) + Sync,
-    interpolate: impl Fn(&L, Vec3, Vec3) -> (Vec3, Mat3) + Sync,
+    interpolation: &I,
 ) -> GatherStats {
     let simd = checked_simd(simd);
     let arrays = ParticleArrays::new(particles);
-    let gather_block = |local: &mut L, block: &OccupiedBlock| {
-        local_grid(local, block.coord);
-        let local = &*local;
-        let interpolate = |position, velocity| interpolate(local, position, velocity);
-        let particles = bins.particles_of(block);
+    let gather_block = |local: &mut I::Local, block: &OccupiedBlock| {
+        interpolation.fill_local(local, block.coord);
+        let block = Block {
+            arrays: &arrays,
+            particles: bins.particles_of(block),
+            context,
+            interpolation,
+            local,
+        };
         match simd {
             #[cfg(target_arch = "x86_64")]
             // SAFETY: `Simd::Avx512` is only used where the CPU has AVX-512F
             // (`checked_simd`); the block's particles are this task's alone.
-            Simd::Avx512 => unsafe { update_block_avx512(&arrays, particles, context, interpolate) },
+            Simd::Avx512 => unsafe { update_block_avx512(&block) },
             #[cfg(target_arch = "x86_64")]
             // SAFETY: as above, for AVX2.
-            Simd::Avx2 => unsafe { update_block_avx2(&arrays, particles, context, interpolate) },
+            Simd::Avx2 => unsafe { update_block_avx2(&block) },
             // SAFETY: the block's particles are this task's alone.
-            _ => unsafe { update_block(&arrays, particles, context, Simd::Portable, interpolate) },
+            _ => unsafe { update_block(&block, Simd::Portable) },
         }
     };
     bins.occupied
         .par_iter()
-        .map_init(new_local, gather_block)
+        .map_init(|| interpolation.new_local(), gather_block)
         .reduce(GatherStats::default, GatherStats::merge)
+}
+
+/// One block's particles and what their update reads.
+struct Block<'a, I: Interpolation> {
+    arrays: &'a ParticleArrays<'a>,
+    particles: &'a [u32],
+    context: &'a UpdateContext<'a>,
+    interpolation: &'a I,
+    local: &'a I::Local,
 }
 
 /// Steps 7-10 for the particles of one block, batch by batch.
 ///
 /// # Safety
-/// No other task may touch these particles meanwhile.
+/// No other task may touch the block's particles meanwhile.
 #[inline(always)]
-unsafe fn update_block(
-    arrays: &ParticleArrays,
-    particles: &[u32],
-    context: &UpdateContext,
-    simd: Simd,
-    interpolate: impl Fn(Vec3, Vec3) -> (Vec3, Mat3),
-) -> GatherStats {
-    particles
-        .chunks(BATCH)
-        .map(|batch| {
-            // SAFETY: by the caller's contract.
-            unsafe { update_batch(arrays, batch, context, simd, &interpolate) }
-        })
-        .fold(GatherStats::default(), GatherStats::merge)
+unsafe fn update_block<I: Interpolation>(block: &Block<I>, simd: Simd) -> GatherStats {
+    let mut stats = GatherStats::default();
+    for batch in block.particles.chunks(BATCH) {
+        // SAFETY: by the caller's contract.
+        stats = stats.merge(unsafe { update_batch(block, batch, simd) });
+    }
+    stats
 }
 
 /// [`update_block`] compiled for AVX-512 throughout: the interpolation and
@@ -364,14 +387,9 @@ unsafe fn update_block(
 /// The CPU must have AVX-512F, and as for [`update_block`].
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-unsafe fn update_block_avx512(
-    arrays: &ParticleArrays,
-    particles: &[u32],
-    context: &UpdateContext,
-    interpolate: impl Fn(Vec3, Vec3) -> (Vec3, Mat3),
-) -> GatherStats {
+unsafe fn update_block_avx512<I: Interpolation>(block: &Block<I>) -> GatherStats {
     // SAFETY: by the caller's contract.
-    unsafe { update_block(arrays, particles, context, Simd::Avx512, interpolate) }
+    unsafe { update_block(block, Simd::Avx512) }
 }
 
 /// [`update_block_avx512`] for AVX2.
@@ -380,14 +398,9 @@ unsafe fn update_block_avx512(
 /// The CPU must have AVX2, and as for [`update_block`].
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn update_block_avx2(
-    arrays: &ParticleArrays,
-    particles: &[u32],
-    context: &UpdateContext,
-    interpolate: impl Fn(Vec3, Vec3) -> (Vec3, Mat3),
-) -> GatherStats {
+unsafe fn update_block_avx2<I: Interpolation>(block: &Block<I>) -> GatherStats {
     // SAFETY: by the caller's contract.
-    unsafe { update_block(arrays, particles, context, Simd::Avx2, interpolate) }
+    unsafe { update_block(block, Simd::Avx2) }
 }
 
 /// Steps 7-10 for one batch of particle indices.
@@ -395,19 +408,21 @@ unsafe fn update_block_avx2(
 /// # Safety
 /// No other task may touch these particles meanwhile.
 #[inline(always)]
-unsafe fn update_batch(
-    arrays: &ParticleArrays,
+unsafe fn update_batch<I: Interpolation>(
+    block: &Block<I>,
     batch: &[u32],
-    context: &UpdateContext,
     simd: Simd,
-    interpolate: impl Fn(Vec3, Vec3) -> (Vec3, Mat3),
 ) -> GatherStats {
+    let (arrays, context) = (block.arrays, block.context);
     let mut interpolated = Interpolated::padded(&context.materials[0]);
     for (lane, &p) in batch.iter().enumerate() {
         let p = p as usize;
         // SAFETY: exclusive by the caller's contract; the borrow ends here.
         let state = unsafe { arrays.state(p) };
-        let (new_velocity, gradient) = interpolate(*state.position, *state.velocity);
+        let (new_velocity, gradient) =
+            block
+                .interpolation
+                .interpolate(block.local, *state.position, *state.velocity);
         interpolated.velocity[lane] = new_velocity;
         interpolated.velocity_gradient.set_lane(lane, gradient);
         interpolated.elastic.set_lane(lane, *state.elastic);

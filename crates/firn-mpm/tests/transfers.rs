@@ -10,7 +10,7 @@ use firn_mpm::constitutive::MaterialConstants;
 use firn_mpm::grid::{Grid, GridLayout};
 use firn_mpm::simulation::diagnostics;
 use firn_mpm::transfer::{self, GridForces};
-use firn_mpm::update::UpdateContext;
+use firn_mpm::update::{UpdateContext, preferred_simd};
 use glam::{DVec3, Mat3, Vec3};
 
 const H: f32 = 0.05;
@@ -82,7 +82,9 @@ fn round_trip(transfer_scheme: Transfer) {
     // No stress and Δt = 0: a pure transfer, no forces, no motion.
     match transfer_scheme {
         Transfer::PicFlip => transfer::scatter_pic_flip(&mut grid, &bins, &particles),
-        Transfer::Apic => transfer::scatter_apic(&mut grid, &bins, &particles, 0.0),
+        Transfer::Apic => {
+            transfer::scatter_apic(&mut grid, &bins, &particles, 0.0, preferred_simd())
+        }
     }
     let forces = if apic {
         GridForces::InMomentum

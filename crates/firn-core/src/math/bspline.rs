@@ -336,7 +336,8 @@ mod tests {
         let q = quadratic_weights(Vec3::new(5.3, 7.0, 0.49));
         assert_eq!(q.base, IVec3::new(4, 6, -1));
         for x in [-2.0, -1.5, -0.0, 0.0, 3.0, 1e-8, -1e-8] {
-            assert_eq!(floor(Vec3::splat(x)), Vec3::splat(x).floor(), "{x}");
+            let expected = Vec3::splat(x).floor();
+            assert_eq!(floor(Vec3::splat(x)), (expected, expected.as_ivec3()), "{x}");
         }
     }
 }
