@@ -16,7 +16,7 @@ use std::marker::PhantomData;
 use glam::{IVec3, Mat3, Vec3, Vec4};
 use rayon::prelude::*;
 
-use firn_core::math::bspline::{StencilWeights, cubic_weights, quadratic_values};
+use firn_core::math::bspline::{StencilValues, StencilWeights, cubic_weights, quadratic_values};
 use firn_core::math::lanes::Simd;
 
 use crate::binning::{Bins, OccupiedBlock};
@@ -469,45 +469,140 @@ impl Interpolation for ApicInterpolation<'_> {
 
     #[inline(always)]
     fn interpolate(&self, local: &LocalNodes<Vec4>, position: Vec3, _: Vec3) -> (Vec3, Mat3) {
-        let layout = self.grid.layout;
-        // (4/h²) times the offset in world units (cells · h).
-        let affine_scale = 4.0 / layout.cell_size;
-        let (velocity, affine) = interpolate_apic(local, layout.to_grid(position));
-        (velocity, affine * affine_scale)
+        let weights = quadratic_values(self.grid.layout.to_grid(position));
+        let sums = StencilSums::of(local, &weights);
+        self.scaled(sums.velocity_and_affine(weights.offset))
+    }
+
+    #[inline(always)]
+    fn interpolate_pair(
+        &self,
+        local: &LocalNodes<Vec4>,
+        simd: Simd,
+        particles: [(Vec3, Vec3); 2],
+    ) -> [(Vec3, Mat3); 2] {
+        let weights =
+            particles.map(|(position, _)| quadratic_values(self.grid.layout.to_grid(position)));
+        let sums = match simd {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: AVX-512F CPUs have AVX2 too, and the gather only runs
+            // an instruction set the CPU has.
+            Simd::Avx2 | Simd::Avx512 => unsafe {
+                StencilSums::of_pair(local, [&weights[0], &weights[1]])
+            },
+            _ => [0, 1].map(|n| StencilSums::of(local, &weights[n])),
+        };
+        [0, 1].map(|n| self.scaled(sums[n].velocity_and_affine(weights[n].offset)))
     }
 }
 
-/// v_p = Σ w_ip v_i and Σ w_ip v_i (x_i − x_p)ᵀ in cells, for one particle
-/// at grid coordinate `x`, from the nodes around its block.
-#[inline(always)]
-fn interpolate_apic(local: &LocalNodes<Vec4>, x: Vec3) -> (Vec3, Mat3) {
-    let weights = quadratic_values(x);
-    let window = local.window::<3, QUADRATIC_SPAN>(weights.base);
-    // Weighted velocities summed per x-slab, y-row and z-column of the
-    // stencil: their totals give v_p, their first moments C_p.
-    let (mut slabs, mut rows, mut columns) = ([Vec4::ZERO; 3], [Vec4::ZERO; 3], [Vec4::ZERO; 3]);
-    for (i, slab) in slabs.iter_mut().enumerate() {
-        for (j, row) in rows.iter_mut().enumerate() {
-            let wxy = weights.values[i].x * weights.values[j].y;
-            for (k, column) in columns.iter_mut().enumerate() {
-                let weighted = window[at(i, j, k)] * (wxy * weights.values[k].z);
-                *slab += weighted;
-                *row += weighted;
-                *column += weighted;
+impl ApicInterpolation<'_> {
+    /// v_p, and C_p = (4/h²) Σ w_ip v_i (x_i − x_p)ᵀ from the moment in
+    /// cells (the offset in world units is cells · h).
+    #[inline(always)]
+    fn scaled(&self, (velocity, affine): (Vec3, Mat3)) -> (Vec3, Mat3) {
+        (velocity, affine * (4.0 / self.grid.layout.cell_size))
+    }
+}
+
+/// Weighted velocities w_ip v_i summed per x-slab, y-row and z-column of a
+/// particle's 3x3x3 stencil: their totals give v_p, their first moments
+/// C_p ([`StencilSums::velocity_and_affine`]).
+#[derive(Clone, Copy)]
+struct StencilSums {
+    slabs: [Vec4; 3],
+    rows: [Vec4; 3],
+    columns: [Vec4; 3],
+}
+
+impl StencilSums {
+    /// The sums of one particle with stencil `weights`, from the nodes
+    /// around its block.
+    #[inline(always)]
+    fn of(local: &LocalNodes<Vec4>, weights: &StencilValues<3>) -> StencilSums {
+        let window = local.window::<3, QUADRATIC_SPAN>(weights.base);
+        let mut sums = StencilSums {
+            slabs: [Vec4::ZERO; 3],
+            rows: [Vec4::ZERO; 3],
+            columns: [Vec4::ZERO; 3],
+        };
+        for (i, slab) in sums.slabs.iter_mut().enumerate() {
+            for (j, row) in sums.rows.iter_mut().enumerate() {
+                let wxy = weights.values[i].x * weights.values[j].y;
+                for (k, column) in sums.columns.iter_mut().enumerate() {
+                    let weighted = window[at(i, j, k)] * (wxy * weights.values[k].z);
+                    *slab += weighted;
+                    *row += weighted;
+                    *column += weighted;
+                }
             }
         }
+        sums
     }
-    let velocity = slabs[0] + slabs[1] + slabs[2];
-    // Σ w v (n − offset) along one axis, from the sums at n = 0, 1, 2.
-    let moment =
-        |sums: [Vec4; 3], offset: f32| (sums[1] + sums[2] * 2.0 - velocity * offset).truncate();
-    let offset = weights.offset;
-    let affine = Mat3::from_cols(
-        moment(slabs, offset.x),
-        moment(rows, offset.y),
-        moment(columns, offset.z),
-    );
-    (velocity.truncate(), affine)
+
+    /// [`StencilSums::of`] for two particles at once, one per 128-bit half
+    /// of each 256-bit register: lane by lane the same operations, so the
+    /// same bits.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn of_pair(local: &LocalNodes<Vec4>, weights: [&StencilValues<3>; 2]) -> [StencilSums; 2] {
+        use std::arch::x86_64::*;
+        let [a, b] = weights;
+        let pair = |x: Vec4, y: Vec4| _mm256_set_m128(y.into(), x.into());
+        let windows = [a, b].map(|w| local.window::<3, QUADRATIC_SPAN>(w.base));
+        let z_weights =
+            [0, 1, 2].map(|k| pair(Vec4::splat(a.values[k].z), Vec4::splat(b.values[k].z)));
+        let mut slabs = [_mm256_setzero_ps(); 3];
+        let mut rows = [_mm256_setzero_ps(); 3];
+        let mut columns = [_mm256_setzero_ps(); 3];
+        for (i, slab) in slabs.iter_mut().enumerate() {
+            for (j, row) in rows.iter_mut().enumerate() {
+                let wxy = pair(
+                    Vec4::splat(a.values[i].x * a.values[j].y),
+                    Vec4::splat(b.values[i].x * b.values[j].y),
+                );
+                for (k, column) in columns.iter_mut().enumerate() {
+                    let nodes = pair(windows[0][at(i, j, k)], windows[1][at(i, j, k)]);
+                    let weighted = _mm256_mul_ps(nodes, _mm256_mul_ps(wxy, z_weights[k]));
+                    *slab = _mm256_add_ps(*slab, weighted);
+                    *row = _mm256_add_ps(*row, weighted);
+                    *column = _mm256_add_ps(*column, weighted);
+                }
+            }
+        }
+        let half = |sums: [__m256; 3], upper: bool| {
+            sums.map(|v| {
+                Vec4::from(if upper {
+                    _mm256_extractf128_ps::<1>(v)
+                } else {
+                    _mm256_castps256_ps128(v)
+                })
+            })
+        };
+        [false, true].map(|upper| StencilSums {
+            slabs: half(slabs, upper),
+            rows: half(rows, upper),
+            columns: half(columns, upper),
+        })
+    }
+
+    /// v_p = Σ w_ip v_i and Σ w_ip v_i (x_i − x_p)ᵀ in cells, for a particle
+    /// `offset` cells from its stencil's first node.
+    #[inline(always)]
+    fn velocity_and_affine(&self, offset: Vec3) -> (Vec3, Mat3) {
+        let slabs = self.slabs;
+        let velocity = slabs[0] + slabs[1] + slabs[2];
+        // Σ w v (n − offset) along one axis, from the sums at n = 0, 1, 2.
+        let moment =
+            |sums: [Vec4; 3], offset: f32| (sums[1] + sums[2] * 2.0 - velocity * offset).truncate();
+        let affine = Mat3::from_cols(
+            moment(self.slabs, offset.x),
+            moment(self.rows, offset.y),
+            moment(self.columns, offset.z),
+        );
+        (velocity.truncate(), affine)
+    }
 }
 
 /// The outer product a bᵀ.

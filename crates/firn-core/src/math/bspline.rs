@@ -337,7 +337,11 @@ mod tests {
         assert_eq!(q.base, IVec3::new(4, 6, -1));
         for x in [-2.0, -1.5, -0.0, 0.0, 3.0, 1e-8, -1e-8] {
             let expected = Vec3::splat(x).floor();
-            assert_eq!(floor(Vec3::splat(x)), (expected, expected.as_ivec3()), "{x}");
+            assert_eq!(
+                floor(Vec3::splat(x)),
+                (expected, expected.as_ivec3()),
+                "{x}"
+            );
         }
     }
 }
