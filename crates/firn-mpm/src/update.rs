@@ -1,7 +1,8 @@
 //! The particle update after the gather (steps 7 to 10), block by block
 //! and 16 particles at a time: the nodes around a block are copied once
 //! into a dense local array, each particle's grid velocity and ∇v_p are
-//! interpolated from it one by one, then the trial F̂_E, SVD, plasticity and
+//! interpolated from it (two particles at once where the transfer has a
+//! paired form), then the trial F̂_E, SVD, plasticity and
 //! stress of the whole batch run in SIMD lanes ([`crate::constitutive::ElasticUpdate`]),
 //! then each particle collides and moves.
 //!
