@@ -323,10 +323,9 @@ pub(crate) trait Interpolation: Sync {
     fn interpolate_pair(
         &self,
         local: &Self::Local,
-        simd: Simd,
+        _simd: Simd,
         particles: [(Vec3, Vec3); 2],
     ) -> [(Vec3, Mat3); 2] {
-        let _ = simd;
         particles.map(|(position, velocity)| self.interpolate(local, position, velocity))
     }
 }
