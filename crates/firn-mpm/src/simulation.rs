@@ -9,7 +9,7 @@ use glam::{Mat3, Vec3};
 
 use crate::binning::Bins;
 use crate::constitutive::{MaterialConstants, max_wave_speed_squared};
-use crate::contact::ColliderSet;
+use crate::contact::{ColliderSet, Colliders};
 use crate::grid::{Grid, GridLayout};
 use crate::implicit::{ImplicitSolver, ImplicitStep, SolverStats};
 use crate::particles::Particles;
@@ -307,15 +307,15 @@ impl Simulation {
         // The semi-implicit solve applies the grid collisions itself, to learn
         // which velocity components they fix.
         let grid_colliders = match self.implicit {
-            Some(_) => &[][..],
-            None => &colliders[..],
+            Some(_) => Colliders::new(&[]),
+            None => Colliders::new(&colliders),
         };
         transfer::update_grid(
             &mut self.grid,
             forces,
             dt,
             self.scene.solver.gravity,
-            grid_colliders,
+            &grid_colliders,
         );
         clock.lap(&mut self.profile.grid_update);
         if let (Integrator::SemiImplicit(settings), Some(solver)) =
@@ -332,10 +332,11 @@ impl Simulation {
         }
         clock.lap(&mut self.profile.implicit_solve);
         let tolerance = Vec3::splat(LEAVE_TOLERANCE_CELLS * layout.cell_size);
+        let particle_colliders = Colliders::new(&colliders);
         let context = UpdateContext {
             dt,
             materials: &self.materials,
-            colliders: &colliders,
+            colliders: &particle_colliders,
             lower: self.scene.domain.min - tolerance,
             upper: self.scene.domain.max + tolerance,
         };

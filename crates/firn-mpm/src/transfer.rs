@@ -20,7 +20,7 @@ use firn_core::math::bspline::{StencilValues, StencilWeights, cubic_weights, qua
 use firn_core::math::lanes::Simd;
 
 use crate::binning::{Bins, OccupiedBlock};
-use crate::contact::{PlacedCollider, collide_all};
+use crate::contact::Colliders;
 use crate::grid::{Grid, GridLayout, Node};
 use crate::local_nodes::{CUBIC_SPAN, LocalNodes, QUADRATIC_SPAN, at};
 use crate::particles::Particles;
@@ -331,7 +331,7 @@ pub fn update_grid(
     forces: GridForces,
     dt: f32,
     gravity: Vec3,
-    colliders: &[PlacedCollider],
+    colliders: &Colliders,
 ) {
     let layout = grid.layout;
     for_each_active_block(grid, |block, nodes| {
@@ -348,11 +348,7 @@ pub fn update_grid(
             };
             let position = layout.node_position(GridLayout::node_in_block(block, local));
             node.velocity_mass = velocity.extend(mass);
-            node.set_velocity_new(collide_all(
-                colliders,
-                position,
-                velocity + acceleration * dt,
-            ));
+            node.set_velocity_new(colliders.collide(position, velocity + acceleration * dt));
         }
     });
 }

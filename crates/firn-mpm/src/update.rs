@@ -20,7 +20,7 @@ use rayon::prelude::*;
 
 use crate::binning::{Bins, OccupiedBlock};
 use crate::constitutive::{ElasticUpdate, MaterialConstants, MaterialLanes};
-use crate::contact::{PlacedCollider, collide_all};
+use crate::contact::Colliders;
 use crate::particles::Particles;
 
 /// Particles per batch: one AVX-512 register of `f32`.
@@ -84,7 +84,7 @@ pub struct UpdateContext<'a> {
     /// Materials by index.
     pub materials: &'a [MaterialConstants],
     /// Colliders at the end of the step.
-    pub colliders: &'a [PlacedCollider],
+    pub colliders: &'a Colliders<'a>,
     /// Lower domain corner, widened by the tolerance for leaving.
     pub lower: Vec3,
     /// Upper domain corner, widened likewise.
@@ -254,6 +254,7 @@ impl<'a> ParticleArrays<'a> {
 /// Step 10 and the bookkeeping for particle `index` (lane `lane` of its
 /// batch): stores the new elastic state, collides at the predicted position,
 /// advects, and reports speed, wave speed and trouble.
+#[inline(always)]
 fn finish_particle(
     index: usize,
     lane: usize,
@@ -271,7 +272,7 @@ fn finish_particle(
 
     let velocity = batch.velocity[lane];
     let predicted = *state.position + velocity * context.dt;
-    let velocity = collide_all(context.colliders, predicted, velocity);
+    let velocity = context.colliders.collide(predicted, velocity);
     *state.velocity = velocity;
     *state.position += velocity * context.dt;
 

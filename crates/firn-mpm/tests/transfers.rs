@@ -7,6 +7,7 @@ use firn_core::scene::Transfer;
 use firn_mpm::Particles;
 use firn_mpm::binning::Bins;
 use firn_mpm::constitutive::MaterialConstants;
+use firn_mpm::contact::Colliders;
 use firn_mpm::grid::{Grid, GridLayout};
 use firn_mpm::simulation::diagnostics;
 use firn_mpm::transfer::{self, GridForces};
@@ -91,7 +92,7 @@ fn round_trip(transfer_scheme: Transfer) {
     } else {
         GridForces::Separate
     };
-    transfer::update_grid(&mut grid, forces, 0.0, Vec3::ZERO, &[]);
+    transfer::update_grid(&mut grid, forces, 0.0, Vec3::ZERO, &Colliders::new(&[]));
     let (grid_mass, grid_momentum, grid_angular) = grid_totals(&grid);
     let momentum = DVec3::from_array(before.momentum);
     let angular = DVec3::from_array(before.angular_momentum);
@@ -117,7 +118,7 @@ fn round_trip(transfer_scheme: Transfer) {
     let context = UpdateContext {
         dt: 0.0,
         materials: &constants,
-        colliders: &[],
+        colliders: &Colliders::new(&[]),
         lower: Vec3::splat(-1.0),
         upper: Vec3::splat(2.0),
     };

@@ -189,6 +189,12 @@ impl<const N: usize> Vec3s<N> {
         Vec3s { x, y, z }
     }
 
+    /// Largest |component| per lane.
+    #[inline(always)]
+    pub fn max_abs(&self) -> F32s<N> {
+        self.x.abs().max(self.y.abs()).max(self.z.abs())
+    }
+
     /// Lane `i` as a glam vector.
     #[inline(always)]
     pub fn lane(&self, i: usize) -> Vec3 {
@@ -377,10 +383,10 @@ impl<const N: usize> Mat3s<N> {
     /// Largest |entry| per lane.
     #[inline(always)]
     pub fn max_abs(&self) -> F32s<N> {
-        let column = |c: Vec3s<N>| c.x.abs().max(c.y.abs()).max(c.z.abs());
-        column(self.x_axis)
-            .max(column(self.y_axis))
-            .max(column(self.z_axis))
+        self.x_axis
+            .max_abs()
+            .max(self.y_axis.max_abs())
+            .max(self.z_axis.max_abs())
     }
 }
 

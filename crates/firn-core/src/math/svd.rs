@@ -140,12 +140,10 @@ pub fn svd3_lanes<const N: usize>(f: &Mat3s<N>) -> Svd3s<N> {
         Vec3s::splat(Vec3::Y),
         Vec3s::splat(Vec3::Z),
     ];
+    // The planes are compile-time constants, so the matrix and V stay in
+    // registers through the sweeps instead of in stack arrays indexed at run time.
     for _ in 0..JACOBI_SWEEPS {
-        for (p, q) in [(0, 1), (1, 2), (2, 0)] {
-            let (c, s) = a.jacobi_step(p, q);
-            let (vp, vq) = rotate(v[p], v[q], c, s);
-            (v[p], v[q]) = (vp, vq);
-        }
+        a.jacobi_sweep(&mut v);
     }
 
     // 3. B = F V, with its columns sorted by decreasing norm.
@@ -244,10 +242,20 @@ struct Symmetric<const N: usize> {
 }
 
 impl<const N: usize> Symmetric<N> {
-    /// One Jacobi step A ← Gᵀ A G in the plane (p, q) that zeroes A_pq; returns
-    /// the rotation `(cos θ, sin θ)` turning axis p towards axis q.
+    /// One cyclic sweep over the planes (x,y), (y,z), (z,x).
     #[inline(always)]
-    fn jacobi_step(&mut self, p: usize, q: usize) -> (F32s<N>, F32s<N>) {
+    fn jacobi_sweep(&mut self, v: &mut [Vec3s<N>; 3]) {
+        self.jacobi_step::<0, 1>(v);
+        self.jacobi_step::<1, 2>(v);
+        self.jacobi_step::<2, 0>(v);
+    }
+
+    /// One Jacobi step A ← Gᵀ A G in the plane (P, Q) that zeroes A_PQ, with
+    /// the same rotation (turning axis P towards axis Q) applied to columns P
+    /// and Q of `v`.
+    #[inline(always)]
+    fn jacobi_step<const P: usize, const Q: usize>(&mut self, v: &mut [Vec3s<N>; 3]) {
+        let (p, q) = (P, Q);
         let k = 3 - p - q;
         let (pp, qq, pq) = (self.d[p], self.d[q], self.off[k]);
         let (pk, qk) = (self.off[q], self.off[p]);
@@ -257,7 +265,7 @@ impl<const N: usize> Symmetric<N> {
         self.off[k] = F32s::splat(0.0);
         self.off[q] = c * pk + s * qk;
         self.off[p] = c * qk - s * pk;
-        (c, s)
+        (v[p], v[q]) = rotate(v[p], v[q], c, s);
     }
 }
 
