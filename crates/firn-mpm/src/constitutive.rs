@@ -3,7 +3,8 @@
 //! values of the elastic deformation gradient (eq. 41-43).
 
 use firn_core::Material;
-use firn_core::math::lanes::{F32s, Mat3s, Vec3s, map2};
+use firn_core::math::exp::exp;
+use firn_core::math::lanes::{F32s, Mat3s, Vec3s};
 use firn_core::math::svd::{Svd3s, svd3_lanes};
 
 /// Per-material constants the hot loops need, precomputed once.
@@ -72,7 +73,7 @@ pub fn max_wave_speed_squared(
 /// e^{ξ(1 − J_P)} (eq. 35): how much compaction has stiffened the snow.
 #[inline(always)]
 fn hardening_factor(hardening: f32, plastic_j: f32) -> f32 {
-    (hardening * (1.0 - plastic_j)).exp()
+    exp(hardening * (1.0 - plastic_j))
 }
 
 /// [`MaterialConstants`] of `N` particles, lane by lane.
@@ -115,7 +116,7 @@ impl<const N: usize> MaterialLanes<N> {
     /// Hardening factor e^{ξ(1 − J_P)} (eq. 35), lane by lane.
     #[inline(always)]
     pub fn hardening_factor(&self, plastic_j: F32s<N>) -> F32s<N> {
-        F32s(map2(self.hardening.0, plastic_j.0, hardening_factor))
+        (self.hardening * (F32s::splat(1.0) - plastic_j)).exp()
     }
 }
 

@@ -138,6 +138,13 @@ impl<const N: usize> F32s<N> {
         self.map(f32::sqrt)
     }
 
+    /// Per-lane eˣ by [`crate::math::exp::exp`]: vector instructions, not a
+    /// library call per lane.
+    #[inline(always)]
+    pub fn exp(self) -> F32s<N> {
+        self.map(crate::math::exp::exp)
+    }
+
     /// Per-lane absolute value.
     #[inline(always)]
     pub fn abs(self) -> F32s<N> {

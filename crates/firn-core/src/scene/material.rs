@@ -37,7 +37,7 @@ impl Material {
 
     /// Hardening factor e^{ξ(1 − J_P)} that scales μ and λ (thesis eq. 35).
     pub fn hardening_factor(&self, plastic_j: f32) -> f32 {
-        (self.hardening * (1.0 - plastic_j)).exp()
+        crate::math::exp::exp(self.hardening * (1.0 - plastic_j))
     }
 
     /// Speed of elastic (P-) waves sqrt((λ + 2μ)/ρ) for a hardening factor,
