@@ -103,8 +103,8 @@ struct Interpolated {
 }
 
 impl Interpolated {
-    /// A batch of undeformed particles of material `padding`, which the lanes
-    /// past the end of the particle array keep.
+    /// A batch of undeformed particles of material `padding`: what a block's
+    /// first batch starts from, so that unused lanes hold finite values.
     fn padded(padding: &MaterialConstants) -> Interpolated {
         Interpolated {
             velocity: [Vec3::ZERO; BATCH],
@@ -387,9 +387,13 @@ struct Block<'a, I: Interpolation> {
 #[inline(always)]
 unsafe fn update_block<I: Interpolation>(block: &Block<I>, simd: Simd) -> GatherStats {
     let mut stats = GatherStats::default();
+    // Filled once per block: each batch overwrites the lanes it uses, and the
+    // lanes past the end of a short last batch keep finite values that
+    // nothing reads back.
+    let mut interpolated = Interpolated::padded(&block.context.materials[0]);
     for batch in block.particles.chunks(BATCH) {
         // SAFETY: by the caller's contract.
-        stats = stats.merge(unsafe { update_batch(block, batch, simd) });
+        stats = stats.merge(unsafe { update_batch(block, batch, &mut interpolated, simd) });
     }
     stats
 }
@@ -426,10 +430,10 @@ unsafe fn update_block_avx2<I: Interpolation>(block: &Block<I>) -> GatherStats {
 unsafe fn update_batch<I: Interpolation>(
     block: &Block<I>,
     batch: &[u32],
+    interpolated: &mut Interpolated,
     simd: Simd,
 ) -> GatherStats {
     let (arrays, context) = (block.arrays, block.context);
-    let mut interpolated = Interpolated::padded(&context.materials[0]);
     let motion = |p: u32| {
         // SAFETY: exclusive by the caller's contract; the borrow ends here.
         let state = unsafe { arrays.state(p as usize) };
@@ -466,7 +470,7 @@ unsafe fn update_batch<I: Interpolation>(
             .materials
             .set_lane(lane, &context.materials[arrays.material[p] as usize]);
     }
-    let update = elastic_update(simd, &interpolated, context.dt);
+    let update = elastic_update(simd, interpolated, context.dt);
     let mut stats = GatherStats::default();
     for (lane, &p) in batch.iter().enumerate() {
         let p = p as usize;
@@ -477,7 +481,7 @@ unsafe fn update_batch<I: Interpolation>(
             p,
             lane,
             state,
-            &interpolated,
+            interpolated,
             &update,
             constants,
             context,
