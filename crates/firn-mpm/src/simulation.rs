@@ -306,16 +306,18 @@ impl Simulation {
         };
         // The semi-implicit solve applies the grid collisions itself, to learn
         // which velocity components they fix.
+        let particle_colliders = Colliders::new(&colliders);
+        let no_colliders = Colliders::new(&[]);
         let grid_colliders = match self.implicit {
-            Some(_) => Colliders::new(&[]),
-            None => Colliders::new(&colliders),
+            Some(_) => &no_colliders,
+            None => &particle_colliders,
         };
         transfer::update_grid(
             &mut self.grid,
             forces,
             dt,
             self.scene.solver.gravity,
-            &grid_colliders,
+            grid_colliders,
         );
         clock.lap(&mut self.profile.grid_update);
         if let (Integrator::SemiImplicit(settings), Some(solver)) =
@@ -332,7 +334,6 @@ impl Simulation {
         }
         clock.lap(&mut self.profile.implicit_solve);
         let tolerance = Vec3::splat(LEAVE_TOLERANCE_CELLS * layout.cell_size);
-        let particle_colliders = Colliders::new(&colliders);
         let context = UpdateContext {
             dt,
             materials: &self.materials,

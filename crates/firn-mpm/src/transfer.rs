@@ -394,18 +394,16 @@ struct PicFlipInterpolation<'a> {
 }
 
 impl Interpolation for PicFlipInterpolation<'_> {
-    type Local = LocalNodes<Node>;
+    type LocalNode = Node;
 
     #[inline(always)]
-    fn new_local(&self) -> LocalNodes<Node> {
-        LocalNodes::for_gather()
+    fn grid(&self) -> &Grid {
+        self.grid
     }
 
     #[inline(always)]
-    fn fill_local(&self, local: &mut LocalNodes<Node>, block: IVec3) {
-        local.copy_from(&self.grid.page_table(), &self.grid.nodes, block, |node| {
-            *node
-        });
+    fn local_node(node: &Node) -> Node {
+        *node
     }
 
     #[inline(always)]
@@ -445,22 +443,16 @@ struct ApicInterpolation<'a> {
 }
 
 impl Interpolation for ApicInterpolation<'_> {
-    type Local = LocalNodes<Vec4>;
+    type LocalNode = Vec4;
 
     #[inline(always)]
-    fn new_local(&self) -> LocalNodes<Vec4> {
-        LocalNodes::for_gather()
+    fn grid(&self) -> &Grid {
+        self.grid
     }
 
     #[inline(always)]
-    fn fill_local(&self, local: &mut LocalNodes<Vec4>, block: IVec3) {
-        let velocity_new = |node: &Node| node.velocity_new;
-        local.copy_from(
-            &self.grid.page_table(),
-            &self.grid.nodes,
-            block,
-            velocity_new,
-        );
+    fn local_node(node: &Node) -> Vec4 {
+        node.velocity_new
     }
 
     #[inline(always)]

@@ -15,12 +15,14 @@
 use std::marker::PhantomData;
 
 use firn_core::math::lanes::{F32s, Mat3s, Simd};
-use glam::{IVec3, Mat3, Vec3};
+use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 
 use crate::binning::{Bins, OccupiedBlock};
 use crate::constitutive::{ElasticUpdate, MaterialConstants, MaterialLanes};
 use crate::contact::Colliders;
+use crate::grid::{Grid, Node};
+use crate::local_nodes::LocalNodes;
 use crate::particles::Particles;
 
 /// Particles per batch: one AVX-512 register of `f32`.
@@ -304,18 +306,23 @@ fn finish_particle(
 /// Its methods are `#[inline(always)]` in every implementation, so that
 /// the whole particle update compiles into one function per instruction set.
 pub(crate) trait Interpolation: Sync {
-    /// The copy of the nodes around one block.
-    type Local: Send;
+    /// What the copy keeps of each node.
+    type LocalNode: Copy + Default + Send;
 
-    /// An empty copy, reused from block to block by one task.
-    fn new_local(&self) -> Self::Local;
+    /// The grid read.
+    fn grid(&self) -> &Grid;
 
-    /// Fills `local` with the nodes around `block`.
-    fn fill_local(&self, local: &mut Self::Local, block: IVec3);
+    /// The part of `node` the copy keeps.
+    fn local_node(node: &Node) -> Self::LocalNode;
 
     /// The new velocity and ∇v_p of a particle at `position` with the old
     /// `velocity`.
-    fn interpolate(&self, local: &Self::Local, position: Vec3, velocity: Vec3) -> (Vec3, Mat3);
+    fn interpolate(
+        &self,
+        local: &LocalNodes<Self::LocalNode>,
+        position: Vec3,
+        velocity: Vec3,
+    ) -> (Vec3, Mat3);
 
     /// [`Interpolation::interpolate`] for two particles (position, old
     /// velocity) at once, on the gather's instruction set `simd`; the same
@@ -323,7 +330,7 @@ pub(crate) trait Interpolation: Sync {
     #[inline(always)]
     fn interpolate_pair(
         &self,
-        local: &Self::Local,
+        local: &LocalNodes<Self::LocalNode>,
         _simd: Simd,
         particles: [(Vec3, Vec3); 2],
     ) -> [(Vec3, Mat3); 2] {
@@ -344,8 +351,10 @@ pub(crate) fn gather_with<I: Interpolation>(
 ) -> GatherStats {
     let simd = checked_simd(simd);
     let arrays = ParticleArrays::new(particles);
-    let gather_block = |local: &mut I::Local, block: &OccupiedBlock| {
-        interpolation.fill_local(local, block.coord);
+    let grid = interpolation.grid();
+    let table = grid.page_table();
+    let gather_block = |local: &mut LocalNodes<I::LocalNode>, block: &OccupiedBlock| {
+        local.copy_from(&table, &grid.nodes, block.coord, I::local_node);
         let block = Block {
             arrays: &arrays,
             particles: bins.particles_of(block),
@@ -367,7 +376,7 @@ pub(crate) fn gather_with<I: Interpolation>(
     };
     bins.occupied
         .par_iter()
-        .map_init(|| interpolation.new_local(), gather_block)
+        .map_init(LocalNodes::for_gather, gather_block)
         .reduce(GatherStats::default, GatherStats::merge)
 }
 
@@ -377,7 +386,7 @@ struct Block<'a, I: Interpolation> {
     particles: &'a [u32],
     context: &'a UpdateContext<'a>,
     interpolation: &'a I,
-    local: &'a I::Local,
+    local: &'a LocalNodes<I::LocalNode>,
 }
 
 /// Steps 7-10 for the particles of one block, batch by batch.

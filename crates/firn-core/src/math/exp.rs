@@ -11,11 +11,12 @@
 //!
 //! Cody-Waite range reduction: eˣ = 2ⁿ eʳ with n = round(x / ln 2) and
 //! r = x − n ln 2, |r| ≤ ln 2 / 2, where ln 2 is split into a short head
-//! (so n · head is exact) and a tail. eʳ is its Taylor polynomial of degree 7
-//! (truncation error r⁸/8! < 6e-9 relative), evaluated by Horner's rule; 2ⁿ is
-//! built from exponent bits, as two factors so that n = 128 still fits. The result is within 2 ulp of the exact
-//! value: over the whole finite range the worst relative error measured is
-//! 9.7e-8, and the tests hold it below 1.5e-7.
+//! (so n · head is exact) and a tail. eʳ is its Taylor polynomial of degree 8
+//! (truncation error r⁹/9! < 2e-10 relative), evaluated by Horner's rule; 2ⁿ
+//! is built from exponent bits, as two factors so that n = 128 still fits.
+//! The result is within 2 ulp of the exact value: over the whole finite range
+//! the worst relative error measured is 9.7e-8, and the tests hold it below
+//! 1.5e-7.
 //!
 //! Arguments above ln(f32::MAX) give +∞ and those below ln of the smallest
 //! normal number give 0 (the subnormal results are flushed); NaN stays NaN.
@@ -33,6 +34,18 @@ const LN2_TAIL: f32 = -2.121_944_4e-4;
 /// 1.5 · 2²³: adding it rounds a float of magnitude below 2²² to an integer,
 /// which then sits in the low mantissa bits.
 const ROUNDER: f32 = 12_582_912.0;
+/// The Taylor coefficients 1/k! of eʳ, from k = 8 down to k = 0.
+const SERIES: [f32; 9] = [
+    1.0 / 40320.0,
+    1.0 / 5040.0,
+    1.0 / 720.0,
+    1.0 / 120.0,
+    1.0 / 24.0,
+    1.0 / 6.0,
+    0.5,
+    1.0,
+    1.0,
+];
 
 /// eˣ, within 2 ulp, with the same bits on every machine (see the module
 /// documentation).
@@ -48,18 +61,9 @@ pub fn exp(x: f32) -> f32 {
     let n = shifted - ROUNDER;
     let power = shifted.to_bits().wrapping_sub(ROUNDER.to_bits());
     let r = (clamped - n * LN2_HEAD) - n * LN2_TAIL;
-    let series = [
-        1.0 / 5040.0,
-        1.0 / 720.0,
-        1.0 / 120.0,
-        1.0 / 24.0,
-        1.0 / 6.0,
-        0.5,
-        1.0,
-        1.0,
-    ]
-    .iter()
-    .fold(1.0 / 40320.0, |sum, &c| sum * r + c);
+    let series = SERIES[1..]
+        .iter()
+        .fold(SERIES[0], |sum, &coefficient| sum * r + coefficient);
     // 2ⁿ as two factors, since n reaches 128 near the top of the range.
     let half = (power as i32) >> 1;
     let rest = power as i32 - half;

@@ -58,9 +58,9 @@
 //! (tiny ones are not accurate relative to themselves, as with any method that
 //! works on `FᵀF`). One matrix alone takes about 0.3 µs on an x86-64 server core,
 //! bound by the latency of the square roots and divisions through the twelve
-//! dependent Jacobi steps; a batch of sixteen in SIMD lanes shares that latency, and
-//! the snow model's whole batched update (SVD, clamp, stress) costs about 40 ns per
-//! particle on one core (`perf` of `firn bench`, see docs/benchmarks.md).
+//! dependent Jacobi steps; a batch of sixteen in SIMD lanes shares that latency:
+//! `cargo run --release -p firn-core --example svd_throughput` measures 56 to 59 ns
+//! per matrix on one core of the 2-core Xeon of docs/benchmarks.md (AVX2).
 
 use glam::{Mat3, Vec3};
 
@@ -140,10 +140,12 @@ pub fn svd3_lanes<const N: usize>(f: &Mat3s<N>) -> Svd3s<N> {
         Vec3s::splat(Vec3::Y),
         Vec3s::splat(Vec3::Z),
     ];
-    // The planes are compile-time constants, so the matrix and V stay in
-    // registers through the sweeps instead of in stack arrays indexed at run time.
     for _ in 0..JACOBI_SWEEPS {
-        a.jacobi_sweep(&mut v);
+        for (p, q) in [(0, 1), (1, 2), (2, 0)] {
+            let (c, s) = a.jacobi_step(p, q);
+            let (vp, vq) = rotate(v[p], v[q], c, s);
+            (v[p], v[q]) = (vp, vq);
+        }
     }
 
     // 3. B = F V, with its columns sorted by decreasing norm.
@@ -242,20 +244,10 @@ struct Symmetric<const N: usize> {
 }
 
 impl<const N: usize> Symmetric<N> {
-    /// One cyclic sweep over the planes (x,y), (y,z), (z,x).
+    /// One Jacobi step A ← Gᵀ A G in the plane (p, q) that zeroes A_pq; returns
+    /// the rotation `(cos θ, sin θ)` turning axis p towards axis q.
     #[inline(always)]
-    fn jacobi_sweep(&mut self, v: &mut [Vec3s<N>; 3]) {
-        self.jacobi_step::<0, 1>(v);
-        self.jacobi_step::<1, 2>(v);
-        self.jacobi_step::<2, 0>(v);
-    }
-
-    /// One Jacobi step A ← Gᵀ A G in the plane (P, Q) that zeroes A_PQ, with
-    /// the same rotation (turning axis P towards axis Q) applied to columns P
-    /// and Q of `v`.
-    #[inline(always)]
-    fn jacobi_step<const P: usize, const Q: usize>(&mut self, v: &mut [Vec3s<N>; 3]) {
-        let (p, q) = (P, Q);
+    fn jacobi_step(&mut self, p: usize, q: usize) -> (F32s<N>, F32s<N>) {
         let k = 3 - p - q;
         let (pp, qq, pq) = (self.d[p], self.d[q], self.off[k]);
         let (pk, qk) = (self.off[q], self.off[p]);
@@ -265,7 +257,7 @@ impl<const N: usize> Symmetric<N> {
         self.off[k] = F32s::splat(0.0);
         self.off[q] = c * pk + s * qk;
         self.off[p] = c * qk - s * pk;
-        (v[p], v[q]) = rotate(v[p], v[q], c, s);
+        (c, s)
     }
 }
 
