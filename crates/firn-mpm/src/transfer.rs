@@ -469,8 +469,11 @@ impl Interpolation for ApicInterpolation<'_> {
         simd: Simd,
         particles: [(Vec3, Vec3); 2],
     ) -> [(Vec3, Mat3); 2] {
-        let weights =
-            particles.map(|(position, _)| quadratic_values(self.grid.layout.to_grid(position)));
+        // Arrays spelled out, not `map`ped: `array::map` can be compiled as
+        // a function of its own, outside the caller's instruction set.
+        let weights_at =
+            |(position, _): (Vec3, Vec3)| quadratic_values(self.grid.layout.to_grid(position));
+        let weights = [weights_at(particles[0]), weights_at(particles[1])];
         let sums = match simd {
             #[cfg(target_arch = "x86_64")]
             // SAFETY: AVX-512F CPUs have AVX2 too, and the gather only runs
@@ -478,9 +481,13 @@ impl Interpolation for ApicInterpolation<'_> {
             Simd::Avx2 | Simd::Avx512 => unsafe {
                 StencilSums::of_pair(local, [&weights[0], &weights[1]])
             },
-            _ => [0, 1].map(|n| StencilSums::of(local, &weights[n])),
+            _ => [
+                StencilSums::of(local, &weights[0]),
+                StencilSums::of(local, &weights[1]),
+            ],
         };
-        [0, 1].map(|n| self.scaled(sums[n].velocity_and_affine(weights[n].offset)))
+        let result = |n: usize| self.scaled(sums[n].velocity_and_affine(weights[n].offset));
+        [result(0), result(1)]
     }
 }
 
@@ -538,9 +545,14 @@ impl StencilSums {
         use std::arch::x86_64::*;
         let [a, b] = weights;
         let pair = |x: Vec4, y: Vec4| _mm256_set_m128(y.into(), x.into());
-        let windows = [a, b].map(|w| local.window::<3, QUADRATIC_SPAN>(w.base));
-        let z_weights =
-            [0, 1, 2].map(|k| pair(Vec4::splat(a.values[k].z), Vec4::splat(b.values[k].z)));
+        // No `array::map` here: it can be compiled as a function of its own,
+        // without AVX2.
+        let windows = [
+            local.window::<3, QUADRATIC_SPAN>(a.base),
+            local.window::<3, QUADRATIC_SPAN>(b.base),
+        ];
+        let z_weight = |k: usize| pair(Vec4::splat(a.values[k].z), Vec4::splat(b.values[k].z));
+        let z_weights = [z_weight(0), z_weight(1), z_weight(2)];
         let mut slabs = [_mm256_setzero_ps(); 3];
         let mut rows = [_mm256_setzero_ps(); 3];
         let mut columns = [_mm256_setzero_ps(); 3];
@@ -559,20 +571,20 @@ impl StencilSums {
                 }
             }
         }
-        let half = |sums: [__m256; 3], upper: bool| {
-            sums.map(|v| {
-                Vec4::from(if upper {
-                    _mm256_extractf128_ps::<1>(v)
-                } else {
-                    _mm256_castps256_ps128(v)
-                })
-            })
-        };
-        [false, true].map(|upper| StencilSums {
-            slabs: half(slabs, upper),
-            rows: half(rows, upper),
-            columns: half(columns, upper),
-        })
+        let lower = |v: __m256| Vec4::from(_mm256_castps256_ps128(v));
+        let upper = |v: __m256| Vec4::from(_mm256_extractf128_ps::<1>(v));
+        [
+            StencilSums {
+                slabs: [lower(slabs[0]), lower(slabs[1]), lower(slabs[2])],
+                rows: [lower(rows[0]), lower(rows[1]), lower(rows[2])],
+                columns: [lower(columns[0]), lower(columns[1]), lower(columns[2])],
+            },
+            StencilSums {
+                slabs: [upper(slabs[0]), upper(slabs[1]), upper(slabs[2])],
+                rows: [upper(rows[0]), upper(rows[1]), upper(rows[2])],
+                columns: [upper(columns[0]), upper(columns[1]), upper(columns[2])],
+            },
+        ]
     }
 
     /// v_p = Σ w_ip v_i and Σ w_ip v_i (x_i − x_p)ᵀ in cells, for a particle

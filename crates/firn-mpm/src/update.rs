@@ -270,7 +270,6 @@ fn finish_particle(
     *state.elastic = elastic;
     *state.plastic_j = update.plastic_j.lane(lane);
     *state.stress = update.stress.lane(lane);
-    *state.velocity_gradient = batch.velocity_gradient.lane(lane);
 
     let velocity = batch.velocity[lane];
     let predicted = *state.position + velocity * context.dt;
@@ -399,10 +398,14 @@ unsafe fn update_block<I: Interpolation>(block: &Block<I>, simd: Simd) -> Gather
     // Filled once per block: each batch overwrites the lanes it uses, and the
     // lanes past the end of a short last batch keep finite values that
     // nothing reads back.
-    let mut interpolated = Interpolated::padded(&block.context.materials[0]);
+    let material = block.uniform_material();
+    let padding = material.unwrap_or(&block.context.materials[0]);
+    let mut interpolated = Interpolated::padded(padding);
+    let per_lane = material.is_none();
     for batch in block.particles.chunks(BATCH) {
         // SAFETY: by the caller's contract.
-        stats = stats.merge(unsafe { update_batch(block, batch, &mut interpolated, simd) });
+        stats =
+            stats.merge(unsafe { update_batch(block, batch, &mut interpolated, per_lane, simd) });
     }
     stats
 }
@@ -431,7 +434,23 @@ unsafe fn update_block_avx2<I: Interpolation>(block: &Block<I>) -> GatherStats {
     unsafe { update_block(block, Simd::Avx2) }
 }
 
-/// Steps 7-10 for one batch of particle indices.
+impl<I: Interpolation> Block<'_, I> {
+    /// The material of every particle of the block, if they share one (the
+    /// common case: a batch then needs no material lanes filled).
+    #[inline(always)]
+    fn uniform_material(&self) -> Option<&MaterialConstants> {
+        let material = self.arrays.material;
+        let first = material[*self.particles.first()? as usize];
+        self.particles
+            .iter()
+            .all(|&p| material[p as usize] == first)
+            .then(|| &self.context.materials[usize::from(first)])
+    }
+}
+
+/// Steps 7-10 for one batch of particle indices. The batch's material lanes
+/// are filled particle by particle if `per_lane`, else they already hold
+/// the block's one material.
 ///
 /// # Safety
 /// No other task may touch these particles meanwhile.
@@ -440,6 +459,7 @@ unsafe fn update_batch<I: Interpolation>(
     block: &Block<I>,
     batch: &[u32],
     interpolated: &mut Interpolated,
+    per_lane: bool,
     simd: Simd,
 ) -> GatherStats {
     let (arrays, context) = (block.arrays, block.context);
@@ -463,9 +483,12 @@ unsafe fn update_batch<I: Interpolation>(
                 [alone, alone]
             }
         };
-        for (lane, (new_velocity, gradient)) in (2 * pair..).zip(&results[..particles.len()]) {
+        for ((lane, &p), (new_velocity, gradient)) in (2 * pair..).zip(particles).zip(&results) {
             interpolated.velocity[lane] = *new_velocity;
             interpolated.velocity_gradient.set_lane(lane, *gradient);
+            // Stored now, while at hand: nothing reads the old one again.
+            // SAFETY: as above.
+            *unsafe { arrays.state(p as usize) }.velocity_gradient = *gradient;
         }
     }
     for (lane, &p) in batch.iter().enumerate() {
@@ -475,9 +498,11 @@ unsafe fn update_batch<I: Interpolation>(
         interpolated.elastic.set_lane(lane, *state.elastic);
         interpolated.plastic_j.0[lane] = *state.plastic_j;
         interpolated.volume0.0[lane] = arrays.volume0[p];
-        interpolated
-            .materials
-            .set_lane(lane, &context.materials[arrays.material[p] as usize]);
+        if per_lane {
+            interpolated
+                .materials
+                .set_lane(lane, &context.materials[arrays.material[p] as usize]);
+        }
     }
     let update = elastic_update(simd, interpolated, context.dt);
     let mut stats = GatherStats::default();

@@ -59,8 +59,9 @@
 //! works on `FᵀF`). One matrix alone takes about 0.3 µs on an x86-64 server core,
 //! bound by the latency of the square roots and divisions through the twelve
 //! dependent Jacobi steps; a batch of sixteen in SIMD lanes shares that latency:
-//! `cargo run --release -p firn-core --example svd_throughput` measures 56 to 59 ns
-//! per matrix on one core of the 2-core Xeon of docs/benchmarks.md (AVX2).
+//! `cargo run --release -p firn-core --example svd_throughput` measures about 36 ns
+//! per matrix with AVX2 (two 8-lane chains) and 58 to 60 ns with portable SSE2
+//! code, on one core of the 2-core Xeon of docs/benchmarks.md.
 
 use glam::{Mat3, Vec3};
 
