@@ -395,9 +395,10 @@ struct Block<'a, I: Interpolation> {
 #[inline(always)]
 unsafe fn update_block<I: Interpolation>(block: &Block<I>, simd: Simd) -> GatherStats {
     let mut stats = GatherStats::default();
-    // Filled once per block: each batch overwrites the lanes it uses, and the
-    // lanes past the end of a short last batch keep finite values that
-    // nothing reads back.
+    // Filled once per block: each batch overwrites the lanes it uses (the
+    // material lanes only where the block mixes materials; otherwise they
+    // hold its one material from here on), and the lanes past the end of a
+    // short last batch keep finite values that nothing reads back.
     let material = block.uniform_material();
     let padding = material.unwrap_or(&block.context.materials[0]);
     let mut interpolated = Interpolated::padded(padding);
