@@ -1,10 +1,18 @@
 //! The snow model of Stomakhin et al. 2013: fixed-corotated elasticity with
 //! hardening (thesis eq. 34-36) and plasticity by clamping the singular
 //! values of the elastic deformation gradient (eq. 41-43).
+//!
+//! Only particles whose trial F̂_E leaves the yield surface need its
+//! singular values. The others (snow in flight, or resting below its
+//! critical strains) keep F̂_E unchanged, and the fixed-corotated stress only
+//! needs its rotation R_E, which a few Newton steps give far faster than an
+//! SVD ([`firn_core::math::polar`]). Which way a particle goes depends on its
+//! own F̂_E alone, never on the others in its SIMD batch.
 
 use firn_core::Material;
 use firn_core::math::exp::exp;
-use firn_core::math::lanes::{F32s, Mat3s, Vec3s};
+use firn_core::math::lanes::{F32s, Mat3s, U32s, Vec3s};
+use firn_core::math::polar::{NEWTON_MAX_STRETCH, NEWTON_MIN_STRETCH, newton_rotation_lanes};
 use firn_core::math::svd::{Svd3s, svd3_lanes};
 
 /// Per-material constants the hot loops need, precomputed once.
@@ -118,6 +126,68 @@ impl<const N: usize> MaterialLanes<N> {
     pub fn hardening_factor(&self, plastic_j: F32s<N>) -> F32s<N> {
         (self.hardening * (F32s::splat(1.0) - plastic_j)).exp()
     }
+
+    /// Lanes whose trial F̂_E the plastic clamp leaves alone: det F̂_E > 0 and
+    /// every singular value strictly inside (1 − θc, 1 + θs) (eq. 41-42), and
+    /// inside the band where [`newton_rotation_lanes`] is exact.
+    ///
+    /// The squared singular values are the eigenvalues of C = F̂_Eᵀ F̂_E, so
+    /// this asks whether C − lo² I is positive and C − hi² I negative
+    /// definite, by the signs of their leading principal minors (Sylvester's
+    /// criterion): no square root, no SVD. A singular value within rounding
+    /// (about 1e-6) of a bound may be classed either way; both ways give the
+    /// same state to that precision.
+    #[inline(always)]
+    pub fn within_yield_surface(&self, trial: &Mat3s<N>) -> U32s<N> {
+        let lower = self.min_stretch.max(F32s::splat(NEWTON_MIN_STRETCH));
+        let upper = self.max_stretch.min(F32s::splat(NEWTON_MAX_STRETCH));
+        let gram = Gram::of(trial);
+        let zero = F32s::splat(0.0);
+        let [low1, low2, low3] = gram.leading_minors(lower * lower);
+        let [high1, high2, high3] = gram.leading_minors(upper * upper);
+        zero.lt(trial.determinant())
+            .and(zero.lt(low1))
+            .and(zero.lt(low2))
+            .and(zero.lt(low3))
+            .and(high1.lt(zero))
+            .and(zero.lt(high2))
+            .and(high3.lt(zero))
+    }
+}
+
+/// C = Fᵀ F of `N` matrices: the symmetric Gram matrix of F's columns.
+struct Gram<const N: usize> {
+    xx: F32s<N>,
+    yy: F32s<N>,
+    zz: F32s<N>,
+    xy: F32s<N>,
+    yz: F32s<N>,
+    zx: F32s<N>,
+}
+
+impl<const N: usize> Gram<N> {
+    #[inline(always)]
+    fn of(f: &Mat3s<N>) -> Gram<N> {
+        let (a, b, c) = (f.x_axis, f.y_axis, f.z_axis);
+        Gram {
+            xx: a.dot(a),
+            yy: b.dot(b),
+            zz: c.dot(c),
+            xy: a.dot(b),
+            yz: b.dot(c),
+            zx: c.dot(a),
+        }
+    }
+
+    /// The leading principal minors of C − s I (1x1, 2x2, 3x3).
+    #[inline(always)]
+    fn leading_minors(&self, s: F32s<N>) -> [F32s<N>; 3] {
+        let (xx, yy, zz) = (self.xx - s, self.yy - s, self.zz - s);
+        let (xy, yz, zx) = (self.xy, self.yz, self.zx);
+        let minor2 = xx * yy - xy * xy;
+        let det = xx * (yy * zz - yz * yz) - xy * (xy * zz - yz * zx) + zx * (xy * yz - yy * zx);
+        [xx, minor2, det]
+    }
 }
 
 /// Result of the plasticity step for `N` particles.
@@ -211,7 +281,10 @@ pub struct ElasticUpdate<const N: usize> {
 
 impl<const N: usize> ElasticUpdate<N> {
     /// Projects the trial F̂_E, moves the clamped part into J_P and computes
-    /// V_p^0 τ_p with the hardened Lamé parameters.
+    /// V_p^0 τ_p with the hardened Lamé parameters. Lanes inside the yield
+    /// surface ([`MaterialLanes::within_yield_surface`]) keep F̂_E and J_P
+    /// exactly and take R_E from Newton's iteration; the SVD runs only when
+    /// some lane needs the clamp.
     #[inline(always)]
     pub fn new(
         trial_elastic: &Mat3s<N>,
@@ -219,22 +292,79 @@ impl<const N: usize> ElasticUpdate<N> {
         volume0: F32s<N>,
         materials: &MaterialLanes<N>,
     ) -> ElasticUpdate<N> {
-        let projection = PlasticProjection::new(trial_elastic, materials);
-        let elastic = projection.elastic();
-        let plastic_j = plastic_j * projection.plastic_j_ratio();
-        let factor = materials.hardening_factor(plastic_j);
+        let inside = materials.within_yield_surface(trial_elastic);
+        let state = if inside.all() {
+            ElasticState::unclamped(trial_elastic, plastic_j)
+        } else {
+            let clamped = ElasticState::projected(trial_elastic, plastic_j, materials);
+            if inside.any() {
+                let unclamped = ElasticState::unclamped(trial_elastic, plastic_j);
+                ElasticState::select(inside, &unclamped, &clamped)
+            } else {
+                clamped
+            }
+        };
+        let factor = materials.hardening_factor(state.plastic_j);
         let tau = kirchhoff_stress(
-            &elastic,
-            &projection.rotation(),
-            projection.elastic_j(),
+            &state.elastic,
+            &state.rotation,
+            state.elastic_j,
             materials.mu0 * factor,
             materials.lambda0 * factor,
         );
         ElasticUpdate {
-            elastic,
-            plastic_j,
+            elastic: state.elastic,
+            plastic_j: state.plastic_j,
             stress: tau.scale(volume0),
             hardening_factor: factor,
+        }
+    }
+}
+
+/// F_E after plasticity, with what the stress needs of it.
+struct ElasticState<const N: usize> {
+    elastic: Mat3s<N>,
+    rotation: Mat3s<N>,
+    elastic_j: F32s<N>,
+    plastic_j: F32s<N>,
+}
+
+impl<const N: usize> ElasticState<N> {
+    /// A trial F̂_E inside the yield surface: the clamp changes nothing.
+    #[inline(always)]
+    fn unclamped(trial_elastic: &Mat3s<N>, plastic_j: F32s<N>) -> ElasticState<N> {
+        ElasticState {
+            elastic: *trial_elastic,
+            rotation: newton_rotation_lanes(trial_elastic),
+            elastic_j: trial_elastic.determinant(),
+            plastic_j,
+        }
+    }
+
+    /// F̂_E clamped through its SVD, the clamped part moved into J_P (eq. 43).
+    #[inline(always)]
+    fn projected(
+        trial_elastic: &Mat3s<N>,
+        plastic_j: F32s<N>,
+        materials: &MaterialLanes<N>,
+    ) -> ElasticState<N> {
+        let projection = PlasticProjection::new(trial_elastic, materials);
+        ElasticState {
+            elastic: projection.elastic(),
+            rotation: projection.rotation(),
+            elastic_j: projection.elastic_j(),
+            plastic_j: plastic_j * projection.plastic_j_ratio(),
+        }
+    }
+
+    /// Per lane: `yes` where `mask` holds, else `no`.
+    #[inline(always)]
+    fn select(mask: U32s<N>, yes: &ElasticState<N>, no: &ElasticState<N>) -> ElasticState<N> {
+        ElasticState {
+            elastic: Mat3s::select(mask, &yes.elastic, &no.elastic),
+            rotation: Mat3s::select(mask, &yes.rotation, &no.rotation),
+            elastic_j: F32s::select(mask, yes.elastic_j, no.elastic_j),
+            plastic_j: F32s::select(mask, yes.plastic_j, no.plastic_j),
         }
     }
 }
@@ -290,6 +420,121 @@ mod tests {
             let expected_j = plastic_new.determinant() / plastic_old.determinant();
             let ratio = projection.plastic_j_ratio().lane(0);
             prop_assert!((ratio - expected_j).abs() < 1e-4 * expected_j.abs().max(1.0));
+        }
+    }
+
+    /// U diag(σ) Vᵀ with rotations about the axes `left` and `right`.
+    fn stretched(left: [f32; 3], right: [f32; 3], sigma: Vec3) -> Mat3 {
+        let rotation = |axis: [f32; 3]| {
+            let axis = Vec3::from(axis);
+            Mat3::from_quat(glam::Quat::from_scaled_axis(axis))
+        };
+        rotation(left) * Mat3::from_diagonal(sigma) * rotation(right).transpose()
+    }
+
+    proptest! {
+        /// The Sylvester test agrees with the singular values: inside means
+        /// every σ in (1 − θc, 1 + θs) and det > 0. Singular values are kept
+        /// 1e-4 from the bounds, where rounding cannot decide.
+        #[test]
+        fn within_yield_surface_agrees_with_the_singular_values(
+            left in proptest::array::uniform3(-2.0f32..2.0),
+            right in proptest::array::uniform3(-2.0f32..2.0),
+            sigma in proptest::array::uniform3(0.95f32..1.02),
+            flip in proptest::bool::ANY,
+        ) {
+            let constants = thesis_constants();
+            let away = |s: f32| (s - constants.min_stretch).abs() > 1e-4
+                && (s - constants.max_stretch).abs() > 1e-4;
+            prop_assume!(sigma.iter().all(|&s| away(s)));
+            let sign = if flip { -1.0 } else { 1.0 };
+            let trial = stretched(left, right, Vec3::new(sigma[0], sigma[1], sign * sigma[2]));
+            let inside = sigma.iter().all(|&s| s > constants.min_stretch && s < constants.max_stretch) && !flip;
+            let mask = MaterialLanes::splat(&constants).within_yield_surface(&one(trial));
+            prop_assert_eq!(mask.all(), inside, "σ = {:?}, inverted: {}", sigma, flip);
+        }
+
+        /// Inside the yield surface F_E and J_P keep their bits, and the
+        /// stress from Newton's rotation matches the one through the SVD.
+        #[test]
+        fn unclamped_update_keeps_the_trial_and_matches_the_svd_stress(
+            left in proptest::array::uniform3(-2.0f32..2.0),
+            right in proptest::array::uniform3(-2.0f32..2.0),
+            sigma in proptest::array::uniform3(0.976f32..1.0074),
+            plastic_j in 0.5f32..1.5,
+        ) {
+            let trial = stretched(left, right, Vec3::from(sigma));
+            let materials = MaterialLanes::splat(&thesis_constants());
+            prop_assume!(materials.within_yield_surface(&one(trial)).all());
+            let update = ElasticUpdate::new(&one(trial), F32s([plastic_j]), F32s([1.0]), &materials);
+            prop_assert_eq!(update.elastic.lane(0).to_cols_array().map(f32::to_bits), trial.to_cols_array().map(f32::to_bits));
+            prop_assert_eq!(update.plastic_j.lane(0).to_bits(), plastic_j.to_bits());
+
+            let through_svd = ElasticState::projected(&one(trial), F32s([plastic_j]), &materials);
+            let factor = materials.hardening_factor(through_svd.plastic_j);
+            let svd_stress = kirchhoff_stress(
+                &through_svd.elastic,
+                &through_svd.rotation,
+                through_svd.elastic_j,
+                materials.mu0 * factor,
+                materials.lambda0 * factor,
+            ).lane(0);
+            let scale = materials.mu0.lane(0) * factor.lane(0);
+            let difference = (update.stress.lane(0) - svd_stress).abs().to_cols_array().into_iter().fold(0.0, f32::max);
+            prop_assert!(difference < 2e-5 * scale, "stress {} vs {svd_stress}", update.stress.lane(0));
+        }
+    }
+
+    /// In a batch that mixes clamped and unclamped particles each lane gets
+    /// the bits it gets alone, so a particle's path does not depend on its
+    /// neighbours.
+    #[test]
+    fn mixed_batches_give_each_lane_its_own_bits() {
+        let constants = thesis_constants();
+        let trials = [
+            stretched(
+                [0.3, -0.2, 0.1],
+                [0.0, 0.5, 0.2],
+                Vec3::new(1.004, 0.99, 0.98),
+            ),
+            stretched(
+                [0.1, 0.2, 0.3],
+                [0.4, 0.0, -0.1],
+                Vec3::new(1.03, 0.99, 0.9),
+            ),
+            Mat3::IDENTITY,
+            stretched(
+                [-0.5, 0.0, 0.7],
+                [0.1, 0.1, 0.1],
+                Vec3::new(1.0, 0.97, 0.96),
+            ),
+        ];
+        let plastic_j = F32s([1.0, 0.9, 1.1, 0.95]);
+        let mut batch = Mat3s::<4>::splat(Mat3::ZERO);
+        for (lane, trial) in trials.iter().enumerate() {
+            batch.set_lane(lane, *trial);
+        }
+        let materials = MaterialLanes::splat(&constants);
+        let inside = materials.within_yield_surface(&batch);
+        assert_eq!(inside.0.map(|m| m != 0), [true, false, true, false]);
+        let together = ElasticUpdate::new(&batch, plastic_j, F32s::splat(2.0), &materials);
+        for (lane, trial) in trials.iter().enumerate() {
+            let alone = ElasticUpdate::new(
+                &one(*trial),
+                F32s([plastic_j.lane(lane)]),
+                F32s([2.0]),
+                &MaterialLanes::splat(&constants),
+            );
+            let bits = |m: Mat3| m.to_cols_array().map(f32::to_bits);
+            assert_eq!(
+                bits(together.elastic.lane(lane)),
+                bits(alone.elastic.lane(0))
+            );
+            assert_eq!(bits(together.stress.lane(lane)), bits(alone.stress.lane(0)));
+            assert_eq!(
+                together.plastic_j.lane(lane).to_bits(),
+                alone.plastic_j.lane(0).to_bits()
+            );
         }
     }
 

@@ -170,6 +170,22 @@ impl<const N: usize> U32s<N> {
         }
         any != 0
     }
+
+    /// Whether every lane holds.
+    #[inline(always)]
+    pub fn all(self) -> bool {
+        let mut all = u32::MAX;
+        for lane in self.0 {
+            all &= lane;
+        }
+        all == u32::MAX
+    }
+
+    /// Lanes where both masks hold.
+    #[inline(always)]
+    pub fn and(self, other: U32s<N>) -> U32s<N> {
+        U32s(map2(self.0, other.0, |a, b| a & b))
+    }
 }
 
 /// A 3-vector per lane.
@@ -220,6 +236,16 @@ impl<const N: usize> Vec3s<N> {
     #[inline(always)]
     pub fn dot(self, other: Vec3s<N>) -> F32s<N> {
         self.x * other.x + self.y * other.y + self.z * other.z
+    }
+
+    /// a × b.
+    #[inline(always)]
+    pub fn cross(self, other: Vec3s<N>) -> Vec3s<N> {
+        Vec3s::new(
+            self.y * other.z - self.z * other.y,
+            self.z * other.x - self.x * other.z,
+            self.x * other.y - self.y * other.x,
+        )
     }
 
     /// |a|².
@@ -384,6 +410,22 @@ impl<const N: usize> Mat3s<N> {
             self.x_axis.scale(s),
             self.y_axis.scale(s),
             self.z_axis.scale(s),
+        )
+    }
+
+    /// det M = c₀ · (c₁ × c₂) of the columns.
+    #[inline(always)]
+    pub fn determinant(&self) -> F32s<N> {
+        self.x_axis.dot(self.y_axis.cross(self.z_axis))
+    }
+
+    /// Per lane: `yes` where `mask` holds, else `no`.
+    #[inline(always)]
+    pub fn select(mask: U32s<N>, yes: &Mat3s<N>, no: &Mat3s<N>) -> Mat3s<N> {
+        Mat3s::from_cols(
+            Vec3s::select(mask, yes.x_axis, no.x_axis),
+            Vec3s::select(mask, yes.y_axis, no.y_axis),
+            Vec3s::select(mask, yes.z_axis, no.z_axis),
         )
     }
 

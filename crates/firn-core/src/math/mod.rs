@@ -1,6 +1,8 @@
-//! Math helpers shared by the solvers: interpolation kernels, SIMD lanes and the 3x3 SVD.
+//! Math helpers shared by the solvers: interpolation kernels, SIMD lanes, the 3x3 SVD and
+//! the polar rotation of near-rotations.
 
 pub mod bspline;
 pub mod exp;
 pub mod lanes;
+pub mod polar;
 pub mod svd;
