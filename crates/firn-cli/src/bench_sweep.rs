@@ -30,9 +30,9 @@ use std::time::Duration;
 
 use clap::{Args, ValueEnum};
 use firn_core::scene::{Scene, Shape, Transfer};
-use firn_mpm::Particles;
 use firn_mpm::grid::{BLOCK_NODES, BLOCK_WIDTH, GridLayout, Node};
-use glam::{Mat3, UVec3, Vec3};
+use firn_mpm::{Particles, PermuteBuffers};
+use glam::{UVec3, Vec3};
 use serde::Serialize;
 
 use crate::Failure;
@@ -442,8 +442,8 @@ fn sweep_scene(cells: UVec3, ball: &Ball, transfer: Transfer) -> Scene {
 /// bytes each per block of the box, and node storage only for the blocks near
 /// the snow, here the ball's bounding cube in blocks widened by one block each
 /// side for the stencils' reach (twice over, for the pool's growth). Per
-/// particle: its attributes, bin key and order, and one attribute's copy while
-/// the particles are reordered.
+/// particle: its attributes, bin key and order, and the space to reorder
+/// them.
 fn estimate_bytes(layout: &GridLayout, ball: &Ball, particles: u64) -> u64 {
     let blocks = layout.blocks.as_u64vec3();
     let tables = blocks.element_product() * 2 * std::mem::size_of::<u32>() as u64;
@@ -452,8 +452,9 @@ fn estimate_bytes(layout: &GridLayout, ball: &Ball, particles: u64) -> u64 {
         .min(glam::U64Vec3::splat(ball_blocks))
         .element_product();
     let nodes = 2 * near_blocks * (BLOCK_NODES * std::mem::size_of::<Node>()) as u64;
-    let per_particle =
-        Particles::bytes_per_particle() + std::mem::size_of::<u32>() + std::mem::size_of::<Mat3>();
+    let per_particle = Particles::bytes_per_particle()
+        + std::mem::size_of::<u32>()
+        + PermuteBuffers::BYTES_PER_PARTICLE;
     tables + nodes + particles * per_particle as u64
 }
 

@@ -177,7 +177,7 @@ fn a_memory_budget_nothing_fits_in_skips_every_size_and_still_writes_the_csv() {
     }
     assert!(
         stdout
-            .contains("512x512x256: needs 24.9 MiB, 0.1 MiB available (--memory-budget) — skipped"),
+            .contains("512x512x256: needs 26.1 MiB, 0.1 MiB available (--memory-budget) — skipped"),
         "{stdout}"
     );
     assert!(

@@ -34,6 +34,6 @@ pub mod transfer;
 pub mod update;
 
 pub use implicit::SolverStats;
-pub use particles::Particles;
+pub use particles::{Particles, PermuteBuffers};
 pub use profile::PhaseTimes;
 pub use simulation::{Diagnostics, Simulation, SimulationError, Snapshot};

@@ -12,7 +12,7 @@ use crate::constitutive::{MaterialConstants, max_wave_speed_squared};
 use crate::contact::{ColliderSet, Colliders};
 use crate::grid::{Grid, GridLayout};
 use crate::implicit::{ImplicitSolver, ImplicitStep, SolverStats};
-use crate::particles::Particles;
+use crate::particles::{Particles, PermuteBuffers};
 use crate::profile::{PhaseClock, PhaseTimes};
 use crate::transfer::{self, GridForces, gather_apic, gather_pic_flip};
 use crate::update::{GatherStats, ParticleProblem, ProblemKind, UpdateContext, preferred_simd};
@@ -98,6 +98,8 @@ pub struct Simulation {
     particles: Particles,
     grid: Grid,
     bins: Bins,
+    /// Space for reordering the particles by block.
+    permute_buffers: PermuteBuffers,
     colliders: ColliderSet,
     time: f64,
     steps: u64,
@@ -183,6 +185,7 @@ impl Simulation {
             grid: Grid::new(domain.min, domain.max, domain.cell_size),
             colliders: ColliderSet::new(domain, &scene.colliders),
             bins: Bins::default(),
+            permute_buffers: PermuteBuffers::default(),
             particles,
             time,
             steps,
@@ -284,7 +287,8 @@ impl Simulation {
         let mut clock = PhaseClock::start();
         if self.steps.is_multiple_of(REORDER_INTERVAL) {
             self.bins.rebuild(&layout, &self.particles.position);
-            self.particles.permute(&self.bins.order);
+            self.particles
+                .permute(&self.bins.order, &mut self.permute_buffers);
         }
         self.bins.rebuild(&layout, &self.particles.position);
         self.grid.allocate(&self.bins.active_blocks);
@@ -542,10 +546,11 @@ impl Simulation {
     }
 
     /// Bytes allocated for the grid (page table and the blocks near the snow),
-    /// the binning buffers and the particles.
+    /// the binning buffers and the particles (with the space to reorder them).
     pub fn memory_bytes(&self) -> usize {
         self.grid.memory_bytes()
             + self.bins.memory_bytes()
+            + self.permute_buffers.memory_bytes()
             + self.particles.len() * Particles::bytes_per_particle()
     }
 

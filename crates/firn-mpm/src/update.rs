@@ -2,8 +2,9 @@
 //! and 16 particles at a time: the nodes around a block are copied once
 //! into a dense local array, each particle's grid velocity and ∇v_p are
 //! interpolated from it (two particles at once where the transfer has a
-//! paired form), then the trial F̂_E, SVD, plasticity and
-//! stress of the whole batch run in SIMD lanes ([`crate::constitutive::ElasticUpdate`]),
+//! paired form), then the trial F̂_E, plasticity (with an SVD where a
+//! particle yields) and stress of the whole batch run in SIMD lanes
+//! ([`crate::constitutive::ElasticUpdate`]),
 //! then each particle collides and moves.
 //!
 //! Batches are formed from a block's particles (the last one is padded with
