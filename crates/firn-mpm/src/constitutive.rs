@@ -304,14 +304,7 @@ impl<const N: usize> ElasticUpdate<N> {
                 clamped
             }
         };
-        let factor = materials.hardening_factor(state.plastic_j);
-        let tau = kirchhoff_stress(
-            &state.elastic,
-            &state.rotation,
-            state.elastic_j,
-            materials.mu0 * factor,
-            materials.lambda0 * factor,
-        );
+        let (tau, factor) = state.hardened_stress(materials);
         ElasticUpdate {
             elastic: state.elastic,
             plastic_j: state.plastic_j,
@@ -355,6 +348,21 @@ impl<const N: usize> ElasticState<N> {
             elastic_j: projection.elastic_j(),
             plastic_j: plastic_j * projection.plastic_j_ratio(),
         }
+    }
+
+    /// The Kirchhoff stress τ with μ and λ hardened at this J_P (eq. 34-36),
+    /// and the hardening factor.
+    #[inline(always)]
+    fn hardened_stress(&self, materials: &MaterialLanes<N>) -> (Mat3s<N>, F32s<N>) {
+        let factor = materials.hardening_factor(self.plastic_j);
+        let tau = kirchhoff_stress(
+            &self.elastic,
+            &self.rotation,
+            self.elastic_j,
+            materials.mu0 * factor,
+            materials.lambda0 * factor,
+        );
+        (tau, factor)
     }
 
     /// Per lane: `yes` where `mask` holds, else `no`.
@@ -471,14 +479,8 @@ mod tests {
             prop_assert_eq!(update.plastic_j.lane(0).to_bits(), plastic_j.to_bits());
 
             let through_svd = ElasticState::projected(&one(trial), F32s([plastic_j]), &materials);
-            let factor = materials.hardening_factor(through_svd.plastic_j);
-            let svd_stress = kirchhoff_stress(
-                &through_svd.elastic,
-                &through_svd.rotation,
-                through_svd.elastic_j,
-                materials.mu0 * factor,
-                materials.lambda0 * factor,
-            ).lane(0);
+            let (svd_stress, factor) = through_svd.hardened_stress(&materials);
+            let svd_stress = svd_stress.lane(0);
             let scale = materials.mu0.lane(0) * factor.lane(0);
             let difference = (update.stress.lane(0) - svd_stress).abs().to_cols_array().into_iter().fold(0.0, f32::max);
             prop_assert!(difference < 2e-5 * scale, "stress {} vs {svd_stress}", update.stress.lane(0));

@@ -61,14 +61,6 @@ mod tests {
         newton_rotation_lanes(&Mat3s::<1>::splat(f)).lane(0)
     }
 
-    fn max_difference(a: Mat3, b: Mat3) -> f32 {
-        (a - b)
-            .abs()
-            .to_cols_array()
-            .into_iter()
-            .fold(0.0, f32::max)
-    }
-
     fn rotation(axis: [f32; 3], angle: f32) -> Mat3 {
         let axis = Vec3::from(axis);
         let axis = if axis.length() > 1e-3 {
@@ -93,8 +85,8 @@ mod tests {
             let newton = newton_rotation(f);
             let svd = svd3(f);
             let expected = svd.u * svd.v.transpose();
-            prop_assert!(max_difference(newton, expected) < 1e-6, "{newton} vs {expected} for {f}");
-            prop_assert!(max_difference(newton.transpose() * newton, Mat3::IDENTITY) < 6e-7);
+            prop_assert!(newton.abs_diff_eq(expected, 1e-6), "{newton} vs {expected} for {f}");
+            prop_assert!((newton.transpose() * newton).abs_diff_eq(Mat3::IDENTITY, 6e-7));
             prop_assert!((newton.determinant() - 1.0).abs() < 6e-7);
         }
     }
@@ -102,7 +94,7 @@ mod tests {
     #[test]
     fn a_rotation_is_its_own_polar_factor() {
         let r = rotation([1.0, 2.0, -0.5], 0.7);
-        assert!(max_difference(newton_rotation(r), r) < 3e-7);
+        assert!(newton_rotation(r).abs_diff_eq(r, 3e-7));
         assert_eq!(newton_rotation(Mat3::IDENTITY), Mat3::IDENTITY);
     }
 
@@ -111,6 +103,6 @@ mod tests {
     #[test]
     fn three_steps_do_not_converge_far_outside_the_band() {
         let f = Mat3::from_diagonal(Vec3::new(0.3, 1.0, 1.0));
-        assert!(max_difference(newton_rotation(f), Mat3::IDENTITY) > 1e-4);
+        assert!(!newton_rotation(f).abs_diff_eq(Mat3::IDENTITY, 1e-4));
     }
 }
