@@ -3,7 +3,11 @@
 # at the same particle count and grid, and prints both figures and the ratio.
 # firn runs on the CPU (--backend cpu), as the peer does.
 #
-#   scripts/bench-vs-peer.sh [PARTICLES] [GRID] [STEPS]
+#   scripts/bench-vs-peer.sh [PARTICLES] [GRID] [STEPS] [RUNS]
+#
+# With RUNS > 1 the two alternate, firn then the peer, RUNS times, and the
+# last lines give the median ratio of each transfer scheme: on a shared
+# machine single runs of either drift by tens of percent.
 #
 # Needs the peer script (../shared/peers/taichi_mpm3d.py, or PEER=path) and a
 # Python with taichi (PYTHON=path; e.g. python3 -m venv venv && venv/bin/pip install taichi).
@@ -12,18 +16,32 @@ cd "$(dirname "$0")/.."
 particles=${1:-262144}
 grid=${2:-128}
 steps=${3:-200}
+runs=${4:-1}
 peer=${PEER:-../shared/peers/taichi_mpm3d.py}
 python=${PYTHON:-python3}
 
 cargo build --release --quiet
-./target/release/firn bench --backend cpu --particles "$particles" --grid "$grid" --steps "$steps" --warmup 10 \
-    --json target/bench-firn.json | tee target/bench-firn.txt
-"$python" "$peer" --particles "$particles" --grid "$grid" --steps "$steps" --shape ball | tee target/bench-peer.txt
+ratios=target/bench-ratios.txt
+: >"$ratios"
+for run in $(seq 1 "$runs"); do
+    ./target/release/firn bench --backend cpu --particles "$particles" --grid "$grid" --steps "$steps" --warmup 10 \
+        --json target/bench-firn.json | tee target/bench-firn.txt
+    "$python" "$peer" --particles "$particles" --grid "$grid" --steps "$steps" --shape ball | tee target/bench-peer.txt
 
-peer_ns=$(grep -o 'ns_per_particle_step=[0-9.]*' target/bench-peer.txt | tail -1 | cut -d= -f2)
-grep '^firn ' target/bench-firn.txt | while read -r line; do
-    transfer=$(grep -o 'transfer=[a-z-]*' <<<"$line" | cut -d= -f2)
-    ns=$(grep -o 'ns_per_particle_step=[0-9.]*' <<<"$line" | cut -d= -f2)
-    awk -v t="$transfer" -v f="$ns" -v p="$peer_ns" \
-        'BEGIN { printf "%-9s firn %7.1f ns  peer %7.1f ns  peer/firn = %.2fx\n", t, f, p, p / f }'
+    peer_ns=$(grep -o 'ns_per_particle_step=[0-9.]*' target/bench-peer.txt | tail -1 | cut -d= -f2)
+    grep '^firn ' target/bench-firn.txt | while read -r line; do
+        transfer=$(grep -o 'transfer=[a-z-]*' <<<"$line" | cut -d= -f2)
+        ns=$(grep -o 'ns_per_particle_step=[0-9.]*' <<<"$line" | cut -d= -f2)
+        awk -v r="$run" -v t="$transfer" -v f="$ns" -v p="$peer_ns" \
+            'BEGIN { printf "run %d %-9s firn %7.1f ns  peer %7.1f ns  peer/firn = %.2fx\n", r, t, f, p, p / f }'
+    done | tee -a "$ratios"
 done
+
+if [ "$runs" -gt 1 ]; then
+    for transfer in $(awk '{ print $3 }' "$ratios" | sort -u); do
+        awk -v t="$transfer" '$3 == t { sub("x", "", $NF); print $NF }' "$ratios" | sort -g |
+            awk -v t="$transfer" -v n="$runs" '{ r[NR] = $1 }
+                END { m = (NR % 2) ? r[(NR + 1) / 2] : (r[NR / 2] + r[NR / 2 + 1]) / 2;
+                      printf "%-9s median peer/firn = %.2fx over %d runs (%.2fx to %.2fx)\n", t, m, n, r[1], r[NR] }'
+    done
+fi
