@@ -19,6 +19,10 @@ steps=${3:-200}
 runs=${4:-1}
 peer=${PEER:-../shared/peers/taichi_mpm3d.py}
 python=${PYTHON:-python3}
+if ! [[ $runs =~ ^[1-9][0-9]*$ ]]; then
+    echo "bench-vs-peer.sh: RUNS (the fourth argument) must be a whole number of at least 1, not '$runs'" >&2
+    exit 2
+fi
 
 cargo build --release --quiet
 ratios=target/bench-ratios.txt
