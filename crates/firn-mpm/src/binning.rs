@@ -202,11 +202,16 @@ fn runs_of(keys: &[u32]) -> Vec<Run> {
     runs
 }
 
+/// log₂ of [`BLOCK_WIDTH`].
+const BLOCK_SHIFT: i32 = 2;
+
 /// Linear index of the block holding the cell of `position`.
 fn block_key(grid: &GridLayout, position: Vec3) -> usize {
     let (_, cell) = floor(grid.to_grid(position));
     let last = grid.blocks.as_ivec3() - IVec3::ONE;
-    grid.block_index((cell.div_euclid(IVec3::splat(BLOCK_WIDTH))).clamp(IVec3::ZERO, last))
+    // ⌊cell / 4⌋ by an arithmetic shift, negative cells included.
+    const { assert!(BLOCK_WIDTH == 1 << BLOCK_SHIFT) };
+    grid.block_index((cell >> BLOCK_SHIFT).clamp(IVec3::ZERO, last))
 }
 
 /// Colour (0..8) of a block: the parity of its coordinates.

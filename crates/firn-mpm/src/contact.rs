@@ -2,7 +2,7 @@
 //! and 9, Quellcode 12), always relative to the collider's own velocity.
 
 use firn_core::scene::{Collider, ColliderGeometry, Contact, ContactMode, Domain, Motion};
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 /// New velocity of snow moving with `velocity` against a collider surface with
 /// outward `normal` that itself moves with `collider_velocity`.
@@ -264,7 +264,9 @@ impl<'a> Colliders<'a> {
     /// bits as [`collide_all`].
     #[inline(always)]
     pub fn collide(&self, point: Vec3, mut velocity: Vec3) -> Vec3 {
-        let clear = point.cmpgt(self.clear_above).all() && point.cmplt(self.clear_below).all();
+        let point_lanes = Vec3A::from(point);
+        let clear = point_lanes.cmpgt(self.clear_above.into()).all()
+            && point_lanes.cmplt(self.clear_below.into()).all();
         if !clear {
             return collide_all(self.all, point, velocity);
         }

@@ -13,7 +13,7 @@
 
 use std::marker::PhantomData;
 
-use glam::{IVec3, Mat3, Vec3, Vec4};
+use glam::{IVec3, Mat3, Mat3A, Vec3, Vec3A, Vec4};
 use rayon::prelude::*;
 
 use firn_core::math::bspline::{StencilValues, StencilWeights, cubic_weights, quadratic_values};
@@ -175,14 +175,18 @@ impl ApicScatter<'_> {
             let p = p as usize;
             let weights = quadratic_values(layout.to_grid(particles.position[p]));
             let mass = particles.mass[p];
-            // Maps a node offset in cells to momentum: (m C − Δt M⁻¹ V0 τ) h.
-            let affine = (particles.velocity_gradient[p] * mass
-                - particles.stress[p] * (self.dt * inverse_inertia))
+            // Maps a node offset in cells to momentum: (m C − Δt M⁻¹ V0 τ) h,
+            // a column per SSE register (the same operations as glam's
+            // `Mat3`, which works one float at a time).
+            let affine = (Mat3A::from(particles.velocity_gradient[p]) * mass
+                - Mat3A::from(particles.stress[p]) * (self.dt * inverse_inertia))
                 * h;
             // Node (i, j, k) gets w (m v + affine ((i, j, k) − offset), m):
             // the affine part grows by one column per stencil step.
-            let at_base = (particles.velocity[p] * mass - affine * weights.offset).extend(mass);
-            let step = |column: Vec3, n: usize| column.extend(0.0) * n as f32;
+            let at_base = (Vec3A::from(particles.velocity[p]) * mass
+                - affine * Vec3A::from(weights.offset))
+            .extend(mass);
+            let step = |column: Vec3A, n: usize| column.extend(0.0) * n as f32;
             let row = StencilRow {
                 steps: [0, 1, 2].map(|k| step(affine.z_axis, k)),
                 weights: [0, 1, 2].map(|k| weights.values[k].z),
@@ -459,7 +463,7 @@ impl Interpolation for ApicInterpolation<'_> {
     fn interpolate(&self, local: &LocalNodes<Vec4>, position: Vec3, _: Vec3) -> (Vec3, Mat3) {
         let weights = quadratic_values(self.grid.layout.to_grid(position));
         let sums = StencilSums::of(local, &weights);
-        self.scaled(sums.velocity_and_affine(weights.offset))
+        sums.velocity_and_affine(weights.offset, self.inverse_inertia_h())
     }
 
     #[inline(always)]
@@ -486,17 +490,18 @@ impl Interpolation for ApicInterpolation<'_> {
                 StencilSums::of(local, &weights[1]),
             ],
         };
-        let result = |n: usize| self.scaled(sums[n].velocity_and_affine(weights[n].offset));
+        let result =
+            |n: usize| sums[n].velocity_and_affine(weights[n].offset, self.inverse_inertia_h());
         [result(0), result(1)]
     }
 }
 
 impl ApicInterpolation<'_> {
-    /// v_p, and C_p = (4/h²) Σ w_ip v_i (x_i − x_p)ᵀ from the moment in
-    /// cells (the offset in world units is cells · h).
+    /// 4/h: C_p = (4/h²) Σ w_ip v_i (x_i − x_p)ᵀ from the moment in cells
+    /// (the offset in world units is cells · h).
     #[inline(always)]
-    fn scaled(&self, (velocity, affine): (Vec3, Mat3)) -> (Vec3, Mat3) {
-        (velocity, affine * (4.0 / self.grid.layout.cell_size))
+    fn inverse_inertia_h(&self) -> f32 {
+        4.0 / self.grid.layout.cell_size
     }
 }
 
@@ -587,15 +592,17 @@ impl StencilSums {
         ]
     }
 
-    /// v_p = Σ w_ip v_i and Σ w_ip v_i (x_i − x_p)ᵀ in cells, for a particle
-    /// `offset` cells from its stencil's first node.
+    /// v_p = Σ w_ip v_i and `scale` Σ w_ip v_i (x_i − x_p)ᵀ in cells, for a
+    /// particle `offset` cells from its stencil's first node.
     #[inline(always)]
-    fn velocity_and_affine(&self, offset: Vec3) -> (Vec3, Mat3) {
+    fn velocity_and_affine(&self, offset: Vec3, scale: f32) -> (Vec3, Mat3) {
         let slabs = self.slabs;
         let velocity = slabs[0] + slabs[1] + slabs[2];
-        // Σ w v (n − offset) along one axis, from the sums at n = 0, 1, 2.
-        let moment =
-            |sums: [Vec4; 3], offset: f32| (sums[1] + sums[2] * 2.0 - velocity * offset).truncate();
+        // Σ w v (n − offset) along one axis, from the sums at n = 0, 1, 2,
+        // scaled in the SIMD lanes (the bits of glam's `Mat3 * f32`).
+        let moment = |sums: [Vec4; 3], offset: f32| {
+            ((sums[1] + sums[2] * 2.0 - velocity * offset) * scale).truncate()
+        };
         let affine = Mat3::from_cols(
             moment(self.slabs, offset.x),
             moment(self.rows, offset.y),

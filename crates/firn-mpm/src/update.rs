@@ -16,7 +16,7 @@
 use std::marker::PhantomData;
 
 use firn_core::math::lanes::{F32s, Mat3s, Simd};
-use glam::{Mat3, Vec3};
+use glam::{Mat3, Vec3, Vec3A};
 use rayon::prelude::*;
 
 use crate::binning::{Bins, OccupiedBlock};
@@ -280,11 +280,16 @@ fn finish_particle(
 
     let position = *state.position;
     let wave_speed_squared = constants.wave_speed_squared * update.hardening_factor.lane(lane);
-    let finite = position.is_finite()
-        && velocity.is_finite()
-        && elastic.is_finite()
+    // Three axes per SSE compare, without a branch per value.
+    let lanes = Vec3A::from(position);
+    let finite = (lanes.is_finite_mask()
+        & Vec3A::from(velocity).is_finite_mask()
+        & Vec3A::from(elastic.x_axis).is_finite_mask()
+        & Vec3A::from(elastic.y_axis).is_finite_mask()
+        & Vec3A::from(elastic.z_axis).is_finite_mask())
+    .all()
         && wave_speed_squared.is_finite();
-    let inside = position.cmpge(context.lower).all() && position.cmple(context.upper).all();
+    let inside = (lanes.cmpge(context.lower.into()) & lanes.cmple(context.upper.into())).all();
     let problem = match (finite, inside) {
         (false, _) => Some(ProblemKind::NonFinite),
         (true, false) => Some(ProblemKind::LeftDomain),

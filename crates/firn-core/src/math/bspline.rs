@@ -5,7 +5,7 @@
 //! `w_i = N(X_x − i_x) N(X_y − i_y) N(X_z − i_z)` (thesis eq. 37-38) and its
 //! gradient is the product rule applied per axis (eq. 39-40).
 
-use glam::{IVec3, Vec3};
+use glam::{IVec3, Vec3, Vec3A};
 
 /// The 1D cubic B-spline N(x) of the thesis (eq. 37), support |x| < 2.
 pub fn cubic(x: f32) -> f32 {
@@ -107,28 +107,47 @@ impl<const N: usize> StencilWeights<N> {
 /// down where truncation rounded up. Exact for |x| < 2³¹, far beyond any grid.
 #[inline(always)]
 pub fn floor(x: Vec3) -> (Vec3, IVec3) {
-    let truncated = IVec3::new(truncate(x.x), truncate(x.y), truncate(x.z));
-    let rounded_up = truncated.as_vec3().cmpgt(x);
-    (
-        truncated.as_vec3() - Vec3::select(rounded_up, Vec3::ONE, Vec3::ZERO),
-        truncated - IVec3::select(rounded_up, IVec3::ONE, IVec3::ZERO),
-    )
+    let (below, index) = floor_lanes(Vec3A::from(x));
+    (below.into(), index)
 }
 
-/// `x` rounded toward zero: one `cvttss2si` on x86-64, where Rust's
-/// saturating `as i32` takes several instructions. Beyond the `i32` range
-/// (no grid comes near) the result is `i32::MIN` there.
+/// [`floor`] on the three lanes of one SSE register: one truncating
+/// conversion for all three axes (`cvttps2dq` on x86-64, where Rust's
+/// saturating `as i32` takes several instructions per lane), the same bits.
 #[inline(always)]
-fn truncate(x: f32) -> i32 {
+fn floor_lanes(x: Vec3A) -> (Vec3A, IVec3) {
     #[cfg(target_arch = "x86_64")]
     {
-        use std::arch::x86_64::{_mm_cvttss_si32, _mm_set_ss};
-        // SAFETY: SSE, all these need, is part of x86-64.
-        unsafe { _mm_cvttss_si32(_mm_set_ss(x)) }
+        use std::arch::x86_64::*;
+        let lanes: __m128 = x.into();
+        // SAFETY: SSE2, all this needs, is part of x86-64.
+        let (below, index) = unsafe {
+            let truncated = _mm_cvttps_epi32(lanes);
+            let truncated_float = _mm_cvtepi32_ps(truncated);
+            // All ones (−1) where truncation rounded up.
+            let rounded_up = _mm_cmpgt_ps(truncated_float, lanes);
+            let below = _mm_sub_ps(truncated_float, _mm_and_ps(rounded_up, _mm_set1_ps(1.0)));
+            (
+                below,
+                _mm_add_epi32(truncated, _mm_castps_si128(rounded_up)),
+            )
+        };
+        // SAFETY: an `__m128i` is four `i32`s.
+        let [ix, iy, iz, _] = unsafe { std::mem::transmute::<__m128i, [i32; 4]>(index) };
+        (Vec3A::from(below), IVec3::new(ix, iy, iz))
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
-        x as i32
+        let floor = |v: f32| {
+            let truncated = v as i32;
+            if truncated as f32 > v {
+                truncated - 1
+            } else {
+                truncated
+            }
+        };
+        let index = IVec3::new(floor(x.x), floor(x.y), floor(x.z));
+        (index.as_vec3a(), index)
     }
 }
 
@@ -202,20 +221,23 @@ pub struct StencilValues<const N: usize> {
 /// giving the same bits.
 #[inline(always)]
 pub fn quadratic_values(x: Vec3) -> StencilValues<3> {
-    let (base_node, base) = floor(x - Vec3::splat(0.5));
+    // In the lanes of one SSE register: the same operations per axis as
+    // three scalar ones, so the same bits, in a third of the instructions.
+    let x = Vec3A::from(x);
+    let (base_node, base) = floor_lanes(x - Vec3A::splat(0.5));
     let offset = x - base_node;
-    let half = Vec3::splat(0.5);
-    let three_halves = Vec3::splat(1.5);
+    let half = Vec3A::splat(0.5);
+    let three_halves = Vec3A::splat(1.5);
     let near = three_halves - offset;
-    let middle = offset - Vec3::ONE;
-    let far = three_halves - (offset - Vec3::splat(2.0)).abs();
+    let middle = offset - Vec3A::ONE;
+    let far = three_halves - (offset - Vec3A::splat(2.0)).abs();
     StencilValues {
         base,
-        offset,
+        offset: offset.into(),
         values: [
-            half * near * near,
-            Vec3::splat(0.75) - middle * middle,
-            half * far * far,
+            (half * near * near).into(),
+            (Vec3A::splat(0.75) - middle * middle).into(),
+            (half * far * far).into(),
         ],
     }
 }
