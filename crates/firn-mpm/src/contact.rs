@@ -230,16 +230,16 @@ pub struct Colliders<'a> {
     /// The colliders that are not axis-aligned half-planes, in order.
     others: Vec<&'a PlacedCollider>,
     /// Points strictly above this (per axis) are clear of the planes facing +e_k.
-    clear_above: Vec3,
+    clear_above: Vec3A,
     /// Points strictly below this are clear of the planes facing −e_k.
-    clear_below: Vec3,
+    clear_below: Vec3A,
 }
 
 impl<'a> Colliders<'a> {
     /// Sorts `all` into axis-aligned half-planes and the rest.
     pub fn new(all: &'a [PlacedCollider]) -> Colliders<'a> {
-        let mut clear_above = Vec3::NEG_INFINITY;
-        let mut clear_below = Vec3::INFINITY;
+        let mut clear_above = Vec3A::NEG_INFINITY;
+        let mut clear_below = Vec3A::INFINITY;
         let mut others = Vec::new();
         for collider in all {
             match axis_plane(&collider.geometry) {
@@ -265,8 +265,8 @@ impl<'a> Colliders<'a> {
     #[inline(always)]
     pub fn collide(&self, point: Vec3, mut velocity: Vec3) -> Vec3 {
         let point_lanes = Vec3A::from(point);
-        let clear = point_lanes.cmpgt(self.clear_above.into()).all()
-            && point_lanes.cmplt(self.clear_below.into()).all();
+        let clear =
+            (point_lanes.cmpgt(self.clear_above) & point_lanes.cmplt(self.clear_below)).all();
         if !clear {
             return collide_all(self.all, point, velocity);
         }
@@ -514,8 +514,8 @@ mod tests {
         let placed = ColliderSet::new(&domain, &scene).placed_at(0.5);
         let colliders = Colliders::new(&placed);
         assert_eq!(colliders.others.len(), 2, "the sphere and the tilted plane");
-        assert_eq!(colliders.clear_above, Vec3::new(0.0, 0.25, 0.0));
-        assert_eq!(colliders.clear_below, domain.max);
+        assert_eq!(colliders.clear_above, Vec3A::new(0.0, 0.25, 0.0));
+        assert_eq!(colliders.clear_below, Vec3A::from(domain.max));
 
         let mut state = 12345_u32;
         let mut next = move || {
