@@ -97,6 +97,8 @@ pub struct MaterialLanes<const N: usize> {
     pub min_stretch: F32s<N>,
     /// 1 + θs per lane.
     pub max_stretch: F32s<N>,
+    /// (λ0 + 2μ0) / ρ0 per lane.
+    pub wave_speed_squared: F32s<N>,
 }
 
 impl<const N: usize> MaterialLanes<N> {
@@ -108,6 +110,7 @@ impl<const N: usize> MaterialLanes<N> {
             hardening: F32s::splat(constants.hardening),
             min_stretch: F32s::splat(constants.min_stretch),
             max_stretch: F32s::splat(constants.max_stretch),
+            wave_speed_squared: F32s::splat(constants.wave_speed_squared),
         }
     }
 
@@ -119,6 +122,7 @@ impl<const N: usize> MaterialLanes<N> {
         self.hardening.0[i] = constants.hardening;
         self.min_stretch.0[i] = constants.min_stretch;
         self.max_stretch.0[i] = constants.max_stretch;
+        self.wave_speed_squared.0[i] = constants.wave_speed_squared;
     }
 
     /// Hardening factor e^{ξ(1 − J_P)} (eq. 35), lane by lane.

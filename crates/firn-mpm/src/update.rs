@@ -15,8 +15,8 @@
 
 use std::marker::PhantomData;
 
-use firn_core::math::lanes::{F32s, Mat3s, Simd};
-use glam::{Mat3, Vec3, Vec3A};
+use firn_core::math::lanes::{F32s, Mat3s, Simd, U32s, Vec3s};
+use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 
 use crate::binning::{Bins, OccupiedBlock};
@@ -97,7 +97,7 @@ pub struct UpdateContext<'a> {
 /// What the grid gave one particle, with the particle's F_E, for a whole
 /// batch.
 struct Interpolated {
-    velocity: [Vec3; BATCH],
+    velocity: Vec3s<BATCH>,
     velocity_gradient: Mat3s<BATCH>,
     elastic: Mat3s<BATCH>,
     plastic_j: F32s<BATCH>,
@@ -110,7 +110,7 @@ impl Interpolated {
     /// first batch starts from, so that unused lanes hold finite values.
     fn padded(padding: &MaterialConstants) -> Interpolated {
         Interpolated {
-            velocity: [Vec3::ZERO; BATCH],
+            velocity: Vec3s::splat(Vec3::ZERO),
             velocity_gradient: Mat3s::splat(Mat3::ZERO),
             elastic: Mat3s::splat(Mat3::IDENTITY),
             plastic_j: F32s::splat(1.0),
@@ -251,58 +251,6 @@ impl<'a> ParticleArrays<'a> {
                 velocity_gradient: &mut *self.velocity_gradient.add(p),
             }
         }
-    }
-}
-
-/// Step 10 and the bookkeeping for particle `index` (lane `lane` of its
-/// batch): stores the new elastic state, collides at the predicted position,
-/// advects, and reports speed, wave speed and trouble.
-#[inline(always)]
-fn finish_particle(
-    index: usize,
-    lane: usize,
-    state: ParticleState,
-    batch: &Interpolated,
-    update: &ElasticUpdate<BATCH>,
-    constants: &MaterialConstants,
-    context: &UpdateContext,
-) -> GatherStats {
-    let elastic = update.elastic.lane(lane);
-    *state.elastic = elastic;
-    *state.plastic_j = update.plastic_j.lane(lane);
-    *state.stress = update.stress.lane(lane);
-
-    let velocity = batch.velocity[lane];
-    let predicted = *state.position + velocity * context.dt;
-    let velocity = context.colliders.collide(predicted, velocity);
-    *state.velocity = velocity;
-    *state.position += velocity * context.dt;
-
-    let position = *state.position;
-    let wave_speed_squared = constants.wave_speed_squared * update.hardening_factor.lane(lane);
-    // Three axes per SSE compare, without a branch per value.
-    let lanes = Vec3A::from(position);
-    let finite = (lanes.is_finite_mask()
-        & Vec3A::from(velocity).is_finite_mask()
-        & Vec3A::from(elastic.x_axis).is_finite_mask()
-        & Vec3A::from(elastic.y_axis).is_finite_mask()
-        & Vec3A::from(elastic.z_axis).is_finite_mask())
-    .all()
-        && wave_speed_squared.is_finite();
-    let inside = (lanes.cmpge(context.lower.into()) & lanes.cmple(context.upper.into())).all();
-    let problem = match (finite, inside) {
-        (false, _) => Some(ProblemKind::NonFinite),
-        (true, false) => Some(ProblemKind::LeftDomain),
-        (true, true) => None,
-    };
-    GatherStats {
-        max_speed_squared: velocity.length_squared(),
-        max_wave_speed_squared: wave_speed_squared,
-        problem: problem.map(|kind| ParticleProblem {
-            particle: index,
-            kind,
-            position,
-        }),
     }
 }
 
@@ -470,6 +418,10 @@ unsafe fn update_batch<I: Interpolation>(
     simd: Simd,
 ) -> GatherStats {
     let (arrays, context) = (block.arrays, block.context);
+    // Matrices move in and out of the lanes eight at a time by AVX2
+    // shuffles where the CPU has them, else one lane at a time: the same
+    // values either way.
+    let transposes = matches!(simd, Simd::Avx2 | Simd::Avx512) && cfg!(target_arch = "x86_64");
     let motion = |p: u32| {
         // SAFETY: exclusive by the caller's contract; the borrow ends here.
         let state = unsafe { arrays.state(p as usize) };
@@ -491,18 +443,29 @@ unsafe fn update_batch<I: Interpolation>(
             }
         };
         for ((lane, &p), (new_velocity, gradient)) in (2 * pair..).zip(particles).zip(&results) {
-            interpolated.velocity[lane] = *new_velocity;
-            interpolated.velocity_gradient.set_lane(lane, *gradient);
+            interpolated.velocity.set_lane(lane, *new_velocity);
+            if !transposes {
+                interpolated.velocity_gradient.set_lane(lane, *gradient);
+            }
             // Stored now, while at hand: nothing reads the old one again.
             // SAFETY: as above.
             *unsafe { arrays.state(p as usize) }.velocity_gradient = *gradient;
         }
     }
+    if transposes {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as above; `transposes` only where the CPU has AVX2.
+        unsafe {
+            load_matrices_avx2(arrays, batch, interpolated)
+        };
+    }
     for (lane, &p) in batch.iter().enumerate() {
         let p = p as usize;
         // SAFETY: as above.
         let state = unsafe { arrays.state(p) };
-        interpolated.elastic.set_lane(lane, *state.elastic);
+        if !transposes {
+            interpolated.elastic.set_lane(lane, *state.elastic);
+        }
         interpolated.plastic_j.0[lane] = *state.plastic_j;
         interpolated.volume0.0[lane] = arrays.volume0[p];
         if per_lane {
@@ -512,21 +475,155 @@ unsafe fn update_batch<I: Interpolation>(
         }
     }
     let update = elastic_update(simd, interpolated, context.dt);
+    if transposes {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as above.
+        unsafe {
+            store_matrices_avx2(arrays, batch, &update)
+        };
+    } else {
+        for (lane, &p) in batch.iter().enumerate() {
+            // SAFETY: as above.
+            let state = unsafe { arrays.state(p as usize) };
+            *state.elastic = update.elastic.lane(lane);
+            *state.stress = update.stress.lane(lane);
+        }
+    }
+    // SAFETY: as above.
+    unsafe { finish_batch(block, batch, interpolated, &update) }
+}
+
+/// Step 10 and the bookkeeping for a batch whose new F_E and stress are
+/// stored, in lanes: collides at the predicted positions, advects, stores
+/// J_P, velocities and positions, and reports the largest speed and wave
+/// speed and the first particle in trouble.
+///
+/// # Safety
+/// No other task may touch these particles meanwhile.
+#[inline(always)]
+unsafe fn finish_batch<I: Interpolation>(
+    block: &Block<I>,
+    batch: &[u32],
+    interpolated: &Interpolated,
+    update: &ElasticUpdate<BATCH>,
+) -> GatherStats {
+    let (arrays, context) = (block.arrays, block.context);
+    let mut position = Vec3s::splat(Vec3::ZERO);
+    for (lane, &p) in batch.iter().enumerate() {
+        // SAFETY: exclusive by the caller's contract; the borrow ends here.
+        position.set_lane(lane, *unsafe { arrays.state(p as usize) }.position);
+    }
+    let dt = F32s::splat(context.dt);
+    let mut velocity = interpolated.velocity;
+    let predicted = position + velocity.scale(dt);
+    context
+        .colliders
+        .collide_lanes(&predicted, &mut velocity, batch.len());
+    let position = position + velocity.scale(dt);
+
+    let speed_squared = velocity.length_squared();
+    let wave_speed_squared = interpolated.materials.wave_speed_squared * update.hardening_factor;
+    let finite = position
+        .finite_mask()
+        .and(velocity.finite_mask())
+        .and(update.elastic.finite_mask())
+        .and(wave_speed_squared.finite_mask());
+    let inside = |x: F32s<BATCH>, lower: f32, upper: f32| {
+        F32s::splat(lower).le(x).and(x.le(F32s::splat(upper)))
+    };
+    let (lower, upper) = (context.lower, context.upper);
+    let inside = inside(position.x, lower.x, upper.x)
+        .and(inside(position.y, lower.y, upper.y))
+        .and(inside(position.z, lower.z, upper.z));
+
     let mut stats = GatherStats::default();
     for (lane, &p) in batch.iter().enumerate() {
-        let p = p as usize;
-        let constants = &context.materials[arrays.material[p] as usize];
         // SAFETY: as above.
-        let state = unsafe { arrays.state(p) };
-        stats = stats.merge(finish_particle(
-            p,
-            lane,
-            state,
-            interpolated,
-            &update,
-            constants,
-            context,
-        ));
+        let state = unsafe { arrays.state(p as usize) };
+        *state.velocity = velocity.lane(lane);
+        *state.position = position.lane(lane);
+        *state.plastic_j = update.plastic_j.lane(lane);
+        stats.max_speed_squared = stats.max_speed_squared.max(speed_squared.lane(lane));
+        stats.max_wave_speed_squared = stats
+            .max_wave_speed_squared
+            .max(wave_speed_squared.lane(lane));
+        if finite.0[lane] & inside.0[lane] == 0 {
+            let problem = ParticleProblem {
+                particle: p as usize,
+                kind: problem_kind(finite, lane),
+                position: position.lane(lane),
+            };
+            stats = stats.merge(GatherStats {
+                problem: Some(problem),
+                ..GatherStats::default()
+            });
+        }
     }
     stats
+}
+
+/// Why lane `lane`, which failed a check, is in trouble.
+#[inline(always)]
+fn problem_kind(finite: U32s<BATCH>, lane: usize) -> ProblemKind {
+    if finite.0[lane] == 0 {
+        ProblemKind::NonFinite
+    } else {
+        ProblemKind::LeftDomain
+    }
+}
+
+/// Loads the batch's ∇v_p (stored by the interpolation) and F_E into the
+/// lanes, eight particles per transpose; lanes past the batch's end repeat
+/// its last particle, so they stay finite.
+///
+/// # Safety
+/// The CPU must have AVX2, and no other task may touch these particles.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn load_matrices_avx2(
+    arrays: &ParticleArrays,
+    batch: &[u32],
+    interpolated: &mut Interpolated,
+) {
+    for first in (0..batch.len()).step_by(8) {
+        let particle = |lane: usize| batch[(first + lane).min(batch.len() - 1)] as usize;
+        let eight = |array: *mut Mat3| -> [&Mat3; 8] {
+            // SAFETY: the batch's particles are in bounds (binning) and this
+            // task's alone (the caller's contract); only read here.
+            std::array::from_fn(|lane| unsafe { &*array.add(particle(lane)) })
+        };
+        interpolated
+            .velocity_gradient
+            .load_eight(first, eight(arrays.velocity_gradient));
+        interpolated
+            .elastic
+            .load_eight(first, eight(arrays.elastic));
+    }
+}
+
+/// Stores the batch's new F_E and V_p^0 τ_p from the lanes, eight particles
+/// per transpose.
+///
+/// # Safety
+/// As for [`load_matrices_avx2`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn store_matrices_avx2(
+    arrays: &ParticleArrays,
+    batch: &[u32],
+    update: &ElasticUpdate<BATCH>,
+) {
+    for (chunk, first) in batch.chunks(8).zip((0..).step_by(8)) {
+        let targets = |array: *mut Mat3| {
+            chunk.iter().map(move |&p| {
+                // SAFETY: as in `load_matrices_avx2`; each particle's
+                // reference is used and dropped before the next is made.
+                unsafe { &mut *array.add(p as usize) }
+            })
+        };
+        update.elastic.store_eight(first, targets(arrays.elastic));
+        update.stress.store_eight(first, targets(arrays.stress));
+    }
 }

@@ -132,6 +132,13 @@ impl<const N: usize> F32s<N> {
         F32s(map2(self.0, other.0, |a, b| if a > b { a } else { b }))
     }
 
+    /// All bits set in the lanes that hold a finite value (|x| < ∞ is
+    /// false for ±∞ and NaN).
+    #[inline(always)]
+    pub fn finite_mask(self) -> U32s<N> {
+        self.abs().lt(F32s::splat(f32::INFINITY))
+    }
+
     /// Per-lane square root (correctly rounded, as `sqrtps`).
     #[inline(always)]
     pub fn sqrt(self) -> F32s<N> {
@@ -190,6 +197,7 @@ impl<const N: usize> U32s<N> {
 
 /// A 3-vector per lane.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub struct Vec3s<const N: usize> {
     /// x components.
     pub x: F32s<N>,
@@ -216,6 +224,15 @@ impl<const N: usize> Vec3s<N> {
     #[inline(always)]
     pub fn max_abs(&self) -> F32s<N> {
         self.x.abs().max(self.y.abs()).max(self.z.abs())
+    }
+
+    /// All bits set in the lanes whose three components are finite.
+    #[inline(always)]
+    pub fn finite_mask(&self) -> U32s<N> {
+        self.x
+            .finite_mask()
+            .and(self.y.finite_mask())
+            .and(self.z.finite_mask())
     }
 
     /// Lane `i` as a glam vector.
@@ -295,8 +312,11 @@ impl<const N: usize> Neg for Vec3s<N> {
     }
 }
 
-/// A 3x3 matrix per lane, stored by columns like glam's `Mat3`.
+/// A 3x3 matrix per lane, stored by columns like glam's `Mat3`: in memory
+/// its nine components one after the other, `N` lanes each (`repr(C)`, so
+/// that eight matrices can be moved in and out by an 8x8 transpose).
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub struct Mat3s<const N: usize> {
     /// First column.
     pub x_axis: Vec3s<N>,
@@ -429,6 +449,15 @@ impl<const N: usize> Mat3s<N> {
         )
     }
 
+    /// All bits set in the lanes whose nine entries are finite.
+    #[inline(always)]
+    pub fn finite_mask(&self) -> U32s<N> {
+        self.x_axis
+            .finite_mask()
+            .and(self.y_axis.finite_mask())
+            .and(self.z_axis.finite_mask())
+    }
+
     /// Largest |entry| per lane.
     #[inline(always)]
     pub fn max_abs(&self) -> F32s<N> {
@@ -437,6 +466,108 @@ impl<const N: usize> Mat3s<N> {
             .max(self.y_axis.max_abs())
             .max(self.z_axis.max_abs())
     }
+}
+
+/// Moving glam matrices in and out of [`Mat3s`] lanes eight at a time with
+/// AVX2 shuffles: the first eight floats of each matrix go by an 8x8
+/// transpose in registers, the ninth one by one. A plain copy, so the same
+/// values as [`Mat3s::set_lane`] and [`Mat3s::lane`] in a quarter of the
+/// instructions.
+#[cfg(target_arch = "x86_64")]
+impl<const N: usize> Mat3s<N> {
+    /// The nine components, `N` lanes each.
+    #[inline(always)]
+    fn components(&self) -> &[[f32; N]; 9] {
+        const { assert!(std::mem::size_of::<Mat3s<N>>() == 9 * N * 4) };
+        // SAFETY: `Mat3s` and `Vec3s` are `repr(C)` structs of `F32s<N>`,
+        // itself a transparent `[f32; N]`: nine such arrays, no padding
+        // (the size assertion above).
+        unsafe { &*(self as *const Mat3s<N>).cast::<[[f32; N]; 9]>() }
+    }
+
+    /// [`Mat3s::components`], to write.
+    #[inline(always)]
+    fn components_mut(&mut self) -> &mut [[f32; N]; 9] {
+        const { assert!(std::mem::size_of::<Mat3s<N>>() == 9 * N * 4) };
+        // SAFETY: as in `components`.
+        unsafe { &mut *(self as *mut Mat3s<N>).cast::<[[f32; N]; 9]>() }
+    }
+
+    /// Lanes `first` to `first + 7` from `matrices`.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub fn load_eight(&mut self, first: usize, matrices: [&Mat3; 8]) {
+        use std::arch::x86_64::*;
+        assert!(first + 8 <= N, "lanes {first}.. past {N}");
+        // SAFETY: a `Mat3` is nine contiguous floats; its first eight are read.
+        let rows = matrices.map(|m| unsafe { _mm256_loadu_ps((m as *const Mat3).cast::<f32>()) });
+        let columns = transpose_eight(rows);
+        let components = self.components_mut();
+        for (component, column) in components.iter_mut().zip(columns) {
+            // SAFETY: lanes `first..first + 8` lie inside the component (asserted).
+            unsafe { _mm256_storeu_ps(component.as_mut_ptr().add(first), column) };
+        }
+        for (lane, matrix) in components[8][first..first + 8].iter_mut().zip(matrices) {
+            *lane = matrix.z_axis.z;
+        }
+    }
+
+    /// Lanes `first`, `first + 1`, … into `matrices`, as many as it yields
+    /// up to eight.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub fn store_eight<'a>(&self, first: usize, matrices: impl IntoIterator<Item = &'a mut Mat3>) {
+        use std::arch::x86_64::*;
+        assert!(first + 8 <= N, "lanes {first}.. past {N}");
+        let components = self.components();
+        // SAFETY: lanes `first..first + 8` lie inside each component (asserted).
+        let columns: [__m256; 8] =
+            std::array::from_fn(|c| unsafe { _mm256_loadu_ps(components[c].as_ptr().add(first)) });
+        let rows = transpose_eight(columns);
+        for ((matrix, row), &last) in matrices.into_iter().zip(rows).zip(&components[8][first..]) {
+            // SAFETY: a `Mat3` is nine contiguous floats; the first eight are written.
+            unsafe { _mm256_storeu_ps((matrix as *mut Mat3).cast::<f32>(), row) };
+            matrix.z_axis.z = last;
+        }
+    }
+}
+
+/// The 8x8 transpose of eight 256-bit rows: element j of row i becomes
+/// element i of row j.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn transpose_eight(rows: [std::arch::x86_64::__m256; 8]) -> [std::arch::x86_64::__m256; 8] {
+    use std::arch::x86_64::*;
+    let [r0, r1, r2, r3, r4, r5, r6, r7] = rows;
+    let (t0, t1) = (_mm256_unpacklo_ps(r0, r1), _mm256_unpackhi_ps(r0, r1));
+    let (t2, t3) = (_mm256_unpacklo_ps(r2, r3), _mm256_unpackhi_ps(r2, r3));
+    let (t4, t5) = (_mm256_unpacklo_ps(r4, r5), _mm256_unpackhi_ps(r4, r5));
+    let (t6, t7) = (_mm256_unpacklo_ps(r6, r7), _mm256_unpackhi_ps(r6, r7));
+    let s0 = _mm256_shuffle_ps::<0x44>(t0, t2);
+    let s1 = _mm256_shuffle_ps::<0xEE>(t0, t2);
+    let s2 = _mm256_shuffle_ps::<0x44>(t1, t3);
+    let s3 = _mm256_shuffle_ps::<0xEE>(t1, t3);
+    let s4 = _mm256_shuffle_ps::<0x44>(t4, t6);
+    let s5 = _mm256_shuffle_ps::<0xEE>(t4, t6);
+    let s6 = _mm256_shuffle_ps::<0x44>(t5, t7);
+    let s7 = _mm256_shuffle_ps::<0xEE>(t5, t7);
+    [
+        _mm256_permute2f128_ps::<0x20>(s0, s4),
+        _mm256_permute2f128_ps::<0x20>(s1, s5),
+        _mm256_permute2f128_ps::<0x20>(s2, s6),
+        _mm256_permute2f128_ps::<0x20>(s3, s7),
+        _mm256_permute2f128_ps::<0x31>(s0, s4),
+        _mm256_permute2f128_ps::<0x31>(s1, s5),
+        _mm256_permute2f128_ps::<0x31>(s2, s6),
+        _mm256_permute2f128_ps::<0x31>(s3, s7),
+    ]
 }
 
 /// The instruction set batches of lanes run on, chosen at run time.
@@ -493,6 +624,59 @@ impl Simd {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn finite_masks_catch_infinities_and_nans_in_any_component() {
+        let values = [
+            1.0,
+            -0.0,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            f32::MAX,
+        ];
+        let lanes = F32s(values);
+        assert_eq!(
+            lanes.finite_mask().0.map(|m| m != 0),
+            values.map(f32::is_finite)
+        );
+        for bad in [f32::INFINITY, f32::NAN] {
+            let mut m = Mat3s::<2>::splat(Mat3::IDENTITY);
+            m.y_axis.z.0[1] = bad;
+            assert_eq!(m.finite_mask().0, [u32::MAX, 0]);
+            let mut v = Vec3s::<2>::splat(Vec3::ONE);
+            v.x.0[0] = bad;
+            assert_eq!(v.finite_mask().0, [0, u32::MAX]);
+        }
+    }
+
+    /// Eight matrices in, shifted by two lanes, and out again: every float
+    /// lands where `set_lane` and `lane` put it.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn eight_matrices_move_in_and_out_of_lanes_by_transpose() {
+        if !Simd::Avx2.is_available() {
+            return;
+        }
+        let matrix =
+            |l: usize| Mat3::from_cols_array(&std::array::from_fn(|c| (10 * l + c) as f32));
+        let matrices: [Mat3; 8] = std::array::from_fn(matrix);
+        let mut lanes = Mat3s::<16>::splat(Mat3::ZERO);
+        // SAFETY: AVX2 is available (checked above).
+        unsafe { lanes.load_eight(2, matrices.each_ref()) };
+        let mut expected = Mat3s::<16>::splat(Mat3::ZERO);
+        for (l, m) in matrices.iter().enumerate() {
+            expected.set_lane(l + 2, *m);
+        }
+        assert_eq!(lanes, expected);
+        let mut out = [Mat3::IDENTITY; 8];
+        // SAFETY: as above.
+        unsafe { lanes.store_eight(2, out.iter_mut().take(5)) };
+        for (l, m) in out.iter().enumerate() {
+            let want = if l < 5 { matrices[l] } else { Mat3::IDENTITY };
+            assert_eq!(*m, want, "matrix {l}");
+        }
+    }
 
     #[test]
     fn select_and_masks_work_lane_by_lane() {
