@@ -13,11 +13,13 @@
 
 use std::marker::PhantomData;
 
-use glam::{IVec3, Mat3, Mat3A, Vec3, Vec3A, Vec4};
+use glam::{IVec3, Mat3, Vec3, Vec4};
 use rayon::prelude::*;
 
 use firn_core::math::bspline::{StencilValues, StencilWeights, cubic_weights, quadratic_values};
-use firn_core::math::lanes::Simd;
+#[cfg(target_arch = "x86_64")]
+use firn_core::math::lanes::lanes_to_rows_avx2;
+use firn_core::math::lanes::{F32s, Mat3s, Simd, Vec3s, lanes_to_rows};
 
 use crate::binning::{Bins, OccupiedBlock};
 use crate::contact::Colliders;
@@ -164,51 +166,96 @@ struct ApicScatter<'a> {
 }
 
 impl ApicScatter<'_> {
-    /// Sums the particles `block` into `local`, stencil rows added in AVX2
-    /// registers if `AVX2`.
+    /// Sums the particles `block` into `local`, eight at a time: their terms
+    /// in SIMD lanes ([`ApicScatter::terms`]), then each particle's stencil,
+    /// rows added in AVX2 registers if `AVX2`.
     #[inline(always)]
     fn block<const AVX2: bool>(&self, local: &mut LocalNodes<Vec4>, block: &[u32]) {
-        let (layout, particles) = (self.layout, self.particles);
-        let h = layout.cell_size;
-        let inverse_inertia = 4.0 / (h * h);
-        for &p in block {
-            let p = p as usize;
-            let weights = quadratic_values(layout.to_grid(particles.position[p]));
-            let mass = particles.mass[p];
-            // Maps a node offset in cells to momentum: (m C − Δt M⁻¹ V0 τ) h,
-            // a column per SSE register (the same operations as glam's
-            // `Mat3`, which works one float at a time).
-            let affine = (Mat3A::from(particles.velocity_gradient[p]) * mass
-                - Mat3A::from(particles.stress[p]) * (self.dt * inverse_inertia))
-                * h;
-            // Node (i, j, k) gets w (m v + affine ((i, j, k) − offset), m):
-            // the affine part grows by one column per stencil step.
-            let at_base = (Vec3A::from(particles.velocity[p]) * mass
-                - affine * Vec3A::from(weights.offset))
-            .extend(mass);
-            let step = |column: Vec3A, n: usize| column.extend(0.0) * n as f32;
-            let row = StencilRow {
-                steps: [0, 1, 2].map(|k| step(affine.z_axis, k)),
-                weights: [0, 1, 2].map(|k| weights.values[k].z),
-            };
-            let window = local.window_mut::<3, QUADRATIC_SPAN>(weights.base);
-            for i in 0..3 {
-                let at_i = at_base + step(affine.x_axis, i);
-                for j in 0..3 {
-                    let at_ij = at_i + step(affine.y_axis, j);
-                    let wxy = weights.values[i].x * weights.values[j].y;
-                    let sums = (&mut window[at(i, j, 0)..at(i, j, 3)])
-                        .try_into()
-                        .expect("a stencil row has three nodes");
-                    if AVX2 {
-                        // SAFETY: `AVX2` is only set inside `block_avx2`.
-                        unsafe { row.add_avx2(sums, at_ij, wxy) };
-                    } else {
-                        row.add(sums, at_ij, wxy);
-                    }
-                }
+        for group in block.chunks(TERM_LANES) {
+            let terms = self.terms::<AVX2>(group);
+            for terms in &terms[..group.len()] {
+                terms.add_to::<AVX2>(local);
             }
         }
+    }
+
+    /// The terms of the (up to eight) particles `group`, in SIMD lanes with
+    /// the operations glam does per particle (so the same bits), then turned
+    /// into one [`ParticleTerms`] each; lanes past the group's end repeat its
+    /// last particle.
+    #[inline(always)]
+    fn terms<const AVX2: bool>(&self, group: &[u32]) -> [ParticleTerms; TERM_LANES] {
+        let particles = self.particles;
+        let particle = |lane: usize| group[lane.min(group.len() - 1)] as usize;
+        let mut position = Vec3s::splat(Vec3::ZERO);
+        let mut velocity = Vec3s::splat(Vec3::ZERO);
+        let mut mass = F32s::splat(0.0);
+        let mut gradient = Mat3s::splat(Mat3::ZERO);
+        let mut stress = Mat3s::splat(Mat3::ZERO);
+        for lane in 0..TERM_LANES {
+            let p = particle(lane);
+            position.set_lane(lane, particles.position[p]);
+            velocity.set_lane(lane, particles.velocity[p]);
+            mass.0[lane] = particles.mass[p];
+            if !AVX2 {
+                gradient.set_lane(lane, particles.velocity_gradient[p]);
+                stress.set_lane(lane, particles.stress[p]);
+            }
+        }
+        if AVX2 {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `AVX2` is only set inside `block_avx2`.
+            unsafe {
+                let (gradients, stresses) = (&particles.velocity_gradient, &particles.stress);
+                gradient.load_eight(0, std::array::from_fn(|lane| &gradients[particle(lane)]));
+                stress.load_eight(0, std::array::from_fn(|lane| &stresses[particle(lane)]));
+            };
+        }
+
+        let layout = self.layout;
+        let h = layout.cell_size;
+        let splat = F32s::<TERM_LANES>::splat;
+        let to_grid = |x: F32s<TERM_LANES>, origin: f32| (x - splat(origin)) / splat(h);
+        let weights = [
+            QuadraticLanes::at(to_grid(position.x, layout.origin.x)),
+            QuadraticLanes::at(to_grid(position.y, layout.origin.y)),
+            QuadraticLanes::at(to_grid(position.z, layout.origin.z)),
+        ];
+        let offset = Vec3s::new(weights[0].offset, weights[1].offset, weights[2].offset);
+        // Maps a node offset in cells to momentum: (m C − Δt M⁻¹ V0 τ) h.
+        let inverse_inertia = 4.0 / (h * h);
+        let affine = gradient
+            .scale(mass)
+            .sub(&stress.scale(splat(self.dt * inverse_inertia)))
+            .scale(splat(h));
+        // Node (i, j, k) gets w (m v + affine ((i, j, k) − offset), m).
+        let at_base = velocity.scale(mass) - affine.mul_vec(offset);
+
+        let zero = splat(0.0);
+        let [x, y, z] = [affine.x_axis, affine.y_axis, affine.z_axis];
+        let [wx, wy, wz] = [weights[0].values, weights[1].values, weights[2].values];
+        let values = [
+            [at_base.x, at_base.y, at_base.z, mass, x.x, x.y, x.z, zero],
+            [y.x, y.y, y.z, zero, z.x, z.y, z.z, zero],
+            [wx[0], wy[0], wz[0], wx[1], wy[1], wz[1], wx[2], wy[2]],
+            [
+                wz[2],
+                weights[0].first_node,
+                weights[1].first_node,
+                weights[2].first_node,
+                zero,
+                zero,
+                zero,
+                zero,
+            ],
+        ];
+        let mut terms = [ParticleTerms::default(); TERM_LANES];
+        for (part, values) in values.iter().enumerate() {
+            for (terms, row) in terms.iter_mut().zip(rows_of::<AVX2>(values)) {
+                terms.rows[part] = row;
+            }
+        }
+        terms
     }
 
     /// [`ApicScatter::block`] compiled for AVX2.
@@ -219,6 +266,103 @@ impl ApicScatter<'_> {
     #[target_feature(enable = "avx2")]
     fn block_avx2(&self, local: &mut LocalNodes<Vec4>, block: &[u32]) {
         self.block::<true>(local, block);
+    }
+}
+
+/// Particles whose scatter terms are computed together in SIMD lanes.
+const TERM_LANES: usize = 8;
+
+/// [`lanes_to_rows`], by AVX2 shuffles if `AVX2`.
+#[inline(always)]
+fn rows_of<const AVX2: bool>(values: &[F32s<TERM_LANES>; 8]) -> [[f32; 8]; TERM_LANES] {
+    #[cfg(target_arch = "x86_64")]
+    if AVX2 {
+        // SAFETY: `AVX2` is only set inside `block_avx2`.
+        return unsafe { lanes_to_rows_avx2(values) };
+    }
+    lanes_to_rows(values)
+}
+
+/// The quadratic B-spline weights of eight particles along one axis, from
+/// their positions in cells: [`quadratic_values`]' operations, lane by lane.
+struct QuadraticLanes {
+    /// The stencil's first node, ⌊x − ½⌋, as a float.
+    first_node: F32s<TERM_LANES>,
+    /// x minus the first node, in [½, 3/2).
+    offset: F32s<TERM_LANES>,
+    /// The weights of the stencil's three nodes.
+    values: [F32s<TERM_LANES>; 3],
+}
+
+impl QuadraticLanes {
+    #[inline(always)]
+    fn at(x: F32s<TERM_LANES>) -> QuadraticLanes {
+        let splat = F32s::<TERM_LANES>::splat;
+        let first_node = (x - splat(0.5)).floor();
+        let offset = x - first_node;
+        let near = splat(1.5) - offset;
+        let middle = offset - splat(1.0);
+        let far = splat(1.5) - (offset - splat(2.0)).abs();
+        QuadraticLanes {
+            first_node,
+            offset,
+            values: [
+                splat(0.5) * near * near,
+                splat(0.75) - middle * middle,
+                splat(0.5) * far * far,
+            ],
+        }
+    }
+}
+
+/// One particle's scatter terms, as four rows of eight floats (what
+/// [`ApicScatter::terms`] writes): (m v − affine · offset, m) and the affine
+/// map's x column; its y and z columns; the weights w_n^x, w_n^y, w_n^z of
+/// nodes 0, 1 and (but for w_2^z) 2; w_2^z and the first node.
+#[derive(Clone, Copy, Default)]
+#[repr(align(32))]
+struct ParticleTerms {
+    rows: [[f32; 8]; 4],
+}
+
+impl ParticleTerms {
+    /// Adds the terms to the particle's stencil in `local`: node (i, j, k)
+    /// gets w_i^x w_j^y w_k^z (m v + affine ((i, j, k) − offset), m), the
+    /// affine part growing by one column per stencil step; with `AVX2`
+    /// two of a row's nodes are added in one 256-bit register.
+    #[inline(always)]
+    fn add_to<const AVX2: bool>(&self, local: &mut LocalNodes<Vec4>) {
+        let [moments, columns, weights, last] = &self.rows;
+        let first_node = IVec3::new(last[1] as i32, last[2] as i32, last[3] as i32);
+        let at_base = Vec4::from_slice(&moments[..4]);
+        let x_step = Vec4::from_slice(&moments[4..]);
+        let y_step = Vec4::from_slice(&columns[..4]);
+        let z_step = Vec4::from_slice(&columns[4..]);
+        let (wx, wy) = (
+            [weights[0], weights[3], weights[6]],
+            [weights[1], weights[4], weights[7]],
+        );
+        let row = StencilRow {
+            steps: [0, 1, 2].map(|k| z_step * k as f32),
+            weights: [weights[2], weights[5], last[0]],
+        };
+        let window = local.window_mut::<3, QUADRATIC_SPAN>(first_node);
+        for i in 0..3 {
+            let at_i = at_base + x_step * i as f32;
+            for j in 0..3 {
+                let at_ij = at_i + y_step * j as f32;
+                let wxy = wx[i] * wy[j];
+                let sums = (&mut window[at(i, j, 0)..at(i, j, 3)])
+                    .try_into()
+                    .expect("a stencil row has three nodes");
+                if AVX2 {
+                    // SAFETY: `AVX2` is only set inside `block_avx2`.
+                    unsafe { row.add_avx2(sums, at_ij, wxy) };
+                } else {
+                    row.add(sums, at_ij, wxy);
+                }
+            }
+        }
     }
 }
 

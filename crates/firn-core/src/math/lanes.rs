@@ -139,6 +139,12 @@ impl<const N: usize> F32s<N> {
         self.abs().lt(F32s::splat(f32::INFINITY))
     }
 
+    /// Per-lane ⌊x⌋ (`vroundps` where compiled for AVX2; exact).
+    #[inline(always)]
+    pub fn floor(self) -> F32s<N> {
+        F32s(map1(self.0, f32::floor))
+    }
+
     /// Per-lane square root (correctly rounded, as `sqrtps`).
     #[inline(always)]
     pub fn sqrt(self) -> F32s<N> {
@@ -538,6 +544,41 @@ impl<const N: usize> Mat3s<N> {
     }
 }
 
+/// Eight values of eight lanes turned into eight rows: row `l` holds lane
+/// `l` of each value, in order (a plain copy).
+#[inline(always)]
+pub fn lanes_to_rows(values: &[F32s<8>; 8]) -> [[f32; 8]; 8] {
+    let mut rows = [[0.0; 8]; 8];
+    for (v, value) in values.iter().enumerate() {
+        for (row, &lane) in rows.iter_mut().zip(&value.0) {
+            row[v] = lane;
+        }
+    }
+    rows
+}
+
+/// [`lanes_to_rows`] by an 8x8 transpose in AVX2 registers.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+pub fn lanes_to_rows_avx2(values: &[F32s<8>; 8]) -> [[f32; 8]; 8] {
+    use std::arch::x86_64::*;
+    let mut columns = [_mm256_setzero_ps(); 8];
+    for (column, value) in columns.iter_mut().zip(values) {
+        // SAFETY: a value is eight contiguous floats.
+        *column = unsafe { _mm256_loadu_ps(value.0.as_ptr()) };
+    }
+    let mut rows = [[0.0; 8]; 8];
+    for (row, lanes) in rows.iter_mut().zip(transpose_eight(columns)) {
+        // SAFETY: a row is eight floats.
+        unsafe { _mm256_storeu_ps(row.as_mut_ptr(), lanes) };
+    }
+    rows
+}
+
 /// The 8x8 transpose of eight 256-bit rows: element j of row i becomes
 /// element i of row j.
 #[cfg(target_arch = "x86_64")]
@@ -624,6 +665,19 @@ impl Simd {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn lanes_become_rows_the_same_by_transpose() {
+        let values: [F32s<8>; 8] =
+            std::array::from_fn(|v| F32s(std::array::from_fn(|l| (10 * v + l) as f32)));
+        let rows = lanes_to_rows(&values);
+        assert_eq!(rows[3][5], 53.0);
+        #[cfg(target_arch = "x86_64")]
+        if Simd::Avx2.is_available() {
+            // SAFETY: AVX2 is available.
+            assert_eq!(unsafe { lanes_to_rows_avx2(&values) }, rows);
+        }
+    }
 
     #[test]
     fn finite_masks_catch_infinities_and_nans_in_any_component() {
