@@ -4,8 +4,9 @@
 //! interpolated from it (two particles at once where the transfer has a
 //! paired form), then the trial F̂_E, plasticity (with an SVD where a
 //! particle yields) and stress of the whole batch run in SIMD lanes
-//! ([`crate::constitutive::ElasticUpdate`]),
-//! then each particle collides and moves.
+//! ([`crate::constitutive::ElasticUpdate`]), and so do the collisions, the
+//! advection and the checks. With AVX2 the matrices go in and out of the
+//! lanes by 8x8 transposes ([`Mat3s::load_eight`]).
 //!
 //! Batches are formed from a block's particles (the last one is padded with
 //! undeformed particles), and every lane does the same IEEE operations, so
