@@ -16,7 +16,9 @@ use std::marker::PhantomData;
 use glam::{IVec3, Mat3, Vec3, Vec4};
 use rayon::prelude::*;
 
-use firn_core::math::bspline::{StencilValues, StencilWeights, cubic_weights, quadratic_values};
+use firn_core::math::bspline::{
+    QuadraticLanes, StencilValues, StencilWeights, cubic_weights, quadratic_values,
+};
 #[cfg(target_arch = "x86_64")]
 use firn_core::math::lanes::lanes_to_rows_avx2;
 use firn_core::math::lanes::{F32s, Mat3s, Simd, Vec3s, lanes_to_rows};
@@ -281,38 +283,6 @@ fn rows_of<const AVX2: bool>(values: &[F32s<TERM_LANES>; 8]) -> [[f32; 8]; TERM_
         return unsafe { lanes_to_rows_avx2(values) };
     }
     lanes_to_rows(values)
-}
-
-/// The quadratic B-spline weights of eight particles along one axis, from
-/// their positions in cells: [`quadratic_values`]' operations, lane by lane.
-struct QuadraticLanes {
-    /// The stencil's first node, ⌊x − ½⌋, as a float.
-    first_node: F32s<TERM_LANES>,
-    /// x minus the first node, in [½, 3/2).
-    offset: F32s<TERM_LANES>,
-    /// The weights of the stencil's three nodes.
-    values: [F32s<TERM_LANES>; 3],
-}
-
-impl QuadraticLanes {
-    #[inline(always)]
-    fn at(x: F32s<TERM_LANES>) -> QuadraticLanes {
-        let splat = F32s::<TERM_LANES>::splat;
-        let first_node = (x - splat(0.5)).floor();
-        let offset = x - first_node;
-        let near = splat(1.5) - offset;
-        let middle = offset - splat(1.0);
-        let far = splat(1.5) - (offset - splat(2.0)).abs();
-        QuadraticLanes {
-            first_node,
-            offset,
-            values: [
-                splat(0.5) * near * near,
-                splat(0.75) - middle * middle,
-                splat(0.5) * far * far,
-            ],
-        }
-    }
 }
 
 /// One particle's scatter terms, as four rows of eight floats (what

@@ -7,6 +7,8 @@
 
 use glam::{IVec3, Vec3, Vec3A};
 
+use crate::math::lanes::F32s;
+
 /// The 1D cubic B-spline N(x) of the thesis (eq. 37), support |x| < 2.
 pub fn cubic(x: f32) -> f32 {
     let a = x.abs();
@@ -242,6 +244,41 @@ pub fn quadratic_values(x: Vec3) -> StencilValues<3> {
     }
 }
 
+/// [`quadratic_values`] along one axis for `N` particles at once, from
+/// their positions in cells: the same operations lane by lane, so the same
+/// bits (the stencil's first node comes as an exact float).
+#[derive(Clone, Copy, Debug)]
+pub struct QuadraticLanes<const N: usize> {
+    /// The stencil's first node ⌊x − ½⌋ per lane.
+    pub first_node: F32s<N>,
+    /// x minus the first node, in [½, 3/2).
+    pub offset: F32s<N>,
+    /// The weights of the stencil's three nodes.
+    pub values: [F32s<N>; 3],
+}
+
+impl<const N: usize> QuadraticLanes<N> {
+    /// The weights at positions `x` (in cells).
+    #[inline(always)]
+    pub fn at(x: F32s<N>) -> QuadraticLanes<N> {
+        let splat = F32s::<N>::splat;
+        let first_node = (x - splat(0.5)).floor();
+        let offset = x - first_node;
+        let near = splat(1.5) - offset;
+        let middle = offset - splat(1.0);
+        let far = splat(1.5) - (offset - splat(2.0)).abs();
+        QuadraticLanes {
+            first_node,
+            offset,
+            values: [
+                splat(0.5) * near * near,
+                splat(0.75) - middle * middle,
+                splat(0.5) * far * far,
+            ],
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -322,6 +359,19 @@ mod tests {
             prop_assert_eq!(fast.offset, full.offset);
             for k in 0..3 {
                 prop_assert_eq!(fast.values[k].to_array().map(f32::to_bits), full.values[k].to_array().map(f32::to_bits), "node {}", k);
+            }
+        }
+
+        #[test]
+        fn quadratic_lanes_are_the_quadratic_values_bits(x in proptest::array::uniform8(-10.0f32..1100.0)) {
+            let lanes = QuadraticLanes::at(F32s(x));
+            for (lane, &x) in x.iter().enumerate() {
+                let one = quadratic_values(Vec3::splat(x));
+                prop_assert_eq!(lanes.first_node.0[lane] as i32, one.base.x);
+                prop_assert_eq!(lanes.offset.0[lane].to_bits(), one.offset.x.to_bits());
+                for k in 0..3 {
+                    prop_assert_eq!(lanes.values[k].0[lane].to_bits(), one.values[k].x.to_bits(), "node {}", k);
+                }
             }
         }
 
