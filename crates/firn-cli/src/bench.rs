@@ -22,7 +22,7 @@ use firn_core::scene::{
     TimeStep, Transfer,
 };
 use firn_gpu::GpuContext;
-use firn_mpm::update::preferred_simd;
+use firn_mpm::g2p::preferred_simd;
 use firn_mpm::{PhaseTimes, Simulation};
 use glam::Vec3;
 use serde::Serialize;
@@ -141,7 +141,7 @@ impl GpuScatterChoice {
 /// Instruction sets for `--simd`.
 #[derive(Clone, Copy, Debug, ValueEnum)]
 pub enum SimdChoice {
-    /// The solver's choice ([`firn_mpm::update::preferred_simd`]).
+    /// The solver's choice ([`firn_mpm::g2p::preferred_simd`]).
     Auto,
     /// Portable code (SSE on x86-64).
     Portable,

@@ -4,7 +4,7 @@
 
 use firn_core::math::lanes::Simd;
 use firn_gpu::{AdapterPolicy, AdapterReport};
-use firn_mpm::update::preferred_simd;
+use firn_mpm::g2p::preferred_simd;
 
 use crate::Failure;
 

@@ -293,7 +293,7 @@ impl Grid {
 
     /// Gives storage to exactly `blocks` (linear indices, strictly
     /// increasing): block `blocks[s]` gets slot `s`, all others none. Every
-    /// node must be zero (as [`crate::transfer::clear_grid`] leaves them), so
+    /// node must be zero (as [`crate::grid_update::clear_grid`] leaves them), so
     /// the new slots start zeroed whichever block held them before. The pool
     /// keeps its capacity unless it shrinks below a quarter of it.
     pub fn allocate(&mut self, blocks: &[u32]) {

@@ -44,9 +44,9 @@ use rayon::prelude::*;
 use crate::binning::Bins;
 use crate::constitutive::MaterialConstants;
 use crate::contact::{Constraint, PlacedCollider, collide_all, collide_all_constrained};
+use crate::disjoint::scatter_by_colour;
 use crate::grid::{BLOCK_NODES, Grid, GridLayout, PageTable};
 use crate::particles::Particles;
-use crate::transfer::scatter_by_colour;
 
 /// The differential of V_p^0 ∂Ψ/∂F_E for one particle, at its current F_E.
 ///

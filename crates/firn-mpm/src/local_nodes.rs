@@ -7,8 +7,8 @@
 
 use glam::{IVec3, Vec4};
 
+use crate::disjoint::NodeWriter;
 use crate::grid::{BLOCK_NODES, BLOCK_WIDTH, Node, PageTable};
-use crate::transfer::NodeWriter;
 
 /// Nodes per axis that the particles of one block reach: from one before
 /// the block to two past it (see [`crate::binning`]).

@@ -10,12 +10,16 @@ use glam::{Mat3, Vec3};
 use crate::binning::Bins;
 use crate::constitutive::{MaterialConstants, max_wave_speed_squared};
 use crate::contact::{ColliderSet, Colliders};
+use crate::g2p::{
+    GatherStats, ParticleProblem, ProblemKind, UpdateContext, gather_apic, gather_pic_flip,
+    preferred_simd,
+};
 use crate::grid::{Grid, GridLayout};
+use crate::grid_update::{GridForces, clear_grid, update_grid};
 use crate::implicit::{ImplicitSolver, ImplicitStep, SolverStats};
+use crate::p2g;
 use crate::particles::{Particles, PermuteBuffers};
 use crate::profile::{PhaseClock, PhaseTimes};
-use crate::transfer::{self, GridForces, gather_apic, gather_pic_flip};
-use crate::update::{GatherStats, ParticleProblem, ProblemKind, UpdateContext, preferred_simd};
 
 /// Particles are physically reordered by block every this many substeps, so
 /// that the scatter and gather stream through memory.
@@ -207,20 +211,20 @@ impl Simulation {
         self.grid.allocate(&self.bins.active_blocks);
         match self.scene.solver.transfer {
             Transfer::PicFlip => {
-                transfer::scatter_mass(&mut self.grid, &self.bins, &self.particles, cubic_weights);
-                transfer::estimate_volumes(&self.grid, &mut self.particles, cubic_weights);
+                p2g::scatter_mass(&mut self.grid, &self.bins, &self.particles, cubic_weights);
+                p2g::estimate_volumes(&self.grid, &mut self.particles, cubic_weights);
             }
             Transfer::Apic => {
-                transfer::scatter_mass(
+                p2g::scatter_mass(
                     &mut self.grid,
                     &self.bins,
                     &self.particles,
                     quadratic_weights,
                 );
-                transfer::estimate_volumes(&self.grid, &mut self.particles, quadratic_weights);
+                p2g::estimate_volumes(&self.grid, &mut self.particles, quadratic_weights);
             }
         }
-        transfer::clear_grid(&mut self.grid);
+        clear_grid(&mut self.grid);
     }
 
     fn initial_stats(&self) -> GatherStats {
@@ -295,11 +299,9 @@ impl Simulation {
         clock.lap(&mut self.profile.binning);
         let transfer_scheme = self.scene.solver.transfer;
         match transfer_scheme {
-            Transfer::PicFlip => {
-                transfer::scatter_pic_flip(&mut self.grid, &self.bins, &self.particles)
-            }
+            Transfer::PicFlip => p2g::scatter_pic_flip(&mut self.grid, &self.bins, &self.particles),
             Transfer::Apic => {
-                transfer::scatter_apic(&mut self.grid, &self.bins, &self.particles, dt, self.simd)
+                p2g::scatter_apic(&mut self.grid, &self.bins, &self.particles, dt, self.simd)
             }
         }
         clock.lap(&mut self.profile.scatter);
@@ -316,7 +318,7 @@ impl Simulation {
             Some(_) => &no_colliders,
             None => &particle_colliders,
         };
-        transfer::update_grid(
+        update_grid(
             &mut self.grid,
             forces,
             dt,
@@ -363,7 +365,7 @@ impl Simulation {
             ),
         };
         clock.lap(&mut self.profile.gather);
-        transfer::clear_grid(&mut self.grid);
+        clear_grid(&mut self.grid);
         clock.lap(&mut self.profile.clear);
         if let Some(problem) = stats.problem {
             return Err(self.instability(problem, dt));

@@ -5,7 +5,7 @@
 mod common;
 
 use firn_core::math::lanes::Simd;
-use firn_mpm::update::preferred_simd;
+use firn_mpm::g2p::preferred_simd;
 use firn_mpm::{Particles, Simulation};
 use glam::Vec3;
 

@@ -8,10 +8,11 @@ use firn_mpm::Particles;
 use firn_mpm::binning::Bins;
 use firn_mpm::constitutive::MaterialConstants;
 use firn_mpm::contact::Colliders;
+use firn_mpm::g2p::{self, UpdateContext, preferred_simd};
 use firn_mpm::grid::{Grid, GridLayout};
+use firn_mpm::grid_update::{self, GridForces};
+use firn_mpm::p2g;
 use firn_mpm::simulation::diagnostics;
-use firn_mpm::transfer::{self, GridForces};
-use firn_mpm::update::{UpdateContext, preferred_simd};
 use glam::{DVec3, Mat3, Vec3};
 
 const H: f32 = 0.05;
@@ -82,17 +83,15 @@ fn round_trip(transfer_scheme: Transfer) {
     grid.allocate(&bins.active_blocks);
     // No stress and Δt = 0: a pure transfer, no forces, no motion.
     match transfer_scheme {
-        Transfer::PicFlip => transfer::scatter_pic_flip(&mut grid, &bins, &particles),
-        Transfer::Apic => {
-            transfer::scatter_apic(&mut grid, &bins, &particles, 0.0, preferred_simd())
-        }
+        Transfer::PicFlip => p2g::scatter_pic_flip(&mut grid, &bins, &particles),
+        Transfer::Apic => p2g::scatter_apic(&mut grid, &bins, &particles, 0.0, preferred_simd()),
     }
     let forces = if apic {
         GridForces::InMomentum
     } else {
         GridForces::Separate
     };
-    transfer::update_grid(&mut grid, forces, 0.0, Vec3::ZERO, &Colliders::new(&[]));
+    grid_update::update_grid(&mut grid, forces, 0.0, Vec3::ZERO, &Colliders::new(&[]));
     let (grid_mass, grid_momentum, grid_angular) = grid_totals(&grid);
     let momentum = DVec3::from_array(before.momentum);
     let angular = DVec3::from_array(before.angular_momentum);
@@ -125,11 +124,9 @@ fn round_trip(transfer_scheme: Transfer) {
     let stats = match transfer_scheme {
         // α = 0: pure PIC, so particle velocities are the interpolated grid ones.
         Transfer::PicFlip => {
-            transfer::gather_pic_flip(&grid, &bins, &mut particles, 0.0, &context, Simd::detect())
+            g2p::gather_pic_flip(&grid, &bins, &mut particles, 0.0, &context, Simd::detect())
         }
-        Transfer::Apic => {
-            transfer::gather_apic(&grid, &bins, &mut particles, &context, Simd::detect())
-        }
+        Transfer::Apic => g2p::gather_apic(&grid, &bins, &mut particles, &context, Simd::detect()),
     };
     assert!(stats.problem.is_none());
     let after = diagnostics(&particles, H, transfer_scheme);
@@ -186,11 +183,11 @@ fn density_estimate_recovers_the_rest_density() {
         bins.rebuild(&grid.layout, &particles.position);
         grid.allocate(&bins.active_blocks);
         if is_cubic {
-            transfer::scatter_mass(&mut grid, &bins, &particles, cubic_weights);
-            transfer::estimate_volumes(&grid, &mut particles, cubic_weights);
+            p2g::scatter_mass(&mut grid, &bins, &particles, cubic_weights);
+            p2g::estimate_volumes(&grid, &mut particles, cubic_weights);
         } else {
-            transfer::scatter_mass(&mut grid, &bins, &particles, quadratic_weights);
-            transfer::estimate_volumes(&grid, &mut particles, quadratic_weights);
+            p2g::scatter_mass(&mut grid, &bins, &particles, quadratic_weights);
+            p2g::estimate_volumes(&grid, &mut particles, quadratic_weights);
         }
         let centre = count / 2 + 8 * 16 + 8;
         let density = particles.mass[centre] / particles.volume0[centre];

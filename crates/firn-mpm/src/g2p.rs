@@ -1,12 +1,20 @@
-//! The particle update after the gather (steps 7 to 10), block by block
-//! and 16 particles at a time: the nodes around a block are copied once
-//! into a dense local array, each particle's grid velocity and ∇v_p are
-//! interpolated from it (two particles at once where the transfer has a
-//! paired form), then the trial F̂_E, plasticity (with an SVD where a
-//! particle yields) and stress of the whole batch run in SIMD lanes
-//! ([`crate::constitutive::ElasticUpdate`]), and so do the collisions, the
-//! advection and the checks. With AVX2 the matrices go in and out of the
-//! lanes by 8x8 transposes ([`Mat3s::load_eight`]).
+//! Grid to particle, the gather (thesis §3.4 steps 7 to 10): each
+//! particle reads its new velocity and ∇v_p from the grid (step 8: the
+//! PIC/FLIP blend v_p = (1 − α) v_PIC + α v_FLIP with cubic B-splines, or
+//! APIC's v_p and C_p with quadratic ones), then its deformation update
+//! F̂_E = (I + Δt ∇v_p) F_E, plasticity and stress (step 7, eq. 34-43,
+//! [`crate::constitutive`]), the particle collisions (step 9) and the
+//! advection x_p += Δt v_p (step 10). [`crate::reference::grid_to_particles`]
+//! is the plain form of this stage.
+//!
+//! It runs block by block and 16 particles at a time: the nodes around a
+//! block are copied once into a dense local array, each particle's grid
+//! velocity and ∇v_p are interpolated from it (two particles at once where
+//! the transfer has a paired form), then the trial F̂_E, plasticity (with an
+//! SVD where a particle yields) and stress of the whole batch run in SIMD
+//! lanes ([`ElasticUpdate`]), and so do the collisions, the advection and
+//! the checks. With AVX2 the matrices go in and out of the lanes by 8x8
+//! transposes ([`Mat3s::load_eight`]).
 //!
 //! Batches are formed from a block's particles (the last one is padded with
 //! undeformed particles), and every lane does the same IEEE operations, so
@@ -14,17 +22,17 @@
 //! thread count or the instruction set ([`Simd`]): AVX-512, AVX2 and
 //! portable code give the same bits.
 
-use std::marker::PhantomData;
-
+use firn_core::math::bspline::{StencilValues, cubic_weights, quadratic_values};
 use firn_core::math::lanes::{F32s, Mat3s, Simd, U32s, Vec3s};
-use glam::{Mat3, Vec3};
+use glam::{Mat3, Vec3, Vec4};
 use rayon::prelude::*;
 
 use crate::binning::{Bins, OccupiedBlock};
 use crate::constitutive::{ElasticUpdate, MaterialConstants, MaterialLanes};
 use crate::contact::Colliders;
+use crate::disjoint::ParticleArrays;
 use crate::grid::{Grid, Node};
-use crate::local_nodes::LocalNodes;
+use crate::local_nodes::{CUBIC_SPAN, LocalNodes, QUADRATIC_SPAN, at};
 use crate::particles::Particles;
 
 /// Particles per batch: one AVX-512 register of `f32`.
@@ -184,74 +192,6 @@ pub(crate) fn checked_simd(simd: Simd) -> Simd {
         simd
     } else {
         Simd::Portable
-    }
-}
-
-/// One particle's state, borrowed from the particle arrays.
-struct ParticleState<'a> {
-    position: &'a mut Vec3,
-    velocity: &'a mut Vec3,
-    elastic: &'a mut Mat3,
-    plastic_j: &'a mut f32,
-    stress: &'a mut Mat3,
-    velocity_gradient: &'a mut Mat3,
-}
-
-/// The particle arrays, shared by the tasks of the block-by-block gather.
-///
-/// Sound only because every particle belongs to exactly one occupied block
-/// ([`Bins::order`] is a permutation) and each block is one task: no two
-/// tasks ever reach the same particle.
-struct ParticleArrays<'a> {
-    position: *mut Vec3,
-    velocity: *mut Vec3,
-    elastic: *mut Mat3,
-    plastic_j: *mut f32,
-    stress: *mut Mat3,
-    velocity_gradient: *mut Mat3,
-    volume0: &'a [f32],
-    material: &'a [u16],
-    _particles: PhantomData<&'a mut Particles>,
-}
-
-// SAFETY: shared across the gather's tasks only, which touch disjoint
-// particles (see the type's documentation).
-unsafe impl Sync for ParticleArrays<'_> {}
-
-impl<'a> ParticleArrays<'a> {
-    fn new(particles: &'a mut Particles) -> ParticleArrays<'a> {
-        ParticleArrays {
-            position: particles.position.as_mut_ptr(),
-            velocity: particles.velocity.as_mut_ptr(),
-            elastic: particles.elastic.as_mut_ptr(),
-            plastic_j: particles.plastic_j.as_mut_ptr(),
-            stress: particles.stress.as_mut_ptr(),
-            velocity_gradient: particles.velocity_gradient.as_mut_ptr(),
-            volume0: &particles.volume0,
-            material: &particles.material,
-            _particles: PhantomData,
-        }
-    }
-
-    /// Particle `p`'s mutable state.
-    ///
-    /// # Safety
-    /// No other reference to particle `p` may exist while the result lives.
-    #[inline(always)]
-    unsafe fn state(&self, p: usize) -> ParticleState<'_> {
-        assert!(p < self.volume0.len(), "particle {p} out of range");
-        // SAFETY: in bounds (all arrays have the same length, checked by
-        // `Particles`' users); exclusive by the caller's contract.
-        unsafe {
-            ParticleState {
-                position: &mut *self.position.add(p),
-                velocity: &mut *self.velocity.add(p),
-                elastic: &mut *self.elastic.add(p),
-                plastic_j: &mut *self.plastic_j.add(p),
-                stress: &mut *self.stress.add(p),
-                velocity_gradient: &mut *self.velocity_gradient.add(p),
-            }
-        }
     }
 }
 
@@ -627,4 +567,259 @@ unsafe fn store_matrices_avx2(
         update.elastic.store_eight(first, targets(arrays.elastic));
         update.stress.store_eight(first, targets(arrays.stress));
     }
+}
+
+/// Steps 7-10 for PIC/FLIP with FLIP share `flip`:
+/// v_p = (1 − α) Σ w_ip v_i^{n+1} + α (v_p + Σ w_ip (v_i^{n+1} − v_i)) and
+/// ∇v_p = Σ v_i^{n+1} (∇w_ip)ᵀ.
+pub fn gather_pic_flip(
+    grid: &Grid,
+    bins: &Bins,
+    particles: &mut Particles,
+    flip: f32,
+    context: &UpdateContext,
+    simd: Simd,
+) -> GatherStats {
+    let interpolation = PicFlipInterpolation { grid, flip };
+    gather_with(particles, bins, context, simd, &interpolation)
+}
+
+/// Steps 7-10 for APIC: v_p = Σ w_ip v_i, C_p = (4/h²) Σ w_ip v_i (x_i − x_p)ᵀ,
+/// and ∇v_p = C_p.
+pub fn gather_apic(
+    grid: &Grid,
+    bins: &Bins,
+    particles: &mut Particles,
+    context: &UpdateContext,
+    simd: Simd,
+) -> GatherStats {
+    gather_with(particles, bins, context, simd, &ApicInterpolation { grid })
+}
+
+/// The PIC/FLIP blend with cubic B-splines, read from [`LocalNodes`].
+struct PicFlipInterpolation<'a> {
+    grid: &'a Grid,
+    /// FLIP share α.
+    flip: f32,
+}
+
+impl Interpolation for PicFlipInterpolation<'_> {
+    type LocalNode = Node;
+
+    #[inline(always)]
+    fn grid(&self) -> &Grid {
+        self.grid
+    }
+
+    #[inline(always)]
+    fn local_node(node: &Node) -> Node {
+        *node
+    }
+
+    #[inline(always)]
+    fn interpolate(
+        &self,
+        local: &LocalNodes<Node>,
+        position: Vec3,
+        velocity: Vec3,
+    ) -> (Vec3, Mat3) {
+        let layout = self.grid.layout;
+        let inverse_h = 1.0 / layout.cell_size;
+        let weights = cubic_weights(layout.to_grid(position));
+        let window = local.window::<4, CUBIC_SPAN>(weights.base);
+        let mut pic = Vec3::ZERO;
+        let mut change = Vec3::ZERO;
+        let mut gradient = Mat3::ZERO;
+        for i in 0..4 {
+            for j in 0..4 {
+                for k in 0..4 {
+                    let node = &window[at(i, j, k)];
+                    let w = weights.weight(i, j, k);
+                    let grad_w = weights.gradient(i, j, k) * inverse_h;
+                    pic += node.velocity_new() * w;
+                    change += (node.velocity_new() - node.velocity()) * w;
+                    gradient += outer(node.velocity_new(), grad_w);
+                }
+            }
+        }
+        let flip = self.flip;
+        (pic * (1.0 - flip) + (velocity + change) * flip, gradient)
+    }
+}
+
+/// APIC with quadratic B-splines, read from [`LocalNodes`].
+struct ApicInterpolation<'a> {
+    grid: &'a Grid,
+}
+
+impl Interpolation for ApicInterpolation<'_> {
+    type LocalNode = Vec4;
+
+    #[inline(always)]
+    fn grid(&self) -> &Grid {
+        self.grid
+    }
+
+    #[inline(always)]
+    fn local_node(node: &Node) -> Vec4 {
+        node.velocity_new
+    }
+
+    #[inline(always)]
+    fn interpolate(&self, local: &LocalNodes<Vec4>, position: Vec3, _: Vec3) -> (Vec3, Mat3) {
+        let weights = quadratic_values(self.grid.layout.to_grid(position));
+        let sums = StencilSums::of(local, &weights);
+        sums.velocity_and_affine(weights.offset, self.inverse_inertia_h())
+    }
+
+    #[inline(always)]
+    fn interpolate_pair(
+        &self,
+        local: &LocalNodes<Vec4>,
+        simd: Simd,
+        particles: [(Vec3, Vec3); 2],
+    ) -> [(Vec3, Mat3); 2] {
+        // Arrays spelled out, not `map`ped: `array::map` can be compiled as
+        // a function of its own, outside the caller's instruction set.
+        let weights_at =
+            |(position, _): (Vec3, Vec3)| quadratic_values(self.grid.layout.to_grid(position));
+        let weights = [weights_at(particles[0]), weights_at(particles[1])];
+        let sums = match simd {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: AVX-512F CPUs have AVX2 too, and the gather only runs
+            // an instruction set the CPU has.
+            Simd::Avx2 | Simd::Avx512 => unsafe {
+                StencilSums::of_pair(local, [&weights[0], &weights[1]])
+            },
+            _ => [
+                StencilSums::of(local, &weights[0]),
+                StencilSums::of(local, &weights[1]),
+            ],
+        };
+        let result =
+            |n: usize| sums[n].velocity_and_affine(weights[n].offset, self.inverse_inertia_h());
+        [result(0), result(1)]
+    }
+}
+
+impl ApicInterpolation<'_> {
+    /// 4/h: C_p = (4/h²) Σ w_ip v_i (x_i − x_p)ᵀ from the moment in cells
+    /// (the offset in world units is cells · h).
+    #[inline(always)]
+    fn inverse_inertia_h(&self) -> f32 {
+        4.0 / self.grid.layout.cell_size
+    }
+}
+
+/// Weighted velocities w_ip v_i summed per x-slab, y-row and z-column of a
+/// particle's 3x3x3 stencil: their totals give v_p, their first moments
+/// C_p ([`StencilSums::velocity_and_affine`]).
+#[derive(Clone, Copy)]
+struct StencilSums {
+    slabs: [Vec4; 3],
+    rows: [Vec4; 3],
+    columns: [Vec4; 3],
+}
+
+impl StencilSums {
+    /// The sums of one particle with stencil `weights`, from the nodes
+    /// around its block.
+    #[inline(always)]
+    fn of(local: &LocalNodes<Vec4>, weights: &StencilValues<3>) -> StencilSums {
+        let window = local.window::<3, QUADRATIC_SPAN>(weights.base);
+        let mut sums = StencilSums {
+            slabs: [Vec4::ZERO; 3],
+            rows: [Vec4::ZERO; 3],
+            columns: [Vec4::ZERO; 3],
+        };
+        for (i, slab) in sums.slabs.iter_mut().enumerate() {
+            for (j, row) in sums.rows.iter_mut().enumerate() {
+                let wxy = weights.values[i].x * weights.values[j].y;
+                for (k, column) in sums.columns.iter_mut().enumerate() {
+                    let weighted = window[at(i, j, k)] * (wxy * weights.values[k].z);
+                    *slab += weighted;
+                    *row += weighted;
+                    *column += weighted;
+                }
+            }
+        }
+        sums
+    }
+
+    /// [`StencilSums::of`] for two particles at once, one per 128-bit half
+    /// of each 256-bit register: lane by lane the same operations, so the
+    /// same bits.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn of_pair(local: &LocalNodes<Vec4>, weights: [&StencilValues<3>; 2]) -> [StencilSums; 2] {
+        use std::arch::x86_64::*;
+        let [a, b] = weights;
+        let pair = |x: Vec4, y: Vec4| _mm256_set_m128(y.into(), x.into());
+        // No `array::map` here: it can be compiled as a function of its own,
+        // without AVX2.
+        let windows = [
+            local.window::<3, QUADRATIC_SPAN>(a.base),
+            local.window::<3, QUADRATIC_SPAN>(b.base),
+        ];
+        let z_weight = |k: usize| pair(Vec4::splat(a.values[k].z), Vec4::splat(b.values[k].z));
+        let z_weights = [z_weight(0), z_weight(1), z_weight(2)];
+        let mut slabs = [_mm256_setzero_ps(); 3];
+        let mut rows = [_mm256_setzero_ps(); 3];
+        let mut columns = [_mm256_setzero_ps(); 3];
+        for (i, slab) in slabs.iter_mut().enumerate() {
+            for (j, row) in rows.iter_mut().enumerate() {
+                let wxy = pair(
+                    Vec4::splat(a.values[i].x * a.values[j].y),
+                    Vec4::splat(b.values[i].x * b.values[j].y),
+                );
+                for (k, column) in columns.iter_mut().enumerate() {
+                    let nodes = pair(windows[0][at(i, j, k)], windows[1][at(i, j, k)]);
+                    let weighted = _mm256_mul_ps(nodes, _mm256_mul_ps(wxy, z_weights[k]));
+                    *slab = _mm256_add_ps(*slab, weighted);
+                    *row = _mm256_add_ps(*row, weighted);
+                    *column = _mm256_add_ps(*column, weighted);
+                }
+            }
+        }
+        let lower = |v: __m256| Vec4::from(_mm256_castps256_ps128(v));
+        let upper = |v: __m256| Vec4::from(_mm256_extractf128_ps::<1>(v));
+        [
+            StencilSums {
+                slabs: [lower(slabs[0]), lower(slabs[1]), lower(slabs[2])],
+                rows: [lower(rows[0]), lower(rows[1]), lower(rows[2])],
+                columns: [lower(columns[0]), lower(columns[1]), lower(columns[2])],
+            },
+            StencilSums {
+                slabs: [upper(slabs[0]), upper(slabs[1]), upper(slabs[2])],
+                rows: [upper(rows[0]), upper(rows[1]), upper(rows[2])],
+                columns: [upper(columns[0]), upper(columns[1]), upper(columns[2])],
+            },
+        ]
+    }
+
+    /// v_p = Σ w_ip v_i and `scale` Σ w_ip v_i (x_i − x_p)ᵀ in cells, for a
+    /// particle `offset` cells from its stencil's first node.
+    #[inline(always)]
+    fn velocity_and_affine(&self, offset: Vec3, scale: f32) -> (Vec3, Mat3) {
+        let slabs = self.slabs;
+        let velocity = slabs[0] + slabs[1] + slabs[2];
+        // Σ w v (n − offset) along one axis, from the sums at n = 0, 1, 2,
+        // scaled in the SIMD lanes (the bits of glam's `Mat3 * f32`).
+        let moment = |sums: [Vec4; 3], offset: f32| {
+            ((sums[1] + sums[2] * 2.0 - velocity * offset) * scale).truncate()
+        };
+        let affine = Mat3::from_cols(
+            moment(self.slabs, offset.x),
+            moment(self.rows, offset.y),
+            moment(self.columns, offset.z),
+        );
+        (velocity.truncate(), affine)
+    }
+}
+
+/// The outer product a bᵀ.
+#[inline(always)]
+pub fn outer(a: Vec3, b: Vec3) -> Mat3 {
+    Mat3::from_cols(a * b.x, a * b.y, a * b.z)
 }

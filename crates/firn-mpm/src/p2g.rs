@@ -1,0 +1,363 @@
+//! Particle to grid, the scatter (thesis §3.4 steps 1 to 3): mass and
+//! momentum onto the grid, the elastic force f_i = −Σ_p V_p^0 τ_p ∇w_ip
+//! (eq. 31-33), and once at the start the volumes V_p^0 (step 2), for both
+//! transfer schemes:
+//!
+//! - PIC/FLIP with cubic B-splines (Stomakhin et al. 2013, the thesis):
+//!   mass, momentum and force are summed apart ([`scatter_pic_flip`]).
+//! - APIC with quadratic B-splines (Jiang et al. 2015, in the MLS-MPM form of
+//!   Hu et al. 2018): the scatter sums w_ip (m_p v_p + (m_p C_p −
+//!   Δt V_p^0 M_p⁻¹ τ_p)(x_i − x_p)) with M_p⁻¹ = 4/h², the force impulse
+//!   inside the momentum, which conserves angular momentum ([`scatter_apic`]).
+//!
+//! Each block's particles are summed into a dense local copy of the nodes
+//! around the block ([`LocalNodes`]), then added to the grid colour by
+//! colour ([`scatter_blocks_by_colour`]), so every node sums its
+//! contributions in the same order whatever the thread count.
+//! [`crate::reference::particles_to_grid`] is the plain form of this stage.
+
+use glam::{IVec3, Mat3, Vec3, Vec4};
+use rayon::prelude::*;
+
+use firn_core::math::bspline::{QuadraticLanes, StencilWeights, cubic_weights};
+#[cfg(target_arch = "x86_64")]
+use firn_core::math::lanes::lanes_to_rows_avx2;
+use firn_core::math::lanes::{F32s, Mat3s, Simd, Vec3s, lanes_to_rows};
+
+use crate::binning::Bins;
+use crate::disjoint::{scatter_blocks_by_colour, scatter_by_colour};
+use crate::g2p::checked_simd;
+use crate::grid::{Grid, GridLayout, Node};
+use crate::local_nodes::{CUBIC_SPAN, LocalNodes, QUADRATIC_SPAN, at};
+use crate::particles::Particles;
+
+/// Steps 1 and 3 for PIC/FLIP: mass, momentum and elastic force on the
+/// grid, summed per block in [`LocalNodes`].
+pub fn scatter_pic_flip(grid: &mut Grid, bins: &Bins, particles: &Particles) {
+    let (table, nodes) = grid.parts_mut();
+    let layout = table.layout;
+    let inverse_h = 1.0 / layout.cell_size;
+    scatter_blocks_by_colour(nodes, bins, |block, writer| {
+        let mut local = LocalNodes::<Node>::around(block.coord);
+        for &p in bins.particles_of(block) {
+            let p = p as usize;
+            let weights = cubic_weights(layout.to_grid(particles.position[p]));
+            let mass = particles.mass[p];
+            let momentum_mass = (particles.velocity[p] * mass).extend(mass);
+            let stress = particles.stress[p];
+            let window = local.window_mut::<4, CUBIC_SPAN>(weights.base);
+            for i in 0..4 {
+                for j in 0..4 {
+                    for k in 0..4 {
+                        let sum = &mut window[at(i, j, k)];
+                        let w = weights.weight(i, j, k);
+                        let force = -(stress * (weights.gradient(i, j, k) * inverse_h));
+                        sum.velocity_mass += momentum_mass * w;
+                        sum.velocity_new += force.extend(0.0);
+                    }
+                }
+            }
+        }
+        local.add_nodes_to(&table, writer);
+    });
+}
+
+/// Steps 1 and 3 for APIC: mass and affine momentum including the force
+/// impulse, summed per block in a [`LocalNodes`] of `Vec4`s (momentum, mass).
+/// With AVX2 (`simd` not portable, where the CPU has it) two of a stencil
+/// row's three nodes are added in one 256-bit register; every lane does
+/// the same IEEE operations either way, so the sums have the same bits.
+pub fn scatter_apic(grid: &mut Grid, bins: &Bins, particles: &Particles, dt: f32, simd: Simd) {
+    let (table, nodes) = grid.parts_mut();
+    let scatter = ApicScatter {
+        layout: table.layout,
+        dt,
+        particles,
+    };
+    let simd = checked_simd(simd);
+    scatter_blocks_by_colour(nodes, bins, |block, writer| {
+        let mut local = LocalNodes::around(block.coord);
+        let block_particles = bins.particles_of(block);
+        match simd {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: AVX-512F CPUs have AVX2 too, and `checked_simd` only
+            // keeps an instruction set the CPU has.
+            Simd::Avx2 | Simd::Avx512 => unsafe { scatter.block_avx2(&mut local, block_particles) },
+            _ => scatter.block::<false>(&mut local, block_particles),
+        }
+        local.add_momentum_to(&table, writer);
+    });
+}
+
+/// What the APIC scatter reads.
+struct ApicScatter<'a> {
+    layout: GridLayout,
+    dt: f32,
+    particles: &'a Particles,
+}
+
+impl ApicScatter<'_> {
+    /// Sums the particles `block` into `local`, eight at a time: their terms
+    /// in SIMD lanes ([`ApicScatter::terms`]), then each particle's stencil,
+    /// rows added in AVX2 registers if `AVX2`.
+    #[inline(always)]
+    fn block<const AVX2: bool>(&self, local: &mut LocalNodes<Vec4>, block: &[u32]) {
+        for group in block.chunks(TERM_LANES) {
+            let terms = self.terms::<AVX2>(group);
+            for terms in &terms[..group.len()] {
+                terms.add_to::<AVX2>(local);
+            }
+        }
+    }
+
+    /// The terms of the (up to eight) particles `group`, in SIMD lanes with
+    /// the operations glam does per particle (so the same bits), then turned
+    /// into one [`ParticleTerms`] each; lanes past the group's end repeat its
+    /// last particle.
+    #[inline(always)]
+    fn terms<const AVX2: bool>(&self, group: &[u32]) -> [ParticleTerms; TERM_LANES] {
+        let particles = self.particles;
+        let particle = |lane: usize| group[lane.min(group.len() - 1)] as usize;
+        let mut position = Vec3s::splat(Vec3::ZERO);
+        let mut velocity = Vec3s::splat(Vec3::ZERO);
+        let mut mass = F32s::splat(0.0);
+        let mut gradient = Mat3s::splat(Mat3::ZERO);
+        let mut stress = Mat3s::splat(Mat3::ZERO);
+        for lane in 0..TERM_LANES {
+            let p = particle(lane);
+            position.set_lane(lane, particles.position[p]);
+            velocity.set_lane(lane, particles.velocity[p]);
+            mass.0[lane] = particles.mass[p];
+            if !AVX2 {
+                gradient.set_lane(lane, particles.velocity_gradient[p]);
+                stress.set_lane(lane, particles.stress[p]);
+            }
+        }
+        if AVX2 {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `AVX2` is only set inside `block_avx2`.
+            unsafe {
+                let (gradients, stresses) = (&particles.velocity_gradient, &particles.stress);
+                gradient.load_eight(0, std::array::from_fn(|lane| &gradients[particle(lane)]));
+                stress.load_eight(0, std::array::from_fn(|lane| &stresses[particle(lane)]));
+            };
+        }
+
+        let layout = self.layout;
+        let h = layout.cell_size;
+        let splat = F32s::<TERM_LANES>::splat;
+        let to_grid = |x: F32s<TERM_LANES>, origin: f32| (x - splat(origin)) / splat(h);
+        let weights = [
+            QuadraticLanes::at(to_grid(position.x, layout.origin.x)),
+            QuadraticLanes::at(to_grid(position.y, layout.origin.y)),
+            QuadraticLanes::at(to_grid(position.z, layout.origin.z)),
+        ];
+        let offset = Vec3s::new(weights[0].offset, weights[1].offset, weights[2].offset);
+        // Maps a node offset in cells to momentum: (m C − Δt M⁻¹ V0 τ) h.
+        let inverse_inertia = 4.0 / (h * h);
+        let affine = gradient
+            .scale(mass)
+            .sub(&stress.scale(splat(self.dt * inverse_inertia)))
+            .scale(splat(h));
+        // Node (i, j, k) gets w (m v + affine ((i, j, k) − offset), m).
+        let at_base = velocity.scale(mass) - affine.mul_vec(offset);
+
+        let zero = splat(0.0);
+        let [x, y, z] = [affine.x_axis, affine.y_axis, affine.z_axis];
+        let [wx, wy, wz] = [weights[0].values, weights[1].values, weights[2].values];
+        let values = [
+            [at_base.x, at_base.y, at_base.z, mass, x.x, x.y, x.z, zero],
+            [y.x, y.y, y.z, zero, z.x, z.y, z.z, zero],
+            [wx[0], wy[0], wz[0], wx[1], wy[1], wz[1], wx[2], wy[2]],
+            [
+                wz[2],
+                weights[0].first_node,
+                weights[1].first_node,
+                weights[2].first_node,
+                zero,
+                zero,
+                zero,
+                zero,
+            ],
+        ];
+        let mut terms = [ParticleTerms::default(); TERM_LANES];
+        for (part, values) in values.iter().enumerate() {
+            for (terms, row) in terms.iter_mut().zip(rows_of::<AVX2>(values)) {
+                terms.rows[part] = row;
+            }
+        }
+        terms
+    }
+
+    /// [`ApicScatter::block`] compiled for AVX2.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn block_avx2(&self, local: &mut LocalNodes<Vec4>, block: &[u32]) {
+        self.block::<true>(local, block);
+    }
+}
+
+/// Particles whose scatter terms are computed together in SIMD lanes.
+const TERM_LANES: usize = 8;
+
+/// [`lanes_to_rows`], by AVX2 shuffles if `AVX2`.
+#[inline(always)]
+fn rows_of<const AVX2: bool>(values: &[F32s<TERM_LANES>; 8]) -> [[f32; 8]; TERM_LANES] {
+    #[cfg(target_arch = "x86_64")]
+    if AVX2 {
+        // SAFETY: `AVX2` is only set inside `block_avx2`.
+        return unsafe { lanes_to_rows_avx2(values) };
+    }
+    lanes_to_rows(values)
+}
+
+/// One particle's scatter terms, as four rows of eight floats (what
+/// [`ApicScatter::terms`] writes): (m v − affine · offset, m) and the affine
+/// map's x column; its y and z columns; the weights w_n^x, w_n^y, w_n^z of
+/// nodes 0, 1 and (but for w_2^z) 2; w_2^z and the first node.
+#[derive(Clone, Copy, Default)]
+#[repr(align(32))]
+struct ParticleTerms {
+    rows: [[f32; 8]; 4],
+}
+
+impl ParticleTerms {
+    /// Adds the terms to the particle's stencil in `local`: node (i, j, k)
+    /// gets w_i^x w_j^y w_k^z (m v + affine ((i, j, k) − offset), m), the
+    /// affine part growing by one column per stencil step; with `AVX2`
+    /// two of a row's nodes are added in one 256-bit register.
+    #[inline(always)]
+    fn add_to<const AVX2: bool>(&self, local: &mut LocalNodes<Vec4>) {
+        let [moments, columns, weights, last] = &self.rows;
+        let first_node = IVec3::new(last[1] as i32, last[2] as i32, last[3] as i32);
+        let at_base = Vec4::from_slice(&moments[..4]);
+        let x_step = Vec4::from_slice(&moments[4..]);
+        let y_step = Vec4::from_slice(&columns[..4]);
+        let z_step = Vec4::from_slice(&columns[4..]);
+        let (wx, wy) = (
+            [weights[0], weights[3], weights[6]],
+            [weights[1], weights[4], weights[7]],
+        );
+        let row = StencilRow {
+            steps: [0, 1, 2].map(|k| z_step * k as f32),
+            weights: [weights[2], weights[5], last[0]],
+        };
+        let window = local.window_mut::<3, QUADRATIC_SPAN>(first_node);
+        for i in 0..3 {
+            let at_i = at_base + x_step * i as f32;
+            for j in 0..3 {
+                let at_ij = at_i + y_step * j as f32;
+                let wxy = wx[i] * wy[j];
+                let sums = (&mut window[at(i, j, 0)..at(i, j, 3)])
+                    .try_into()
+                    .expect("a stencil row has three nodes");
+                if AVX2 {
+                    // SAFETY: `AVX2` is only set inside `block_avx2`.
+                    unsafe { row.add_avx2(sums, at_ij, wxy) };
+                } else {
+                    row.add(sums, at_ij, wxy);
+                }
+            }
+        }
+    }
+}
+
+/// A particle's terms along a stencil row (i, j, 0…2): node k gets
+/// (a_ij + steps[k]) (w_xy weights[k]).
+struct StencilRow {
+    /// The affine part's growth along z: k times its z column.
+    steps: [Vec4; 3],
+    /// The z weights w_k.
+    weights: [f32; 3],
+}
+
+impl StencilRow {
+    /// Adds the row's three terms to `sums`.
+    #[inline(always)]
+    fn add(&self, sums: &mut [Vec4; 3], at_ij: Vec4, wxy: f32) {
+        for ((sum, step), weight) in sums.iter_mut().zip(self.steps).zip(self.weights) {
+            *sum += (at_ij + step) * (wxy * weight);
+        }
+    }
+
+    /// [`StencilRow::add`] with nodes 0 and 1 in one 256-bit register: the
+    /// same operations lane by lane, so the same bits.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn add_avx2(&self, sums: &mut [Vec4; 3], at_ij: Vec4, wxy: f32) {
+        use std::arch::x86_64::*;
+        let first_two = |v: [Vec4; 3]| _mm256_set_m128(v[1].into(), v[0].into());
+        let steps = first_two(self.steps);
+        let weights = first_two(self.weights.map(Vec4::splat));
+        let at = _mm256_set_m128(at_ij.into(), at_ij.into());
+        let terms = _mm256_mul_ps(
+            _mm256_add_ps(at, steps),
+            _mm256_mul_ps(_mm256_set1_ps(wxy), weights),
+        );
+        let first = sums.as_mut_ptr().cast::<f32>();
+        // SAFETY: `sums` holds 12 floats; nodes 0 and 1 are its first 8.
+        unsafe { _mm256_storeu_ps(first, _mm256_add_ps(_mm256_loadu_ps(first), terms)) };
+        sums[2] += (at_ij + self.steps[2]) * (wxy * self.weights[2]);
+    }
+}
+
+/// Mass only, for the one-time density estimate (step 2).
+pub fn scatter_mass<const N: usize>(
+    grid: &mut Grid,
+    bins: &Bins,
+    particles: &Particles,
+    weights_at: fn(Vec3) -> StencilWeights<N>,
+) {
+    let (table, nodes) = grid.parts_mut();
+    let layout = table.layout;
+    scatter_by_colour(nodes, bins, |block, writer| {
+        for &p in block {
+            let p = p as usize;
+            let weights = weights_at(layout.to_grid(particles.position[p]));
+            let stencil = table.stencil(weights.base);
+            for i in 0..N {
+                for j in 0..N {
+                    for k in 0..N {
+                        let mass = particles.mass[p] * weights.weight(i, j, k);
+                        writer.update(stencil.index(i, j, k), |node| node.velocity_mass.w += mass);
+                    }
+                }
+            }
+        }
+    });
+}
+
+/// Step 2: ρ_p^0 = Σ_i m_i w_ip / h³ and V_p^0 = m_p / ρ_p^0, from a grid
+/// holding the scattered mass.
+pub fn estimate_volumes<const N: usize>(
+    grid: &Grid,
+    particles: &mut Particles,
+    weights_at: fn(Vec3) -> StencilWeights<N>,
+) {
+    let table = grid.page_table();
+    let layout = table.layout;
+    let cell_volume = layout.cell_size.powi(3);
+    let (positions, masses) = (&particles.position, &particles.mass);
+    particles
+        .volume0
+        .par_iter_mut()
+        .enumerate()
+        .for_each(|(p, volume)| {
+            let weights = weights_at(layout.to_grid(positions[p]));
+            let stencil = table.stencil(weights.base);
+            let mut density = 0.0;
+            for i in 0..N {
+                for j in 0..N {
+                    for k in 0..N {
+                        density +=
+                            grid.nodes[stencil.index(i, j, k)].mass() * weights.weight(i, j, k);
+                    }
+                }
+            }
+            *volume = masses[p] * cell_volume / density;
+        });
+}
