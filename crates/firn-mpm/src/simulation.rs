@@ -79,6 +79,68 @@ pub struct Snapshot {
     pub particles: Particles,
 }
 
+impl Snapshot {
+    /// The state at time 0: the scene's bodies filled with particles
+    /// ([`sample_bodies`]) and their volumes estimated from the scattered
+    /// mass (step 2), as every backend starts. The scene should have passed
+    /// [`Scene::validate`].
+    pub fn initial(scene: &Scene) -> Result<Snapshot, SimulationError> {
+        let seeds = sample_bodies(scene);
+        if seeds.positions.is_empty() {
+            return Err(SimulationError::NoParticles);
+        }
+        let count = seeds.positions.len();
+        let mut particles = Particles {
+            position: seeds.positions,
+            velocity: seeds.velocities,
+            mass: seeds.masses,
+            volume0: vec![0.0; count],
+            elastic: vec![Mat3::IDENTITY; count],
+            plastic_j: vec![1.0; count],
+            stress: vec![Mat3::ZERO; count],
+            velocity_gradient: vec![Mat3::ZERO; count],
+            material: seeds.materials,
+        };
+        estimate_volumes(scene, &mut particles);
+        let materials = MaterialConstants::of_each(&scene.materials);
+        let max_speed_squared = particles
+            .velocity
+            .iter()
+            .map(|v| v.length_squared())
+            .fold(0.0, f32::max);
+        Ok(Snapshot {
+            time: 0.0,
+            steps: 0,
+            max_speed_squared,
+            max_wave_speed_squared: max_wave_speed_squared(
+                &materials,
+                &particles.material,
+                &particles.plastic_j,
+            ),
+            particles,
+        })
+    }
+}
+
+/// Step 2: scatter the mass once and read the density back at each particle.
+fn estimate_volumes(scene: &Scene, particles: &mut Particles) {
+    let domain = &scene.domain;
+    let mut grid = Grid::new(domain.min, domain.max, domain.cell_size);
+    let mut bins = Bins::default();
+    bins.rebuild(&grid.layout, &particles.position);
+    grid.allocate(&bins.active_blocks);
+    match scene.solver.transfer {
+        Transfer::PicFlip => {
+            p2g::scatter_mass(&mut grid, &bins, particles, cubic_weights);
+            p2g::estimate_volumes(&grid, particles, cubic_weights);
+        }
+        Transfer::Apic => {
+            p2g::scatter_mass(&mut grid, &bins, particles, quadratic_weights);
+            p2g::estimate_volumes(&grid, particles, quadratic_weights);
+        }
+    }
+}
+
 /// Totals over all particles, summed in f64 in particle order.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Diagnostics {
@@ -120,26 +182,8 @@ impl Simulation {
     /// Fills the scene's bodies with particles and estimates their volumes
     /// (step 2). The scene should have passed [`Scene::validate`].
     pub fn new(scene: Scene) -> Result<Simulation, SimulationError> {
-        let seeds = sample_bodies(&scene);
-        if seeds.positions.is_empty() {
-            return Err(SimulationError::NoParticles);
-        }
-        let count = seeds.positions.len();
-        let particles = Particles {
-            position: seeds.positions,
-            velocity: seeds.velocities,
-            mass: seeds.masses,
-            volume0: vec![0.0; count],
-            elastic: vec![Mat3::IDENTITY; count],
-            plastic_j: vec![1.0; count],
-            stress: vec![Mat3::ZERO; count],
-            velocity_gradient: vec![Mat3::ZERO; count],
-            material: seeds.materials,
-        };
-        let mut simulation = Simulation::with_particles(scene, particles, 0.0, 0);
-        simulation.estimate_volumes();
-        simulation.stats = simulation.initial_stats();
-        Ok(simulation)
+        let initial = Snapshot::initial(&scene)?;
+        Simulation::from_snapshot(scene, initial)
     }
 
     /// Continues from a snapshot taken by [`Simulation::snapshot`] of the same scene.
@@ -201,43 +245,6 @@ impl Simulation {
             profile: PhaseTimes::default(),
             simd: preferred_simd(),
             scene,
-        }
-    }
-
-    /// Step 2: scatter mass once and read the density back at each particle.
-    fn estimate_volumes(&mut self) {
-        self.bins
-            .rebuild(&self.grid.layout, &self.particles.position);
-        self.grid.allocate(&self.bins.active_blocks);
-        match self.scene.solver.transfer {
-            Transfer::PicFlip => {
-                p2g::scatter_mass(&mut self.grid, &self.bins, &self.particles, cubic_weights);
-                p2g::estimate_volumes(&self.grid, &mut self.particles, cubic_weights);
-            }
-            Transfer::Apic => {
-                p2g::scatter_mass(
-                    &mut self.grid,
-                    &self.bins,
-                    &self.particles,
-                    quadratic_weights,
-                );
-                p2g::estimate_volumes(&self.grid, &mut self.particles, quadratic_weights);
-            }
-        }
-        clear_grid(&mut self.grid);
-    }
-
-    fn initial_stats(&self) -> GatherStats {
-        let max_speed_squared = self
-            .particles
-            .velocity
-            .iter()
-            .map(|v| v.length_squared())
-            .fold(0.0, f32::max);
-        GatherStats {
-            max_speed_squared,
-            max_wave_speed_squared: self.max_wave_speed_squared(),
-            problem: None,
         }
     }
 

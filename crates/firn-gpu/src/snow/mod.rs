@@ -75,8 +75,8 @@ impl GpuSnow {
     /// exactly as the CPU solver does, then moves them to the GPU.
     pub fn new(context: Arc<GpuContext>, scene: Scene) -> Result<GpuSnow, GpuError> {
         GpuSnow::check_supported(&scene)?;
-        let cpu = firn_mpm::Simulation::new(scene.clone())?;
-        GpuSnow::from_snapshot(context, scene, cpu.snapshot())
+        let initial = Snapshot::initial(&scene)?;
+        GpuSnow::from_snapshot(context, scene, initial)
     }
 
     /// Continues a run from a snapshot (of the CPU or the GPU backend).
