@@ -78,22 +78,24 @@ impl Neg for Avx8 {
     }
 }
 
-// SAFETY (every method): Avx8 exists only where the CPU has AVX2.
 impl Real for Avx8 {
     type Mask = Avx8i;
     type Int = Avx8i;
 
     #[inline(always)]
     fn simplex(p: V3<Avx8>) -> (Avx8, V3<Avx8>) {
+        // SAFETY: Avx8 values exist only where the CPU has AVX2.
         unsafe { simplex_avx2(p) }
     }
 
     #[inline(always)]
     fn splat(value: f64) -> Avx8 {
+        // SAFETY: Avx8 values exist only where the CPU has AVX2.
         unsafe { Avx8(_mm256_set1_ps(value as f32)) }
     }
     #[inline(always)]
     fn floor_int(self) -> (Avx8, Avx8i) {
+        // SAFETY: Avx8 values exist only where the CPU has AVX2.
         unsafe {
             let limit = FLOOR_LIMIT as f32;
             // maxps/minps return the second operand for NaN: NaN → −2³⁰.
@@ -113,6 +115,7 @@ impl Real for Avx8 {
     }
     #[inline(always)]
     fn lt(self, other: Avx8) -> Avx8i {
+        // SAFETY: Avx8 values exist only where the CPU has AVX2.
         unsafe {
             Avx8i(_mm256_castps_si256(_mm256_cmp_ps::<_CMP_LT_OQ>(
                 self.0, other.0,
@@ -121,6 +124,7 @@ impl Real for Avx8 {
     }
     #[inline(always)]
     fn le(self, other: Avx8) -> Avx8i {
+        // SAFETY: Avx8 values exist only where the CPU has AVX2.
         unsafe {
             Avx8i(_mm256_castps_si256(_mm256_cmp_ps::<_CMP_LE_OQ>(
                 self.0, other.0,
@@ -129,78 +133,97 @@ impl Real for Avx8 {
     }
     #[inline(always)]
     fn select(mask: Avx8i, yes: Avx8, no: Avx8) -> Avx8 {
+        // SAFETY: Avx8 values exist only where the CPU has AVX2.
         unsafe { Avx8(_mm256_blendv_ps(no.0, yes.0, _mm256_castsi256_ps(mask.0))) }
     }
     #[inline(always)]
     fn min(self, other: Avx8) -> Avx8 {
+        // SAFETY: Avx8 values exist only where the CPU has AVX2.
         unsafe { Avx8(_mm256_min_ps(self.0, other.0)) }
     }
     #[inline(always)]
     fn max(self, other: Avx8) -> Avx8 {
+        // SAFETY: Avx8 values exist only where the CPU has AVX2.
         unsafe { Avx8(_mm256_max_ps(self.0, other.0)) }
     }
     #[inline(always)]
     fn sqrt(self) -> Avx8 {
+        // SAFETY: Avx8 values exist only where the CPU has AVX2.
         unsafe { Avx8(_mm256_sqrt_ps(self.0)) }
     }
     #[inline(always)]
     fn and(a: Avx8i, b: Avx8i) -> Avx8i {
+        // SAFETY: Avx8 values exist only where the CPU has AVX2.
         unsafe { Avx8i(_mm256_and_si256(a.0, b.0)) }
     }
     #[inline(always)]
     fn or(a: Avx8i, b: Avx8i) -> Avx8i {
+        // SAFETY: Avx8 values exist only where the CPU has AVX2.
         unsafe { Avx8i(_mm256_or_si256(a.0, b.0)) }
     }
     #[inline(always)]
     fn not(a: Avx8i) -> Avx8i {
+        // SAFETY: Avx8 values exist only where the CPU has AVX2.
         unsafe { Avx8i(_mm256_xor_si256(a.0, _mm256_set1_epi32(-1))) }
     }
     #[inline(always)]
     fn any(a: Avx8i) -> bool {
+        // SAFETY: Avx8 values exist only where the CPU has AVX2.
         unsafe { _mm256_testz_si256(a.0, a.0) == 0 }
     }
     #[inline(always)]
     fn mask_bits(a: Avx8i) -> u32 {
+        // SAFETY: Avx8 values exist only where the CPU has AVX2.
         unsafe { _mm256_movemask_ps(_mm256_castsi256_ps(a.0)) as u32 }
     }
     #[inline(always)]
     fn mask_to_int(a: Avx8i) -> Avx8i {
+        // SAFETY: Avx8 values exist only where the CPU has AVX2.
         unsafe { Avx8i(_mm256_srli_epi32::<31>(a.0)) }
     }
     #[inline(always)]
     fn int_splat(value: u32) -> Avx8i {
+        // SAFETY: Avx8 values exist only where the CPU has AVX2.
         unsafe { Avx8i(_mm256_set1_epi32(value as i32)) }
     }
     #[inline(always)]
     fn int_add(a: Avx8i, b: Avx8i) -> Avx8i {
+        // SAFETY: Avx8 values exist only where the CPU has AVX2.
         unsafe { Avx8i(_mm256_add_epi32(a.0, b.0)) }
     }
     #[inline(always)]
     fn int_mul(a: Avx8i, b: u32) -> Avx8i {
+        // SAFETY: Avx8 values exist only where the CPU has AVX2.
         unsafe { Avx8i(_mm256_mullo_epi32(a.0, _mm256_set1_epi32(b as i32))) }
     }
     #[inline(always)]
     fn int_xor(a: Avx8i, b: Avx8i) -> Avx8i {
+        // SAFETY: Avx8 values exist only where the CPU has AVX2.
         unsafe { Avx8i(_mm256_xor_si256(a.0, b.0)) }
     }
     #[inline(always)]
     fn int_and(a: Avx8i, b: u32) -> Avx8i {
+        // SAFETY: Avx8 values exist only where the CPU has AVX2.
         unsafe { Avx8i(_mm256_and_si256(a.0, _mm256_set1_epi32(b as i32))) }
     }
     #[inline(always)]
     fn int_shr(a: Avx8i, bits: u32) -> Avx8i {
+        // SAFETY: Avx8 values exist only where the CPU has AVX2.
         unsafe { Avx8i(_mm256_srl_epi32(a.0, _mm_cvtsi32_si128(bits as i32))) }
     }
     #[inline(always)]
     fn int_shl(a: Avx8i, bits: u32) -> Avx8i {
+        // SAFETY: Avx8 values exist only where the CPU has AVX2.
         unsafe { Avx8i(_mm256_sll_epi32(a.0, _mm_cvtsi32_si128(bits as i32))) }
     }
     #[inline(always)]
     fn int_select(mask: Avx8i, yes: Avx8i, no: Avx8i) -> Avx8i {
+        // SAFETY: Avx8 values exist only where the CPU has AVX2.
         unsafe { Avx8i(_mm256_blendv_epi8(no.0, yes.0, mask.0)) }
     }
     #[inline(always)]
     fn int_eq(a: Avx8i, b: u32) -> Avx8i {
+        // SAFETY: Avx8 values exist only where the CPU has AVX2.
         unsafe { Avx8i(_mm256_cmpeq_epi32(a.0, _mm256_set1_epi32(b as i32))) }
     }
 }

@@ -83,21 +83,23 @@ impl Neg for Avx16 {
     }
 }
 
-// SAFETY (every method): Avx16 exists only where the CPU has AVX-512F.
 impl Real for Avx16 {
     type Mask = __mmask16;
     type Int = Avx16i;
 
     #[inline(always)]
     fn simplex(p: V3<Avx16>) -> (Avx16, V3<Avx16>) {
+        // SAFETY: Avx16 values exist only where the CPU has AVX-512F.
         unsafe { simplex_avx512(p) }
     }
     #[inline(always)]
     fn splat(value: f64) -> Avx16 {
+        // SAFETY: Avx16 values exist only where the CPU has AVX-512F.
         unsafe { Avx16(_mm512_set1_ps(value as f32)) }
     }
     #[inline(always)]
     fn floor_int(self) -> (Avx16, Avx16i) {
+        // SAFETY: Avx16 values exist only where the CPU has AVX-512F.
         unsafe {
             let limit = FLOOR_LIMIT as f32;
             // maxps/minps return the second operand for NaN: NaN → −2³⁰.
@@ -113,26 +115,32 @@ impl Real for Avx16 {
     }
     #[inline(always)]
     fn lt(self, other: Avx16) -> __mmask16 {
+        // SAFETY: Avx16 values exist only where the CPU has AVX-512F.
         unsafe { _mm512_cmp_ps_mask::<_CMP_LT_OQ>(self.0, other.0) }
     }
     #[inline(always)]
     fn le(self, other: Avx16) -> __mmask16 {
+        // SAFETY: Avx16 values exist only where the CPU has AVX-512F.
         unsafe { _mm512_cmp_ps_mask::<_CMP_LE_OQ>(self.0, other.0) }
     }
     #[inline(always)]
     fn select(mask: __mmask16, yes: Avx16, no: Avx16) -> Avx16 {
+        // SAFETY: Avx16 values exist only where the CPU has AVX-512F.
         unsafe { Avx16(_mm512_mask_blend_ps(mask, no.0, yes.0)) }
     }
     #[inline(always)]
     fn min(self, other: Avx16) -> Avx16 {
+        // SAFETY: Avx16 values exist only where the CPU has AVX-512F.
         unsafe { Avx16(_mm512_min_ps(self.0, other.0)) }
     }
     #[inline(always)]
     fn max(self, other: Avx16) -> Avx16 {
+        // SAFETY: Avx16 values exist only where the CPU has AVX-512F.
         unsafe { Avx16(_mm512_max_ps(self.0, other.0)) }
     }
     #[inline(always)]
     fn sqrt(self) -> Avx16 {
+        // SAFETY: Avx16 values exist only where the CPU has AVX-512F.
         unsafe { Avx16(_mm512_sqrt_ps(self.0)) }
     }
     #[inline(always)]
@@ -157,42 +165,52 @@ impl Real for Avx16 {
     }
     #[inline(always)]
     fn mask_to_int(a: __mmask16) -> Avx16i {
+        // SAFETY: Avx16 values exist only where the CPU has AVX-512F.
         unsafe { Avx16i(_mm512_maskz_set1_epi32(a, 1)) }
     }
     #[inline(always)]
     fn int_splat(value: u32) -> Avx16i {
+        // SAFETY: Avx16 values exist only where the CPU has AVX-512F.
         unsafe { Avx16i(_mm512_set1_epi32(value as i32)) }
     }
     #[inline(always)]
     fn int_add(a: Avx16i, b: Avx16i) -> Avx16i {
+        // SAFETY: Avx16 values exist only where the CPU has AVX-512F.
         unsafe { Avx16i(_mm512_add_epi32(a.0, b.0)) }
     }
     #[inline(always)]
     fn int_mul(a: Avx16i, b: u32) -> Avx16i {
+        // SAFETY: Avx16 values exist only where the CPU has AVX-512F.
         unsafe { Avx16i(_mm512_mullo_epi32(a.0, _mm512_set1_epi32(b as i32))) }
     }
     #[inline(always)]
     fn int_xor(a: Avx16i, b: Avx16i) -> Avx16i {
+        // SAFETY: Avx16 values exist only where the CPU has AVX-512F.
         unsafe { Avx16i(_mm512_xor_si512(a.0, b.0)) }
     }
     #[inline(always)]
     fn int_and(a: Avx16i, b: u32) -> Avx16i {
+        // SAFETY: Avx16 values exist only where the CPU has AVX-512F.
         unsafe { Avx16i(_mm512_and_si512(a.0, _mm512_set1_epi32(b as i32))) }
     }
     #[inline(always)]
     fn int_shr(a: Avx16i, bits: u32) -> Avx16i {
+        // SAFETY: Avx16 values exist only where the CPU has AVX-512F.
         unsafe { Avx16i(_mm512_srl_epi32(a.0, _mm_cvtsi32_si128(bits as i32))) }
     }
     #[inline(always)]
     fn int_shl(a: Avx16i, bits: u32) -> Avx16i {
+        // SAFETY: Avx16 values exist only where the CPU has AVX-512F.
         unsafe { Avx16i(_mm512_sll_epi32(a.0, _mm_cvtsi32_si128(bits as i32))) }
     }
     #[inline(always)]
     fn int_select(mask: __mmask16, yes: Avx16i, no: Avx16i) -> Avx16i {
+        // SAFETY: Avx16 values exist only where the CPU has AVX-512F.
         unsafe { Avx16i(_mm512_mask_blend_epi32(mask, no.0, yes.0)) }
     }
     #[inline(always)]
     fn int_eq(a: Avx16i, b: u32) -> __mmask16 {
+        // SAFETY: Avx16 values exist only where the CPU has AVX-512F.
         unsafe { _mm512_cmpeq_epi32_mask(a.0, _mm512_set1_epi32(b as i32)) }
     }
 }

@@ -25,7 +25,6 @@
 //! # Ok::<(), firn_mesh::MeshError>(())
 //! ```
 
-#![warn(missing_docs)]
 
 mod bvh;
 mod diagnostics;
