@@ -47,7 +47,8 @@ const SNOW_LIBRARY: [(&str, &str); 4] = [
     part!("common/colliders.wgsl"),
 ];
 
-/// The MPM substep: begin (Δt, stop conditions), scatter, grid update, gather.
+/// The MPM substep, one file per stage in the order the substep runs them:
+/// begin (Δt, stop conditions), binning, scatter, grid update, gather.
 pub const SNOW_STEP: Program = Program {
     name: "snow step",
     parts: &[
@@ -57,8 +58,11 @@ pub const SNOW_STEP: Program = Program {
         SNOW_LIBRARY[3],
         part!("snow/layout.wgsl"),
         part!("snow/fixed_point.wgsl"),
-        part!("snow/step.wgsl"),
+        part!("snow/begin_step.wgsl"),
         part!("snow/binning.wgsl"),
+        part!("snow/p2g.wgsl"),
+        part!("snow/grid_update.wgsl"),
+        part!("snow/g2p.wgsl"),
     ],
 };
 

@@ -1,7 +1,8 @@
-// Buffers of the snow substep. All kernels share one bind group; the grid
-// is dense, one buffer per 32-bit word plane (low and high word of each
-// 64-bit fixed-point sum), so no single buffer grows past the adapter's
-// storage-binding limit as fast as a packed layout would.
+// Buffers of the snow substep, and the helpers for indexing particles and
+// nodes. All kernels share one bind group; the grid is dense, one buffer per
+// 32-bit word plane (low and high word of each 64-bit fixed-point sum), so
+// no single buffer grows past the adapter's storage-binding limit as fast as
+// a packed layout would.
 
 const TRANSFER_APIC: u32 = 0u;
 const TRANSFER_PIC_FLIP: u32 = 1u;
@@ -106,4 +107,21 @@ fn node_index(node: vec3<i32>) -> u32 {
 
 fn grid_coordinate(position: vec3<f32>) -> vec3<f32> {
     return (position - params.origin.xyz) / params.origin.w;
+}
+
+fn simulated_time() -> f32 {
+    return params.lower.w + state.elapsed;
+}
+
+// The particle a scatter or gather invocation works on, if any.
+fn particle_index(group: vec3<u32>, groups: vec3<u32>, local: u32) -> u32 {
+    let p = linear_index(group, groups, local);
+    if p >= params.dims.w || state.running == 0u {
+        return NO_PARTICLE;
+    }
+    return p;
+}
+
+fn inside_grid(node: vec3<i32>) -> bool {
+    return all(node >= vec3<i32>(0)) && all(node < vec3<i32>(params.dims.xyz));
 }

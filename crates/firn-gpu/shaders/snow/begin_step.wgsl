@@ -1,0 +1,55 @@
+// The start of every substep, before thesis §3.4 step 1: the substep's Δt
+// and the stop conditions, as firn_mpm::Simulation::next_dt and
+// Simulation::advance_to. Δt = CFL h / (max |v_p| + max c_p), capped, or the
+// fixed Δt, from the maxima the last gather reduced; clipped to the frame's
+// end. The GPU runs the thesis' explicit scheme: step 6, the semi-implicit
+// solve of Stomakhin et al. 2013 (eq. 9, firn_mpm::implicit), has no stage
+// here, and the grid update's v_i* are the new grid velocities.
+
+// Seconds within which a frame counts as reached (the CPU's 1e-9 s).
+const FRAME_END_TOLERANCE: f32 = 1.0e-9;
+
+// Dt = CFL h / (max |v_p| + max c_p), capped, or the fixed dt; the
+// maxima come from the last gather (as firn_mpm::Simulation::next_dt).
+fn next_dt(speed_squared: f32, wave_speed_squared: f32) -> f32 {
+    if params.stepping.z > 0.0 {
+        return params.stepping.z;
+    }
+    let speed = sqrt(speed_squared) + sqrt(wave_speed_squared);
+    if speed > 0.0 {
+        return min(params.stepping.x * params.origin.w / speed, params.stepping.y);
+    }
+    return params.stepping.y;
+}
+
+// One invocation: stops the frame when it is done or a particle is in
+// trouble, else chooses dt, clipped to the frame's end, and resets the
+// maxima for this substep's gather.
+@compute @workgroup_size(1)
+fn begin_step() {
+    if state.running == 0u {
+        return;
+    }
+    let trouble = atomicLoad(&state.non_finite) != NO_PARTICLE
+        || atomicLoad(&state.left_domain) != NO_PARTICLE
+        || atomicLoad(&state.overflow) != 0u;
+    let remaining = params.upper.w - state.elapsed;
+    if trouble || remaining <= FRAME_END_TOLERANCE {
+        state.running = 0u;
+        return;
+    }
+    let speed_squared = bitcast<f32>(atomicLoad(&state.max_speed_bits));
+    let wave_speed_squared = bitcast<f32>(atomicLoad(&state.max_wave_bits));
+    let dt = min(next_dt(speed_squared, wave_speed_squared), remaining);
+    state.dt = dt;
+    state.speed_squared = speed_squared;
+    state.wave_speed_squared = wave_speed_squared;
+    if dt >= remaining {
+        state.elapsed = params.upper.w;
+    } else {
+        state.elapsed = state.elapsed + dt;
+    }
+    state.steps = state.steps + 1u;
+    atomicStore(&state.max_speed_bits, 0u);
+    atomicStore(&state.max_wave_bits, 0u);
+}

@@ -1,0 +1,60 @@
+// The grid update (thesis §3.4 steps 4 and 5, as firn_mpm::grid_update):
+// grid velocities from the scattered momentum, v_i = p_i / m_i, the forces
+// and gravity, v_i* = v_i + dt (f_i / m_i + g) (for APIC the force impulse is
+// already inside the momentum), and the grid-based collisions with the
+// colliders placed at the substep's end (Quellcode 12). The velocities
+// replace the sums in the word planes: v_i in the low words, v_i* in the
+// high words, for the gather.
+
+fn momentum_at(node: u32) -> vec3<f32> {
+    return vec3<f32>(
+        from_fixed(atomicLoad(&px_hi[node]), atomicLoad(&px_lo[node])),
+        from_fixed(atomicLoad(&py_hi[node]), atomicLoad(&py_lo[node])),
+        from_fixed(atomicLoad(&pz_hi[node]), atomicLoad(&pz_lo[node])),
+    );
+}
+
+fn impulse_at(node: u32) -> vec3<f32> {
+    return vec3<f32>(
+        from_fixed(atomicLoad(&fx_hi[node]), atomicLoad(&fx_lo[node])),
+        from_fixed(atomicLoad(&fy_hi[node]), atomicLoad(&fy_lo[node])),
+        from_fixed(atomicLoad(&fz_hi[node]), atomicLoad(&fz_lo[node])),
+    );
+}
+
+// Stores v_i in the low word planes and v_i^{n+1} in the high ones.
+fn store_node_velocities(node: u32, velocity: vec3<f32>, velocity_new: vec3<f32>) {
+    atomicStore(&px_lo[node], bitcast<u32>(velocity.x));
+    atomicStore(&py_lo[node], bitcast<u32>(velocity.y));
+    atomicStore(&pz_lo[node], bitcast<u32>(velocity.z));
+    atomicStore(&px_hi[node], bitcast<u32>(velocity_new.x));
+    atomicStore(&py_hi[node], bitcast<u32>(velocity_new.y));
+    atomicStore(&pz_hi[node], bitcast<u32>(velocity_new.z));
+}
+
+// Steps 4 and 5: v_i = p_i / m_i, v_i* = v_i + dt (f_i / m_i + g), then the
+// grid collisions at the end of the substep, on every node with mass.
+@compute @workgroup_size(64)
+fn update_grid(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
+               @builtin(local_invocation_index) local: u32) {
+    let node = linear_index(group, groups, local);
+    let dims = params.dims.xyz;
+    if node >= dims.x * dims.y * dims.z || state.running == 0u {
+        return;
+    }
+    let mass = from_fixed(atomicLoad(&mass_hi[node]), atomicLoad(&mass_lo[node])) / params.scales.x;
+    if mass <= 0.0 {
+        store_node_velocities(node, vec3<f32>(0.0), vec3<f32>(0.0));
+        return;
+    }
+    let inverse_mass = 1.0 / mass;
+    let velocity = momentum_at(node) / params.scales.y * inverse_mass;
+    var change = params.gravity.xyz * state.dt;
+    if params.flags.x == TRANSFER_PIC_FLIP {
+        change += impulse_at(node) / params.scales.y * inverse_mass;
+    }
+    let cell = vec3<u32>(node / (dims.y * dims.z), node / dims.z % dims.y, node % dims.z);
+    let position = params.origin.xyz + vec3<f32>(cell) * params.origin.w;
+    let velocity_new = collide_all(position, velocity + change, simulated_time());
+    store_node_velocities(node, velocity, velocity_new);
+}
