@@ -78,27 +78,3 @@ pub fn read_back<T: Pod>(
         })
         .collect()
 }
-
-/// A bind group of whole buffers, bound in order from binding 0.
-pub fn bind_group(
-    context: &GpuContext,
-    label: &str,
-    layout: &wgpu::BindGroupLayout,
-    buffers: &[&wgpu::Buffer],
-) -> wgpu::BindGroup {
-    let entries: Vec<_> = buffers
-        .iter()
-        .enumerate()
-        .map(|(binding, buffer)| wgpu::BindGroupEntry {
-            binding: binding as u32,
-            resource: buffer.as_entire_binding(),
-        })
-        .collect();
-    context
-        .device
-        .create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some(label),
-            layout,
-            entries: &entries,
-        })
-}

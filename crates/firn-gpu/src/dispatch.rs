@@ -15,6 +15,27 @@ pub fn workgroups(items: u32, limit: u32) -> (u32, u32, u32) {
     (x, groups.div_ceil(x), 1)
 }
 
+/// Records a dispatch of `pipeline` over `items` invocations with bind
+/// groups `groups` (group 0 first), split by [`workgroups`] within `limit`;
+/// none when `items` is 0.
+pub fn dispatch_items(
+    pass: &mut wgpu::ComputePass,
+    pipeline: &wgpu::ComputePipeline,
+    groups: &[&wgpu::BindGroup],
+    items: u32,
+    limit: u32,
+) {
+    if items == 0 {
+        return;
+    }
+    pass.set_pipeline(pipeline);
+    for (index, group) in groups.iter().enumerate() {
+        pass.set_bind_group(index as u32, *group, &[]);
+    }
+    let (x, y, z) = workgroups(items, limit);
+    pass.dispatch_workgroups(x, y, z);
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

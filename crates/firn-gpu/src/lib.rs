@@ -5,6 +5,8 @@
 //!
 //! - [`context`]: finding an adapter (`--backend auto|gpu`) and opening a device;
 //! - [`shaders`]: the WGSL programs, put together from `shaders/*.wgsl`;
+//! - [`bindings`]: each bind group named once, in a table that gives both the
+//!   WGSL declarations and the layout;
 //! - [`snow`]: the MPM substep on the GPU, checked against `firn-mpm`;
 //! - [`flow`]: the curl-noise flow on the GPU, checked against `firn-flow`;
 //! - [`dispatch`]: splitting work over the adapter's workgroup limits.
@@ -18,6 +20,7 @@
 
 #![warn(missing_docs)]
 
+pub mod bindings;
 pub mod buffers;
 pub mod context;
 pub mod dispatch;

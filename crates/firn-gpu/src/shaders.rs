@@ -1,18 +1,40 @@
-//! The WGSL programs, each put together from `.wgsl` files under `shaders/`.
+//! The WGSL programs, each put together from `.wgsl` files under `shaders/`
+//! and the binding declarations generated from the bind group tables
+//! ([`crate::bindings`]).
 //!
 //! WGSL has no includes, so a program is the concatenation of its parts:
-//! shared functions (B-spline weights, the 3x3 SVD, the snow model,
-//! colliders, simplex noise) first, then the kernels that use them. Every
-//! program is validated by naga in a plain unit test (`tests/validate.rs`),
-//! no adapter needed.
+//! the shared physics first, in one place per side (`shaders/common/`:
+//! the B-spline weights and the 3x3 SVD of `firn_core::math`, the snow model
+//! of `firn_mpm::constitutive`, the colliders of `firn_mpm::contact`;
+//! `shaders/flow/`: the noise, random draws, field and emitters of the
+//! `firn_flow` files with the same stems), then the structs and bindings,
+//! then the kernels. A kernel's `.wgsl` file has the stem of the Rust file
+//! that makes its pipelines and records its dispatches
+//! (`shaders/flow/step.wgsl` and `src/flow/step.rs`). Every program is
+//! validated by naga in a plain unit test (`tests/validate.rs`), and its
+//! declarations are checked against the layouts (`tests/bindings.rs`), no
+//! adapter needed.
+
+use crate::bindings::BindGroupTable;
+use crate::flow::bindings::{FieldBindings, ParticleBindings, ProbeBindings, TrailBindings};
+use crate::snow::bindings::{ParityBindings, StepBindings};
+
+/// One part of a WGSL program.
+#[derive(Clone, Copy, Debug)]
+pub enum Part {
+    /// A file under `shaders/`: its path there and its text.
+    File(&'static str, &'static str),
+    /// The declarations of one bind group, generated from its table.
+    Bindings(&'static BindGroupTable),
+}
 
 /// One WGSL program: named parts, concatenated in order.
 #[derive(Clone, Copy, Debug)]
 pub struct Program {
     /// Name for labels and error messages.
     pub name: &'static str,
-    /// `(file, source)` pairs, concatenated in order.
-    pub parts: &'static [(&'static str, &'static str)],
+    /// The parts, concatenated in order.
+    pub parts: &'static [Part],
 }
 
 impl Program {
@@ -20,8 +42,24 @@ impl Program {
     pub fn source(&self) -> String {
         self.parts
             .iter()
-            .map(|(file, text)| format!("// ---- {file} ----\n{text}\n"))
+            .map(|part| match part {
+                Part::File(file, text) => format!("// ---- {file} ----\n{text}\n"),
+                Part::Bindings(table) => format!(
+                    "// ---- bindings of {}, group {} (generated from its table) ----\n{}\n",
+                    table.label,
+                    table.group,
+                    table.declarations()
+                ),
+            })
             .collect()
+    }
+
+    /// The tables of the bind groups the program declares.
+    pub fn tables(&self) -> impl Iterator<Item = &'static BindGroupTable> {
+        self.parts.iter().filter_map(|part| match part {
+            Part::Bindings(table) => Some(*table),
+            Part::File(..) => None,
+        })
     }
 
     /// Compiles the program on `device`.
@@ -31,24 +69,61 @@ impl Program {
             source: wgpu::ShaderSource::Wgsl(self.source().into()),
         })
     }
+
+    /// The compute pipelines of entry points of the program, compiled once,
+    /// each with its bind group layouts (group 0 first).
+    pub fn compute_pipelines<const N: usize>(
+        &self,
+        device: &wgpu::Device,
+        kernels: [(&str, &[&wgpu::BindGroupLayout]); N],
+    ) -> [wgpu::ComputePipeline; N] {
+        let module = self.module(device);
+        kernels.map(|(entry, groups)| {
+            let bind_group_layouts: Vec<_> = groups.iter().map(|group| Some(*group)).collect();
+            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(entry),
+                bind_group_layouts: &bind_group_layouts,
+                immediate_size: 0,
+            });
+            compute_pipeline(device, &module, &layout, entry)
+        })
+    }
+}
+
+/// The compute pipeline of `module`'s entry point `entry` with `layout`.
+pub fn compute_pipeline(
+    device: &wgpu::Device,
+    module: &wgpu::ShaderModule,
+    layout: &wgpu::PipelineLayout,
+    entry: &str,
+) -> wgpu::ComputePipeline {
+    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(entry),
+        layout: Some(layout),
+        module,
+        entry_point: Some(entry),
+        compilation_options: wgpu::PipelineCompilationOptions::default(),
+        cache: None,
+    })
 }
 
 macro_rules! part {
     ($file:literal) => {
-        ($file, include_str!(concat!("../shaders/", $file)))
+        Part::File($file, include_str!(concat!("../shaders/", $file)))
     };
 }
 
 /// Functions shared by the snow programs: weights, SVD, snow model, colliders.
-const SNOW_LIBRARY: [(&str, &str); 4] = [
+const SNOW_LIBRARY: [Part; 4] = [
     part!("common/bspline.wgsl"),
     part!("common/svd.wgsl"),
     part!("common/snow_model.wgsl"),
     part!("common/colliders.wgsl"),
 ];
 
-/// The MPM substep, one file per stage in the order the substep runs them:
-/// begin (Δt, stop conditions), binning, scatter, grid update, gather.
+/// The MPM substep, one file per stage in the order the substep runs them
+/// (`src/snow/substep.rs`): begin (Δt, stop conditions), binning, scatter,
+/// grid update, gather.
 pub const SNOW_STEP: Program = Program {
     name: "snow step",
     parts: &[
@@ -57,6 +132,7 @@ pub const SNOW_STEP: Program = Program {
         SNOW_LIBRARY[2],
         SNOW_LIBRARY[3],
         part!("snow/layout.wgsl"),
+        Part::Bindings(&StepBindings::TABLE),
         part!("snow/fixed_point.wgsl"),
         part!("snow/begin_step.wgsl"),
         part!("snow/binning.wgsl"),
@@ -74,14 +150,17 @@ pub const SNOW_PARITY: Program = Program {
         SNOW_LIBRARY[0],
         SNOW_LIBRARY[1],
         SNOW_LIBRARY[2],
+        Part::Bindings(&ParityBindings::TABLE),
         part!("parity/snow_parity.wgsl"),
     ],
 };
 
-/// Functions shared by the flow programs: the bindings they all see,
-/// simplex noise, random draws, the field and the emitters.
-const FLOW_LIBRARY: [(&str, &str); 5] = [
+/// Functions shared by the flow programs: the structs and the field's
+/// bindings they all see, simplex noise, random draws, the field and the
+/// emitters.
+const FLOW_LIBRARY: [Part; 6] = [
     part!("flow/layout.wgsl"),
+    Part::Bindings(&FieldBindings::TABLE),
     part!("flow/noise.wgsl"),
     part!("flow/random.wgsl"),
     part!("flow/field.wgsl"),
@@ -97,6 +176,9 @@ pub const FLOW_STEP: Program = Program {
         FLOW_LIBRARY[2],
         FLOW_LIBRARY[3],
         FLOW_LIBRARY[4],
+        FLOW_LIBRARY[5],
+        Part::Bindings(&ParticleBindings::TABLE),
+        Part::Bindings(&TrailBindings::TABLE),
         part!("flow/step.wgsl"),
     ],
 };
@@ -111,6 +193,8 @@ pub const FLOW_PARITY: Program = Program {
         FLOW_LIBRARY[2],
         FLOW_LIBRARY[3],
         FLOW_LIBRARY[4],
+        FLOW_LIBRARY[5],
+        Part::Bindings(&ProbeBindings::TABLE),
         part!("flow/probe.wgsl"),
     ],
 };

@@ -10,6 +10,7 @@ use firn_core::math::lanes::{F32s, Mat3s};
 use firn_core::math::svd::svd3;
 use firn_gpu::buffers::{read_back, storage_buffer, zeroed_storage_buffer};
 use firn_gpu::shaders::SNOW_PARITY;
+use firn_gpu::snow::bindings::ParityBindings;
 use firn_gpu::{GpuContext, context_for_tests};
 use firn_mpm::constitutive::{ElasticUpdate, MaterialConstants, MaterialLanes};
 use glam::{Mat3, Vec3};
@@ -68,33 +69,16 @@ fn run_parity(
     let out_m = zeroed_storage_buffer(context, "matrices out", (outputs.0 * 48) as u64);
     let out_v = zeroed_storage_buffer(context, "vectors out", (outputs.1 * 16) as u64);
     let material_buffer = storage_buffer(context, "material", &[packed]);
-    let module = SNOW_PARITY.module(device);
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(entry),
-        layout: None,
-        module: &module,
-        entry_point: Some(entry),
-        compilation_options: Default::default(),
-        cache: None,
-    });
-    let buffers = [&inputs_m, &inputs_v, &out_m, &out_v, &material_buffer];
-    let used: &[u32] = match entry {
-        "svd_parity" => &[0, 2, 3],
-        "weights_parity" => &[1, 3],
-        _ => &[0, 1, 2, 3, 4],
-    };
-    let entries: Vec<wgpu::BindGroupEntry> = used
-        .iter()
-        .map(|&binding| wgpu::BindGroupEntry {
-            binding,
-            resource: buffers[binding as usize].as_entire_binding(),
-        })
-        .collect();
-    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some(entry),
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &entries,
-    });
+    let layout = ParityBindings::TABLE.layout(device);
+    let [pipeline] = SNOW_PARITY.compute_pipelines(device, [(entry, &[&layout])]);
+    let bind_group = ParityBindings {
+        matrices_in: &inputs_m,
+        vectors_in: &inputs_v,
+        matrices_out: &out_m,
+        vectors_out: &out_v,
+        parity_material: &material_buffer,
+    }
+    .bind_group(device, &layout);
     let mut encoder = device.create_command_encoder(&Default::default());
     {
         let mut pass = encoder.begin_compute_pass(&Default::default());

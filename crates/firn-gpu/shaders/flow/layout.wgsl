@@ -1,5 +1,6 @@
-// What every flow kernel sees: the field's constants, the sphere obstacles,
-// the emitters and the substep's parameters (group 0), mirrored by the
+// The structs every flow kernel sees: the field's constants, the sphere
+// obstacles, the emitters and the substep's parameters, which group 0 binds
+// (declared by the table in src/flow/bindings.rs), mirrored by the
 // `#[repr(C)]` structs of src/flow/layout.rs.
 
 // Constants of the field (seed 002 eq. 1-4) and the run.
@@ -88,11 +89,6 @@ struct SubstepParams {
 const STAGE_START: u32 = 0u;
 const STAGE_MIDDLE: u32 = 1u;
 const STAGE_END: u32 = 2u;
-
-@group(0) @binding(0) var<uniform> field_constants: FieldConstants;
-@group(0) @binding(1) var<storage, read> obstacles: array<Obstacle>;
-@group(0) @binding(2) var<storage, read> emitters: array<Emitter>;
-@group(0) @binding(3) var<uniform> substep: SubstepParams;
 
 // The linear index of an invocation of a dispatch split by
 // firn_gpu::dispatch::workgroups (64 invocations per workgroup).

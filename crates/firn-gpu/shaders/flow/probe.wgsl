@@ -1,9 +1,7 @@
 // Single library functions run on arrays, for the parity tests against
 // firn_flow (firn_gpu::flow::FlowProbe): noise and gradient, the field
-// velocity at the substep's start stage, and births.
-
-@group(1) @binding(0) var<storage, read> probe_input: array<u32>;
-@group(1) @binding(1) var<storage, read_write> probe_output: array<f32>;
+// velocity at the substep's start stage, and births. The inputs and
+// outputs are group 1 (ProbeBindings in src/flow/bindings.rs).
 
 fn probe_point(i: u32) -> vec3<f32> {
     return bitcast<vec3<f32>>(probe_request(i));

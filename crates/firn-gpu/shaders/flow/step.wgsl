@@ -1,5 +1,6 @@
 // One substep of the flow (firn_flow::simulation, steps 1-5), a kernel per
-// phase:
+// phase, recorded by src/flow/step.rs over the particles (group 1) and the
+// trails (group 2) of src/flow/bindings.rs:
 //
 // - `advance`: RK2 or RK4 through the field, the birth velocity's
 //   displacement, aging, rebirth of expired or escaped particles at their
@@ -8,17 +9,6 @@
 //   host) pushed out of spheres, with their velocity at the substep's end;
 // - `record_trails`: at a frame's end, every particle's position into its
 //   trail ring (seed §2.3).
-
-@group(1) @binding(0) var<storage, read_write> positions: array<f32>;
-@group(1) @binding(1) var<storage, read_write> velocities: array<f32>;
-@group(1) @binding(2) var<storage, read_write> ages: array<f32>;
-@group(1) @binding(3) var<storage, read_write> lifetimes: array<f32>;
-@group(1) @binding(4) var<storage, read_write> generations: array<u32>;
-@group(1) @binding(5) var<storage, read> emitter_of: array<u32>;
-
-@group(2) @binding(0) var<storage, read_write> trail_points: array<f32>;
-@group(2) @binding(1) var<storage, read_write> trail_lengths: array<u32>;
-@group(2) @binding(2) var<storage, read_write> trail_generations: array<u32>;
 
 // How far outside a sphere a particle is put, relative to the radius.
 const PUSH_OUT_MARGIN: f32 = 1e-5;

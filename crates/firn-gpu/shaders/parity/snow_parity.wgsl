@@ -1,12 +1,7 @@
 // Entry points that run single library functions over arrays, so tests can
 // compare them with the CPU functions they mirror (svd3, the B-spline
-// weights, the snow model's elastic update).
-
-@group(0) @binding(0) var<storage, read> matrices_in: array<mat3x3<f32>>;
-@group(0) @binding(1) var<storage, read> vectors_in: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read_write> matrices_out: array<mat3x3<f32>>;
-@group(0) @binding(3) var<storage, read_write> vectors_out: array<vec4<f32>>;
-@group(0) @binding(4) var<storage, read> parity_material: array<Material>;
+// weights, the snow model's elastic update). The arrays are bound by
+// ParityBindings in src/snow/bindings.rs.
 
 // Vectors written per point by weights_parity: both bases, then the
 // quadratic values and slopes, then the cubic values and slopes.

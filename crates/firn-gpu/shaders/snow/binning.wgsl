@@ -3,7 +3,8 @@
 // bins them on the CPU: bin_count counts each block's particles and ranks
 // them, bin_offsets turns the counts into first slots and 64-particle work
 // items (and the binned scatter's indirect dispatch size), and bin_sort puts
-// each particle in its slot.
+// each particle in its slot. The buffers are bins, particle_bins and work
+// (src/snow/bindings.rs).
 
 const BLOCK_CELLS: i32 = 4;
 // Particles per work item: one per invocation.
@@ -11,14 +12,6 @@ const CHUNK: u32 = 64u;
 // Words of `work` before the items: indirect dispatch arguments and the item count.
 const WORK_HEADER: u32 = 4u;
 const SCAN_THREADS: u32 = 256u;
-
-// [2b]: particles in block b; [2b + 1]: the block's first slot in sorted order.
-@group(0) @binding(25) var<storage, read_write> bins: array<atomic<u32>>;
-// [3p]: block of particle p; [3p + 1]: its rank in the block; [3s + 2]: the particle in slot s.
-@group(0) @binding(26) var<storage, read_write> particle_bins: array<u32>;
-// [0..3): dispatch size of the binned scatter; [3]: work items; then per
-// item its block and first slot.
-@group(0) @binding(27) var<storage, read_write> work: array<u32>;
 
 var<workgroup> scan_particles: array<u32, SCAN_THREADS>;
 var<workgroup> scan_items: array<u32, SCAN_THREADS>;

@@ -1,8 +1,10 @@
-// Buffers of the snow substep, and the helpers for indexing particles and
-// nodes. All kernels share one bind group; the grid is dense, one buffer per
-// 32-bit word plane (low and high word of each 64-bit fixed-point sum), so
-// no single buffer grows past the adapter's storage-binding limit as fast as
-// a packed layout would.
+// The structs and constants every snow kernel shares, mirrored by the
+// #[repr(C)] structs of src/snow/layout.rs, and the helpers for indexing
+// particles and nodes. The bindings are declared by the table in
+// src/snow/bindings.rs; the grid is dense, one buffer per 32-bit word plane
+// (low and high word of each 64-bit fixed-point sum), so no single buffer
+// grows past the adapter's storage-binding limit as fast as a packed layout
+// would.
 
 const TRANSFER_APIC: u32 = 0u;
 const TRANSFER_PIC_FLIP: u32 = 1u;
@@ -56,44 +58,6 @@ struct PlasticState {
     plastic_j: f32,
     material: u32,
 }
-
-@group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read_write> state: StepState;
-@group(0) @binding(2) var<storage, read> materials: array<Material>;
-@group(0) @binding(3) var<storage, read> colliders: array<Collider>;
-@group(0) @binding(4) var<storage, read> collider_keys: array<vec4<f32>>;
-// Signed distance samples of the mesh colliders, one grid after another.
-@group(0) @binding(28) var<storage, read> collider_distances: array<f32>;
-
-// xyz: position; w: mass.
-@group(0) @binding(5) var<storage, read_write> position_mass: array<vec4<f32>>;
-// xyz: velocity; w: initial volume V_p^0.
-@group(0) @binding(6) var<storage, read_write> velocity_volume: array<vec4<f32>>;
-// F_E.
-@group(0) @binding(7) var<storage, read_write> elastic: array<mat3x3<f32>>;
-// C_p (APIC) or grad v_p (PIC/FLIP).
-@group(0) @binding(8) var<storage, read_write> affine: array<mat3x3<f32>>;
-// V_p^0 tau_p.
-@group(0) @binding(9) var<storage, read_write> stress: array<mat3x3<f32>>;
-@group(0) @binding(10) var<storage, read_write> plastic: array<PlasticState>;
-
-// Grid word planes: mass, momentum x/y/z (after the grid update: velocity
-// bits in the low planes, new velocity bits in the high planes), and for
-// PIC/FLIP the force impulse dt f x/y/z.
-@group(0) @binding(11) var<storage, read_write> mass_lo: array<atomic<u32>>;
-@group(0) @binding(12) var<storage, read_write> mass_hi: array<atomic<u32>>;
-@group(0) @binding(13) var<storage, read_write> px_lo: array<atomic<u32>>;
-@group(0) @binding(14) var<storage, read_write> px_hi: array<atomic<u32>>;
-@group(0) @binding(15) var<storage, read_write> py_lo: array<atomic<u32>>;
-@group(0) @binding(16) var<storage, read_write> py_hi: array<atomic<u32>>;
-@group(0) @binding(17) var<storage, read_write> pz_lo: array<atomic<u32>>;
-@group(0) @binding(18) var<storage, read_write> pz_hi: array<atomic<u32>>;
-@group(0) @binding(19) var<storage, read_write> fx_lo: array<atomic<u32>>;
-@group(0) @binding(20) var<storage, read_write> fx_hi: array<atomic<u32>>;
-@group(0) @binding(21) var<storage, read_write> fy_lo: array<atomic<u32>>;
-@group(0) @binding(22) var<storage, read_write> fy_hi: array<atomic<u32>>;
-@group(0) @binding(23) var<storage, read_write> fz_lo: array<atomic<u32>>;
-@group(0) @binding(24) var<storage, read_write> fz_hi: array<atomic<u32>>;
 
 // The linear invocation index of a dispatch split over two dimensions.
 fn linear_index(group: vec3<u32>, groups: vec3<u32>, local: u32) -> u32 {

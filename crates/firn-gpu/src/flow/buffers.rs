@@ -8,6 +8,7 @@ use firn_flow::FlowParticles;
 use glam::Vec3;
 use wgpu::util::DeviceExt;
 
+use super::bindings::{FieldBindings, ParticleBindings, TrailBindings};
 use super::layout::{self, FieldConstants, SubstepParams};
 use crate::buffers::{read_back, storage_buffer, zeroed_storage_buffer};
 use crate::context::GpuContext;
@@ -45,7 +46,10 @@ fn uniform_buffer<T: bytemuck::Pod>(context: &GpuContext, label: &str, value: &T
 
 /// Group 0: what every flow kernel reads.
 pub(crate) struct FieldBuffers {
-    buffers: [wgpu::Buffer; 4],
+    constants: wgpu::Buffer,
+    obstacles: wgpu::Buffer,
+    emitters: wgpu::Buffer,
+    substep: wgpu::Buffer,
     /// The bind group of the four buffers.
     pub group: wgpu::BindGroup,
 }
@@ -61,27 +65,44 @@ impl FieldBuffers {
     ) -> FieldBuffers {
         let constants = FieldConstants::new(scene, settings);
         let substep = bytemuck::Zeroable::zeroed();
-        let buffers = [
-            uniform_buffer(context, "flow constants", &constants),
-            storage_buffer(context, "flow obstacles", &layout::obstacles(settings)),
-            storage_buffer(context, "flow emitters", &layout::emitters(settings)),
-            uniform_buffer::<SubstepParams>(context, "flow substep", &substep),
-        ];
-        let group =
-            crate::buffers::bind_group(context, "flow field", group_layout, &buffers.each_ref());
-        FieldBuffers { buffers, group }
+        let constants = uniform_buffer(context, "flow constants", &constants);
+        let obstacles = storage_buffer(context, "flow obstacles", &layout::obstacles(settings));
+        let emitters = storage_buffer(context, "flow emitters", &layout::emitters(settings));
+        let substep = uniform_buffer::<SubstepParams>(context, "flow substep", &substep);
+        let group = FieldBindings {
+            field_constants: &constants,
+            obstacles: &obstacles,
+            emitters: &emitters,
+            substep: &substep,
+        }
+        .bind_group(&context.device, group_layout);
+        FieldBuffers {
+            constants,
+            obstacles,
+            emitters,
+            substep,
+            group,
+        }
     }
 
     /// Sets the parameters the next submission's kernels read.
     pub(crate) fn write_substep(&self, context: &GpuContext, params: &SubstepParams) {
         context
             .queue
-            .write_buffer(&self.buffers[3], 0, bytemuck::bytes_of(params));
+            .write_buffer(&self.substep, 0, bytemuck::bytes_of(params));
     }
 
     /// Bytes held.
     pub(crate) fn bytes(&self) -> u64 {
-        self.buffers.iter().map(wgpu::Buffer::size).sum()
+        [
+            &self.constants,
+            &self.obstacles,
+            &self.emitters,
+            &self.substep,
+        ]
+        .iter()
+        .map(|buffer| buffer.size())
+        .sum()
     }
 }
 
@@ -117,19 +138,15 @@ impl ParticleBuffers {
         let lifetimes = words("flow lifetimes");
         let generations = words("flow generations");
         let emitters = words("flow emitter of particle");
-        let group = crate::buffers::bind_group(
-            context,
-            "flow particles",
-            group_layout,
-            &[
-                &positions,
-                &velocities,
-                &ages,
-                &lifetimes,
-                &generations,
-                &emitters,
-            ],
-        );
+        let group = ParticleBindings {
+            positions: &positions,
+            velocities: &velocities,
+            ages: &ages,
+            lifetimes: &lifetimes,
+            generations: &generations,
+            emitter_of: &emitters,
+        }
+        .bind_group(&context.device, group_layout);
         let buffers = ParticleBuffers {
             positions,
             velocities,
@@ -279,12 +296,12 @@ impl TrailBuffers {
         let points = storage_buffer(context, "flow trail points", &points);
         let lengths = storage_buffer(context, "flow trail lengths", &lengths);
         let generations = storage_buffer(context, "flow trail generations", &generations);
-        let group = crate::buffers::bind_group(
-            context,
-            "flow trails",
-            group_layout,
-            &[&points, &lengths, &generations],
-        );
+        let group = TrailBindings {
+            trail_points: &points,
+            trail_lengths: &lengths,
+            trail_generations: &generations,
+        }
+        .bind_group(&context.device, group_layout);
         Ok(TrailBuffers {
             points,
             lengths,

@@ -5,8 +5,11 @@
 //! ψ = turbulence + background (seed eq. 1), modulated near sphere
 //! obstacles (eq. 2-3), its curl exact or by central differences (eq. 4),
 //! on simplex noise with the CPU's hash and gradients
-//! (`shaders/flow/noise.wgsl`). A substep is one submission of up to three
-//! dispatches ([`shaders::FLOW_STEP`](crate::shaders::FLOW_STEP)):
+//! (`shaders/flow/noise.wgsl`). These library files, and `random.wgsl` and
+//! `emitters.wgsl`, have the stems of the `firn_flow` files they mirror. A
+//! substep is one submission of up to three dispatches
+//! ([`shaders::FLOW_STEP`](crate::shaders::FLOW_STEP)), made and recorded
+//! by `step.rs`, whose kernels are in `shaders/flow/step.wgsl`:
 //!
 //! 1. `advance`: RK2 or RK4 through the field, the fading birth velocity,
 //!    aging, rebirth of particles that expired or left the domain (birth
@@ -19,12 +22,15 @@
 //!
 //! Particle data stays on the GPU between substeps; only
 //! [`GpuFlow::snapshot`] reads it back. Buffers are sized once for the run's
-//! largest particle count (every emitter's slots).
+//! largest particle count (every emitter's slots). The bind groups are
+//! named once, in [`bindings`]; [`FlowProbe`] (`probe.rs` and
+//! `shaders/flow/probe.wgsl`) runs the library functions for the parity tests.
 
+pub mod bindings;
 mod buffers;
-mod kernels;
 mod layout;
 mod probe;
+mod step;
 
 pub use probe::FlowProbe;
 
@@ -34,43 +40,13 @@ use firn_core::Scene;
 use firn_core::scene::{FlowEmission, FlowSettings};
 use firn_flow::{FlowParticles, FlowSimulation, FlowSnapshot, emitters};
 
+use self::bindings::{FieldBindings, ParticleBindings, TrailBindings};
 use self::buffers::{FieldBuffers, ParticleBuffers, TrailBuffers, TrailState};
 use self::layout::{NoiseDomains, SubstepParams};
+use self::step::{StepGroups, StepKernels};
 use crate::context::GpuContext;
 use crate::draw::{ParticleArrays, StridedArray, TrailArrays};
 use crate::error::GpuError;
-use crate::shaders::FLOW_STEP;
-
-/// The compute pipelines of a substep.
-struct StepKernels {
-    advance: wgpu::ComputePipeline,
-    settle_newborns: wgpu::ComputePipeline,
-    record_trails: wgpu::ComputePipeline,
-}
-
-impl StepKernels {
-    /// The kernels of [`FLOW_STEP`] with the field, particle and trail
-    /// bind group layouts (groups 0, 1 and 2).
-    fn new(
-        context: &GpuContext,
-        [field, particles, trails]: [&wgpu::BindGroupLayout; 3],
-    ) -> StepKernels {
-        let [advance, settle_newborns, record_trails] = kernels::pipelines(
-            context,
-            &FLOW_STEP,
-            [
-                ("advance", &[field, particles]),
-                ("settle_newborns", &[field, particles]),
-                ("record_trails", &[field, particles, trails]),
-            ],
-        );
-        StepKernels {
-            advance,
-            settle_newborns,
-            record_trails,
-        }
-    }
-}
 
 /// A running curl-noise particle flow on the GPU (seed 002).
 pub struct GpuFlow {
@@ -114,10 +90,10 @@ impl GpuFlow {
         let settings = flow_settings(&scene)?.clone();
         let slots = run_slots(&scene, &settings);
         let capacity = particle_capacity(&slots, snapshot.positions.len())?;
-        let field_layout = kernels::field_layout(&context);
-        let particle_layout = kernels::particle_layout(&context);
-        let trail_layout = kernels::trail_layout(&context);
-        let kernels = StepKernels::new(&context, [&field_layout, &particle_layout, &trail_layout]);
+        let field_layout = FieldBindings::TABLE.layout(&context.device);
+        let particle_layout = ParticleBindings::TABLE.layout(&context.device);
+        let trail_layout = TrailBindings::TABLE.layout(&context.device);
+        let kernels = StepKernels::new(&context, &field_layout, &particle_layout, &trail_layout);
         let field = FieldBuffers::new(&context, &scene, &settings, &field_layout);
         let count = snapshot.positions.len() as u32;
         let (births, substeps) = (snapshot.births.clone(), snapshot.substeps);
@@ -169,9 +145,10 @@ impl GpuFlow {
         params.newborn_first = 0;
         self.field.write_substep(&self.context, &params);
         self.run_pass("flow settle", |pass| {
-            let groups = [&self.field.group, &self.particles.group];
-            let kernel = &self.kernels.settle_newborns;
-            kernels::dispatch(&self.context, pass, kernel, &groups, self.count);
+            let groups = self.groups(None);
+            let count = self.count;
+            self.kernels
+                .record_settle(&self.context, pass, &groups, count);
         });
     }
 
@@ -331,18 +308,19 @@ impl GpuFlow {
     /// Records and submits the dispatches of one substep.
     fn submit(&self, params: &SubstepParams, record: bool) {
         self.run_pass("flow substep", |pass| {
-            let context = &self.context;
-            let groups = [&self.field.group, &self.particles.group];
-            let kernels = &self.kernels;
-            kernels::dispatch(context, pass, &kernels.advance, &groups, params.count);
-            let newborns = params.newborn_end - params.newborn_first;
-            kernels::dispatch(context, pass, &kernels.settle_newborns, &groups, newborns);
-            if let Some(trails) = self.trails.as_ref().filter(|_| record) {
-                let groups = [&self.field.group, &self.particles.group, &trails.group];
-                let end = params.newborn_end;
-                kernels::dispatch(context, pass, &kernels.record_trails, &groups, end);
-            }
+            let trails = self.trails.as_ref().filter(|_| record);
+            let groups = self.groups(trails.map(|trails| &trails.group));
+            self.kernels.record(&self.context, pass, &groups, params);
         });
+    }
+
+    /// The field's and the particles' bind groups, and `trails`.
+    fn groups<'a>(&'a self, trails: Option<&'a wgpu::BindGroup>) -> StepGroups<'a> {
+        StepGroups {
+            field: &self.field.group,
+            particles: &self.particles.group,
+            trails,
+        }
     }
 
     /// The particles `rate` emitters make by time `t` that are not born yet,

@@ -8,11 +8,12 @@ use std::sync::Arc;
 use firn_core::Scene;
 use glam::Vec3;
 
+use super::bindings::{FieldBindings, ProbeBindings};
 use super::buffers::FieldBuffers;
-use super::kernels;
 use super::layout::{NoiseDomains, SubstepParams};
 use crate::buffers::{read_back, storage_buffer, zeroed_storage_buffer};
 use crate::context::GpuContext;
+use crate::dispatch::dispatch_items;
 use crate::error::GpuError;
 use crate::shaders::FLOW_PARITY;
 
@@ -32,12 +33,11 @@ impl FlowProbe {
     /// The field and emitters of a flow scene.
     pub fn new(context: Arc<GpuContext>, scene: &Scene) -> Result<FlowProbe, GpuError> {
         let settings = super::flow_settings(scene)?;
-        let field_layout = kernels::field_layout(&context);
-        let probe_layout = kernels::probe_layout(&context);
+        let field_layout = FieldBindings::TABLE.layout(&context.device);
+        let probe_layout = ProbeBindings::TABLE.layout(&context.device);
         let groups: &[&wgpu::BindGroupLayout] = &[&field_layout, &probe_layout];
-        let [noise, velocity, birth] = kernels::pipelines(
-            &context,
-            &FLOW_PARITY,
+        let [noise, velocity, birth] = FLOW_PARITY.compute_pipelines(
+            &context.device,
             [
                 ("probe_noise", groups),
                 ("probe_velocity", groups),
@@ -108,12 +108,11 @@ impl FlowProbe {
         let input = storage_buffer(context, "flow probe input", input);
         let output_bytes = (items * per_item * size_of::<f32>()) as u64;
         let output = zeroed_storage_buffer(context, "flow probe output", output_bytes);
-        let group = crate::buffers::bind_group(
-            context,
-            "flow probe",
-            &self.probe_layout,
-            &[&input, &output],
-        );
+        let group = ProbeBindings {
+            probe_input: &input,
+            probe_output: &output,
+        }
+        .bind_group(&context.device, &self.probe_layout);
         let mut encoder = context
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
@@ -125,7 +124,8 @@ impl FlowProbe {
                 timestamp_writes: None,
             });
             let groups = [&self.field.group, &group];
-            kernels::dispatch(context, &mut pass, pipeline, &groups, items as u32);
+            let limit = context.limits.max_compute_workgroups_per_dimension;
+            dispatch_items(&mut pass, pipeline, &groups, items as u32, limit);
         }
         context.queue.submit([encoder.finish()]);
         let mut outputs = read_back::<f32>(context, &[(&output, items * per_item)])?;

@@ -18,8 +18,9 @@
 //! reach the frame's end, and reads back one 48-byte state per batch; the
 //! particles come back only when a frame is written ([`GpuSnow::snapshot`]).
 //! The grid is dense; [`MemoryEstimate`] says what a scene needs before
-//! anything is allocated.
+//! anything is allocated. The bindings are named once, in [`bindings`].
 
+pub mod bindings;
 pub mod fixed_point;
 mod layout;
 mod memory;

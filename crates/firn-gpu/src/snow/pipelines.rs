@@ -5,14 +5,15 @@ use bytemuck::Zeroable;
 use firn_core::scene::Transfer;
 use firn_mpm::Particles;
 
+use super::bindings::StepBindings;
 use super::layout::{GpuMat3, GpuPlastic, Params, StepState};
-use crate::buffers::{bind_group, read_back, storage_buffer, zeroed_storage_buffer};
+use crate::buffers::{read_back, storage_buffer, zeroed_storage_buffer};
 use crate::context::GpuContext;
 use crate::dispatch::workgroups;
 use crate::error::GpuError;
-use crate::shaders::SNOW_STEP;
+use crate::shaders::{SNOW_STEP, compute_pipeline};
 
-/// Per-particle arrays on the GPU (bindings 5 to 10).
+/// Per-particle arrays on the GPU.
 pub struct ParticleBuffers {
     pub position_mass: wgpu::Buffer,
     pub velocity_volume: wgpu::Buffer,
@@ -53,24 +54,14 @@ impl ParticleBuffers {
             plastic: storage_buffer(context, "plastic state", &plastic),
         }
     }
-
-    fn all(&self) -> [&wgpu::Buffer; 6] {
-        [
-            &self.position_mass,
-            &self.velocity_volume,
-            &self.elastic,
-            &self.affine,
-            &self.stress,
-            &self.plastic,
-        ]
-    }
 }
 
-/// The grid's word planes (bindings 11 to 24): low and high words of mass,
-/// momentum and, for PIC/FLIP, the force impulse. APIC binds 16-byte
-/// stand-ins for the force planes it never touches.
+/// The grid's word planes, in the order of the quantities
+/// (`QUANTITY_*` in `shaders/snow/fixed_point.wgsl`: mass, momentum x, y,
+/// z, force impulse x, y, z), low word before high word. APIC binds
+/// 16-byte stand-ins for the force planes it never touches.
 pub struct GridBuffers {
-    planes: Vec<wgpu::Buffer>,
+    planes: [wgpu::Buffer; 14],
     used: usize,
     nodes: u64,
 }
@@ -82,12 +73,10 @@ impl GridBuffers {
             Transfer::Apic => 8,
             Transfer::PicFlip => 14,
         };
-        let planes = (0..14)
-            .map(|plane| {
-                let bytes = if plane < used { nodes * 4 } else { 16 };
-                zeroed_storage_buffer(context, "grid word plane", bytes)
-            })
-            .collect();
+        let planes = std::array::from_fn(|plane| {
+            let bytes = if plane < used { nodes * 4 } else { 16 };
+            zeroed_storage_buffer(context, "grid word plane", bytes)
+        });
         GridBuffers {
             planes,
             used,
@@ -101,7 +90,7 @@ impl GridBuffers {
     }
 }
 
-/// The counting sort's buffers (bindings 25 to 27) and the binned
+/// The counting sort's buffers and the binned
 /// scatter's indirect dispatch arguments.
 pub struct BinningBuffers {
     bins: wgpu::Buffer,
@@ -167,33 +156,6 @@ pub struct StepPipelines {
     node_groups: (u32, u32, u32),
 }
 
-/// Bindings 2 to 4 and 28: read-only storage; 1 and 5 to 27: read-write.
-fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
-    let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty,
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    };
-    (0..29)
-        .map(|binding| match binding {
-            0 => entry(binding, wgpu::BufferBindingType::Uniform),
-            2..=4 | 28 => entry(
-                binding,
-                wgpu::BufferBindingType::Storage { read_only: true },
-            ),
-            _ => entry(
-                binding,
-                wgpu::BufferBindingType::Storage { read_only: false },
-            ),
-        })
-        .collect()
-}
-
 impl StepPipelines {
     /// Builds the pipelines of `transfer` and binds every buffer.
     #[allow(clippy::too_many_arguments)]
@@ -218,37 +180,62 @@ impl StepPipelines {
             },
         );
         let state_buffer = storage_buffer(context, "snow step state", std::slice::from_ref(state));
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("snow step"),
-            entries: &layout_entries(),
-        });
-        let mut buffers: Vec<&wgpu::Buffer> =
-            vec![&params_buffer, &state_buffer, materials, colliders, keys];
-        buffers.extend(particles.all());
-        buffers.extend(grid.planes.iter());
-        buffers.extend([
-            &binning.bins,
-            &binning.particle_bins,
-            &binning.work,
-            distances,
-        ]);
-        let bind_group = bind_group(context, "snow step", &layout, &buffers);
+        let layout = StepBindings::TABLE.layout(device);
+        let [
+            mass_lo,
+            mass_hi,
+            px_lo,
+            px_hi,
+            py_lo,
+            py_hi,
+            pz_lo,
+            pz_hi,
+            fx_lo,
+            fx_hi,
+            fy_lo,
+            fy_hi,
+            fz_lo,
+            fz_hi,
+        ] = grid.planes.each_ref();
+        let bind_group = StepBindings {
+            params: &params_buffer,
+            state: &state_buffer,
+            materials,
+            colliders,
+            collider_keys: keys,
+            collider_distances: distances,
+            position_mass: &particles.position_mass,
+            velocity_volume: &particles.velocity_volume,
+            elastic: &particles.elastic,
+            affine: &particles.affine,
+            stress: &particles.stress,
+            plastic: &particles.plastic,
+            mass_lo,
+            mass_hi,
+            px_lo,
+            px_hi,
+            py_lo,
+            py_hi,
+            pz_lo,
+            pz_hi,
+            fx_lo,
+            fx_hi,
+            fy_lo,
+            fy_hi,
+            fz_lo,
+            fz_hi,
+            bins: &binning.bins,
+            particle_bins: &binning.particle_bins,
+            work: &binning.work,
+        }
+        .bind_group(device, &layout);
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("snow step"),
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
         let module = SNOW_STEP.module(device);
-        let pipeline = |entry: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: Some(&pipeline_layout),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: wgpu::PipelineCompilationOptions::default(),
-                cache: None,
-            })
-        };
+        let pipeline = |entry: &str| compute_pipeline(device, &module, &pipeline_layout, entry);
         let (scatter, binned_scatter, gather) = match transfer {
             Transfer::Apic => ("scatter_apic", "scatter_binned_apic", "gather_apic"),
             Transfer::PicFlip => (

@@ -1,0 +1,95 @@
+//! The bindings of the snow programs, named in one place: each line gives a
+//! binding's number, name, access and WGSL type, and its doc becomes the
+//! comment above the generated declaration ([`crate::bindings`]). The
+//! structs (`Params`, `StepState`, ...) are in `shaders/snow/layout.wgsl`
+//! and `shaders/common/*.wgsl`, mirrored in `layout.rs`.
+
+use crate::bindings::bind_group;
+
+bind_group! {
+    /// The snow step's one bind group (group 0): every kernel of
+    /// [`SNOW_STEP`](crate::shaders::SNOW_STEP) sees all of it.
+    pub struct StepBindings("snow step", group 0) {
+        /// The run's constants and the frame's time window.
+        0 => params: Uniform "Params",
+        /// What the substeps of a frame share: Δt, time, trouble flags.
+        1 => state: ReadWrite "StepState",
+        /// The snow model's constants of each material.
+        2 => materials: Read "array<Material>",
+        /// The colliders: the scene's, then the six walls.
+        3 => colliders: Read "array<Collider>",
+        /// The keyframes of keyframed colliders (xyz: position, w: time).
+        4 => collider_keys: Read "array<vec4<f32>>",
+        /// xyz: position; w: mass.
+        5 => position_mass: ReadWrite "array<vec4<f32>>",
+        /// xyz: velocity; w: initial volume V_p^0.
+        6 => velocity_volume: ReadWrite "array<vec4<f32>>",
+        /// F_E.
+        7 => elastic: ReadWrite "array<mat3x3<f32>>",
+        /// C_p (APIC) or grad v_p (PIC/FLIP).
+        8 => affine: ReadWrite "array<mat3x3<f32>>",
+        /// V_p^0 tau_p.
+        9 => stress: ReadWrite "array<mat3x3<f32>>",
+        /// J_P and the material index.
+        10 => plastic: ReadWrite "array<PlasticState>",
+        /// Grid word planes, the low and the high words of each 64-bit
+        /// fixed-point sum (`fixed_point.wgsl`): the mass's low words.
+        11 => mass_lo: ReadWrite "array<atomic<u32>>",
+        /// The mass's high words.
+        12 => mass_hi: ReadWrite "array<atomic<u32>>",
+        /// Momentum x; after the grid update, the bits of v_i's x.
+        13 => px_lo: ReadWrite "array<atomic<u32>>",
+        /// Momentum x's high words; after the grid update, the bits of v_i*'s x.
+        14 => px_hi: ReadWrite "array<atomic<u32>>",
+        /// Momentum y; after the grid update, the bits of v_i's y.
+        15 => py_lo: ReadWrite "array<atomic<u32>>",
+        /// Momentum y's high words; after the grid update, the bits of v_i*'s y.
+        16 => py_hi: ReadWrite "array<atomic<u32>>",
+        /// Momentum z; after the grid update, the bits of v_i's z.
+        17 => pz_lo: ReadWrite "array<atomic<u32>>",
+        /// Momentum z's high words; after the grid update, the bits of v_i*'s z.
+        18 => pz_hi: ReadWrite "array<atomic<u32>>",
+        /// PIC/FLIP's force impulse dt f x (APIC binds a 16-byte stand-in).
+        19 => fx_lo: ReadWrite "array<atomic<u32>>",
+        /// The force impulse x's high words.
+        20 => fx_hi: ReadWrite "array<atomic<u32>>",
+        /// The force impulse dt f y.
+        21 => fy_lo: ReadWrite "array<atomic<u32>>",
+        /// The force impulse y's high words.
+        22 => fy_hi: ReadWrite "array<atomic<u32>>",
+        /// The force impulse dt f z.
+        23 => fz_lo: ReadWrite "array<atomic<u32>>",
+        /// The force impulse z's high words.
+        24 => fz_hi: ReadWrite "array<atomic<u32>>",
+        /// `[2b]`: particles in block b; `[2b + 1]`: the block's first slot
+        /// in sorted order.
+        25 => bins: ReadWrite "array<atomic<u32>>",
+        /// `[3p]`: block of particle p; `[3p + 1]`: its rank in the block;
+        /// `[3s + 2]`: the particle in slot s.
+        26 => particle_bins: ReadWrite "array<u32>",
+        /// `[0..3)`: dispatch size of the binned scatter; `[3]`: work items;
+        /// then per item its block and first slot.
+        27 => work: ReadWrite "array<u32>",
+        /// Signed distance samples of the mesh colliders, one grid after
+        /// another.
+        28 => collider_distances: Read "array<f32>",
+    }
+}
+
+bind_group! {
+    /// The arrays of the parity entry points
+    /// ([`SNOW_PARITY`](crate::shaders::SNOW_PARITY), group 0), which run
+    /// single library functions for the tests against the CPU.
+    pub struct ParityBindings("snow parity", group 0) {
+        /// Input matrices.
+        0 => matrices_in: Read "array<mat3x3<f32>>",
+        /// Input vectors.
+        1 => vectors_in: Read "array<vec4<f32>>",
+        /// Output matrices.
+        2 => matrices_out: ReadWrite "array<mat3x3<f32>>",
+        /// Output vectors.
+        3 => vectors_out: ReadWrite "array<vec4<f32>>",
+        /// The material of the snow model's entry point.
+        4 => parity_material: Read "array<Material>",
+    }
+}
