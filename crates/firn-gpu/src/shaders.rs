@@ -10,7 +10,7 @@
 //! `firn_flow` files with the same stems), then the structs and bindings,
 //! then the kernels. A kernel's `.wgsl` file has the stem of the Rust file
 //! that makes its pipelines and records its dispatches
-//! (`shaders/flow/step.wgsl` and `src/flow/step.rs`). Every program is
+//! (`shaders/snow/p2g.wgsl` and `src/snow/p2g.rs`). Every program is
 //! validated by naga in a plain unit test (`tests/validate.rs`), and its
 //! declarations are checked against the layouts (`tests/bindings.rs`), no
 //! adapter needed.

@@ -1,30 +1,48 @@
 //! The MPM substep on the GPU (thesis §3.4, explicit integrator), the same
 //! step as `firn_mpm::Simulation`, which is its reference.
 //!
-//! Per substep, four dispatches and a clear, with no host round trip:
+//! Each stage is a pair of files with one stem, a Rust file that makes its
+//! pipelines and records its dispatches and a WGSL file under
+//! `shaders/snow/` with its kernels, as `firn_mpm` has one file per stage.
+//! Per substep, with no host round trip (`substep.rs` records them in
+//! order):
 //!
-//! 1. `begin_step` (one invocation): Δt = CFL h / (max |v_p| + max c_p) from
-//!    the maxima the last gather reduced, clipped to the frame's end; stops
-//!    the frame when it is done or a particle was in trouble;
+//! 1. `begin_step` (one invocation): Δt = CFL h / (max |v_p| + max c_p)
+//!    from the maxima the last gather reduced, clipped to the frame's end;
+//!    stops the frame when it is done or a particle was in trouble;
 //! 2. the grid's word planes are cleared;
-//! 3. `scatter_*`: particle to grid, into 64-bit fixed-point sums
-//!    ([`fixed_point`]);
-//! 4. `update_grid`: v_i = p_i / m_i, forces, gravity and grid collisions;
-//! 5. `gather_*`: grid to particle, the snow model (SVD, plastic clamp,
-//!    hardened stress), particle collisions and advection, with the maxima
-//!    for the next Δt reduced per workgroup, then by atomics.
+//! 3. `binning`: the counting sort of the particles by block, for the
+//!    binned scatter;
+//! 4. `p2g`: particle to grid (thesis steps 1 and 3), atomic or binned,
+//!    into 64-bit fixed-point sums ([`fixed_point`]);
+//! 5. `grid_update`: v_i = p_i / m_i, forces, gravity and grid collisions
+//!    (steps 4 and 5);
+//! 6. `g2p`: grid to particle, the snow model (SVD, plastic clamp,
+//!    hardened stress), particle collisions and advection (steps 7 to 10),
+//!    with the maxima for the next Δt reduced per workgroup, then by atomics.
+//!
+//! Step 6, the semi-implicit solve (`firn_mpm::implicit`), has no GPU stage
+//! yet. The physics the stages share is WGSL in `shaders/common/` (B-spline
+//! weights, SVD, snow model, colliders); the bindings are named once in
+//! [`bindings`], the structs in `shaders/snow/layout.wgsl` and `layout.rs`.
 //!
 //! The host records batches of substeps, sized from the last Δt to just
 //! reach the frame's end, and reads back one 48-byte state per batch; the
 //! particles come back only when a frame is written ([`GpuSnow::snapshot`]).
 //! The grid is dense; [`MemoryEstimate`] says what a scene needs before
-//! anything is allocated. The bindings are named once, in [`bindings`].
+//! anything is allocated.
 
+mod begin_step;
 pub mod bindings;
+mod binning;
+mod buffers;
 pub mod fixed_point;
+mod g2p;
+mod grid_update;
 mod layout;
 mod memory;
-mod pipelines;
+mod p2g;
+mod substep;
 
 use std::sync::Arc;
 
@@ -39,12 +57,14 @@ use crate::buffers::{read_back, storage_buffer};
 use crate::context::GpuContext;
 use crate::draw::{ParticleArrays, SnowArrays, StridedArray};
 use crate::error::GpuError;
+use binning::BinningBuffers;
+use buffers::{ColliderBuffers, GridBuffers, ParticleBuffers, SnowBuffers};
 use fixed_point::{QUANTITY_NAMES, Scales};
 use layout::{GpuMat3, GpuMaterial, GpuPlastic, NO_PARTICLE, Params, StepState, pack_colliders};
-use pipelines::{BinningBuffers, GridBuffers, ParticleBuffers, StepPipelines};
+use substep::Substep;
 
 pub use memory::MemoryEstimate;
-pub use pipelines::Scatter;
+pub use p2g::Scatter;
 
 /// How far (in cells) a particle may stray outside the domain before the
 /// run stops, as on the CPU.
@@ -59,11 +79,10 @@ pub struct GpuSnow {
     scene: Scene,
     scales: Scales,
     params: Params,
-    /// One `GpuMaterial` per scene material, rewritten by [`GpuSnow::set_materials`].
-    materials: wgpu::Buffer,
-    particles: ParticleBuffers,
-    grid: GridBuffers,
-    pipelines: StepPipelines,
+    /// Materials (rewritten by [`GpuSnow::set_materials`]), colliders,
+    /// particles, grid and the binning's buffers.
+    buffers: SnowBuffers,
+    substep: Substep,
     particle_count: usize,
     time: f64,
     steps: u64,
@@ -98,9 +117,13 @@ impl GpuSnow {
         params.flags[1] = context.limits.max_compute_workgroups_per_dimension;
         let all_colliders = firn_mpm::contact::ColliderSet::new(domain, &scene.colliders);
         let packed = pack_colliders(all_colliders.colliders());
-        let particles = ParticleBuffers::upload(&context, &snapshot.particles);
-        let grid = GridBuffers::new(&context, estimate.nodes, scene.solver.transfer);
-        let binning = BinningBuffers::new(&context, estimate.particles, estimate.nodes);
+        let buffers = SnowBuffers {
+            materials,
+            colliders: ColliderBuffers::upload(&context, &packed),
+            particles: ParticleBuffers::upload(&context, &snapshot.particles),
+            grid: GridBuffers::new(&context, estimate.nodes, scene.solver.transfer),
+            binning: BinningBuffers::new(&context, estimate.particles, estimate.nodes),
+        };
         let state = StepState {
             max_speed_bits: snapshot.max_speed_squared.to_bits(),
             max_wave_bits: snapshot.max_wave_speed_squared.to_bits(),
@@ -108,29 +131,13 @@ impl GpuSnow {
             left_domain: NO_PARTICLE,
             ..StepState::default()
         };
-        let pipelines = StepPipelines::new(
-            &context,
-            scene.solver.transfer,
-            &params,
-            &state,
-            &materials,
-            [
-                &storage_buffer(&context, "colliders", &packed.colliders),
-                &storage_buffer(&context, "collider keys", &packed.keys),
-                &storage_buffer(&context, "collider distances", &packed.distances),
-            ],
-            &particles,
-            &grid,
-            binning,
-        );
+        let substep = Substep::new(&context, scene.solver.transfer, &params, &state, &buffers);
         Ok(GpuSnow {
             context,
             scales,
             params,
-            materials,
-            particles,
-            grid,
-            pipelines,
+            buffers,
+            substep,
             particle_count: snapshot.particles.len(),
             time: snapshot.time,
             steps: snapshot.steps,
@@ -171,8 +178,8 @@ impl GpuSnow {
         loop {
             let batch = self.batch_size(until);
             let state = self
-                .pipelines
-                .run_batch(&self.context, batch, self.grid.planes())?;
+                .substep
+                .run_batch(&self.context, batch, &self.buffers)?;
             let before = self.last;
             self.last = state;
             let batch_steps = state.steps - before.steps;
@@ -195,7 +202,7 @@ impl GpuSnow {
         self.last.elapsed = 0.0;
         self.last.steps = 0;
         self.last.running = 1;
-        self.pipelines
+        self.substep
             .write_frame(&self.context, &self.params, &self.last);
     }
 
@@ -270,7 +277,7 @@ impl GpuSnow {
     fn particle_position(&self, index: usize) -> Result<Vec3, GpuError> {
         let all = read_back::<[f32; 4]>(
             &self.context,
-            &[(&self.particles.position_mass, self.particle_count)],
+            &[(&self.buffers.particles.position_mass, self.particle_count)],
         )?;
         let [x, y, z, _] = all[0][index.min(self.particle_count - 1)];
         Ok(Vec3::new(x, y, z))
@@ -280,7 +287,7 @@ impl GpuSnow {
     /// continue from, on either backend.
     pub fn snapshot(&self) -> Result<Snapshot, GpuError> {
         let n = self.particle_count;
-        let b = &self.particles;
+        let b = &self.buffers.particles;
         let vectors = read_back::<[f32; 4]>(
             &self.context,
             &[(&b.position_mass, n), (&b.velocity_volume, n)],
@@ -325,8 +332,8 @@ impl GpuSnow {
         let wave_speed_squared = self.max_wave_speed_squared(&constants)?;
         let gpu = gpu_materials(&constants);
         let queue = &self.context.queue;
-        queue.write_buffer(&self.materials, 0, bytemuck::cast_slice(&gpu));
-        self.pipelines
+        queue.write_buffer(&self.buffers.materials, 0, bytemuck::cast_slice(&gpu));
+        self.substep
             .write_max_wave_speed(&self.context, wave_speed_squared);
         self.last.max_wave_bits = wave_speed_squared.to_bits();
         self.scene = scene;
@@ -336,7 +343,7 @@ impl GpuSnow {
     /// The largest squared wave speed of the particles as they are, for
     /// materials of `constants` (their J_P and materials read back).
     fn max_wave_speed_squared(&self, constants: &[MaterialConstants]) -> Result<f32, GpuError> {
-        let buffers = [(&self.particles.plastic, self.particle_count)];
+        let buffers = [(&self.buffers.particles.plastic, self.particle_count)];
         let plastic = read_back::<GpuPlastic>(&self.context, &buffers)?.remove(0);
         let material: Vec<u16> = plastic.iter().map(|p| p.material as u16).collect();
         let plastic_j: Vec<f32> = plastic.iter().map(|p| p.plastic_j).collect();
@@ -356,7 +363,7 @@ impl GpuSnow {
         };
         let vec4 = words::<[f32; 4]>();
         let plastic_j = (std::mem::offset_of!(GpuPlastic, plastic_j) / 4) as u32;
-        let particles = &self.particles;
+        let particles = &self.buffers.particles;
         ParticleArrays {
             count: self.particle_count as u32,
             positions: array(&particles.position_mass, vec4, 0),
@@ -374,13 +381,13 @@ impl GpuSnow {
     /// The scatter in use ([`Scatter::Binned`] by default where the
     /// adapter's workgroup memory allows it).
     pub fn scatter(&self) -> Scatter {
-        self.pipelines.scatter_mode()
+        self.substep.scatter_mode()
     }
 
     /// Chooses the scatter (for comparing them; both give the same sums,
     /// bit for bit); returns the one now in use.
     pub fn set_scatter(&mut self, scatter: Scatter) -> Scatter {
-        self.pipelines.set_scatter_mode(scatter)
+        self.substep.set_scatter_mode(scatter)
     }
 
     /// The scene being simulated.

@@ -1,0 +1,195 @@
+//! The snow run's GPU buffers: materials, colliders, particles, the dense
+//! grid's word planes and the binning's buffers, and how they fill the
+//! step's bind group by name ([`SnowBuffers::bindings`]).
+
+use firn_core::scene::Transfer;
+use firn_mpm::Particles;
+
+use super::bindings::StepBindings;
+use super::binning::BinningBuffers;
+use super::layout::{GpuMat3, GpuPlastic, PackedColliders};
+use crate::buffers::{storage_buffer, zeroed_storage_buffer};
+use crate::context::GpuContext;
+
+/// Per-particle arrays on the GPU.
+pub struct ParticleBuffers {
+    /// xyz: position; w: mass.
+    pub position_mass: wgpu::Buffer,
+    /// xyz: velocity; w: initial volume V_p^0.
+    pub velocity_volume: wgpu::Buffer,
+    /// F_E.
+    pub elastic: wgpu::Buffer,
+    /// C_p (APIC) or ∇v_p (PIC/FLIP).
+    pub affine: wgpu::Buffer,
+    /// V_p^0 τ_p.
+    pub stress: wgpu::Buffer,
+    /// J_P and the material index.
+    pub plastic: wgpu::Buffer,
+}
+
+impl ParticleBuffers {
+    /// Uploads the particles.
+    pub fn upload(context: &GpuContext, particles: &Particles) -> ParticleBuffers {
+        let n = particles.len();
+        let matrices =
+            |list: &[glam::Mat3]| list.iter().map(|&m| GpuMat3::from(m)).collect::<Vec<_>>();
+        let position_mass: Vec<[f32; 4]> = (0..n)
+            .map(|p| particles.position[p].extend(particles.mass[p]).into())
+            .collect();
+        let velocity_volume: Vec<[f32; 4]> = (0..n)
+            .map(|p| particles.velocity[p].extend(particles.volume0[p]).into())
+            .collect();
+        let plastic: Vec<GpuPlastic> = (0..n)
+            .map(|p| GpuPlastic {
+                plastic_j: particles.plastic_j[p],
+                material: u32::from(particles.material[p]),
+            })
+            .collect();
+        ParticleBuffers {
+            position_mass: storage_buffer(context, "position and mass", &position_mass),
+            velocity_volume: storage_buffer(context, "velocity and volume", &velocity_volume),
+            elastic: storage_buffer(context, "elastic gradient", &matrices(&particles.elastic)),
+            affine: storage_buffer(
+                context,
+                "affine velocity",
+                &matrices(&particles.velocity_gradient),
+            ),
+            stress: storage_buffer(context, "stress", &matrices(&particles.stress)),
+            plastic: storage_buffer(context, "plastic state", &plastic),
+        }
+    }
+}
+
+/// Grid quantities' word planes: a low and a high word per quantity.
+const PLANES: usize = 14;
+
+/// The grid's word planes, in the order of the quantities
+/// (`QUANTITY_*` in `shaders/snow/fixed_point.wgsl`: mass, momentum x, y,
+/// z, force impulse x, y, z), low word before high word. APIC binds
+/// 16-byte stand-ins for the force planes it never touches.
+pub struct GridBuffers {
+    planes: [wgpu::Buffer; PLANES],
+    used: usize,
+    /// Grid nodes, padding included.
+    pub nodes: u64,
+}
+
+impl GridBuffers {
+    /// Zeroed planes for `nodes` nodes.
+    pub fn new(context: &GpuContext, nodes: u64, transfer: Transfer) -> GridBuffers {
+        let used = match transfer {
+            Transfer::Apic => 8,
+            Transfer::PicFlip => PLANES,
+        };
+        let planes = std::array::from_fn(|plane| {
+            let bytes = if plane < used { nodes * 4 } else { 16 };
+            zeroed_storage_buffer(context, "grid word plane", bytes)
+        });
+        GridBuffers {
+            planes,
+            used,
+            nodes,
+        }
+    }
+
+    /// Zeroes the planes the substep sums into, before its scatter.
+    pub fn clear(&self, encoder: &mut wgpu::CommandEncoder) {
+        for plane in &self.planes[..self.used] {
+            encoder.clear_buffer(plane, 0, None);
+        }
+    }
+}
+
+/// The colliders as the kernels read them ([`PackedColliders`]).
+pub struct ColliderBuffers {
+    /// The colliders: the scene's, then the six walls.
+    pub colliders: wgpu::Buffer,
+    /// Keyframes (xyz: position, w: time).
+    pub keys: wgpu::Buffer,
+    /// Signed distance samples of the mesh colliders.
+    pub distances: wgpu::Buffer,
+}
+
+impl ColliderBuffers {
+    /// Uploads the packed colliders.
+    pub fn upload(context: &GpuContext, packed: &PackedColliders) -> ColliderBuffers {
+        ColliderBuffers {
+            colliders: storage_buffer(context, "colliders", &packed.colliders),
+            keys: storage_buffer(context, "collider keys", &packed.keys),
+            distances: storage_buffer(context, "collider distances", &packed.distances),
+        }
+    }
+}
+
+/// Every buffer of a run but the parameters and the step state.
+pub struct SnowBuffers {
+    /// One `GpuMaterial` per scene material, rewritten when the materials change.
+    pub materials: wgpu::Buffer,
+    /// The colliders.
+    pub colliders: ColliderBuffers,
+    /// The particles.
+    pub particles: ParticleBuffers,
+    /// The grid.
+    pub grid: GridBuffers,
+    /// The counting sort's buffers.
+    pub binning: BinningBuffers,
+}
+
+impl SnowBuffers {
+    /// The step's bindings: these buffers with `params` and `state`, each
+    /// at its name.
+    pub fn bindings<'a>(
+        &'a self,
+        params: &'a wgpu::Buffer,
+        state: &'a wgpu::Buffer,
+    ) -> StepBindings<'a> {
+        let [
+            mass_lo,
+            mass_hi,
+            px_lo,
+            px_hi,
+            py_lo,
+            py_hi,
+            pz_lo,
+            pz_hi,
+            fx_lo,
+            fx_hi,
+            fy_lo,
+            fy_hi,
+            fz_lo,
+            fz_hi,
+        ] = self.grid.planes.each_ref();
+        let particles = &self.particles;
+        StepBindings {
+            params,
+            state,
+            materials: &self.materials,
+            colliders: &self.colliders.colliders,
+            collider_keys: &self.colliders.keys,
+            collider_distances: &self.colliders.distances,
+            position_mass: &particles.position_mass,
+            velocity_volume: &particles.velocity_volume,
+            elastic: &particles.elastic,
+            affine: &particles.affine,
+            stress: &particles.stress,
+            plastic: &particles.plastic,
+            mass_lo,
+            mass_hi,
+            px_lo,
+            px_hi,
+            py_lo,
+            py_hi,
+            pz_lo,
+            pz_hi,
+            fx_lo,
+            fx_hi,
+            fy_lo,
+            fy_hi,
+            fz_lo,
+            fz_hi,
+            bins: &self.binning.bins,
+            particle_bins: &self.binning.particle_bins,
+            work: &self.binning.work,
+        }
+    }
+}

@@ -1,0 +1,229 @@
+//! The substep recorder: the stages of one MPM substep in the order they
+//! run, each from its own file, all over one bind group
+//! ([`StepBindings`](super::bindings::StepBindings)):
+//!
+//! 1. `begin_step.rs`: Δt and the stop conditions;
+//! 2. the grid's word planes cleared;
+//! 3. `binning.rs` (binned scatter only): the counting sort;
+//! 4. `p2g.rs`: the scatter, thesis steps 1 and 3;
+//! 5. `grid_update.rs`: steps 4 and 5;
+//! 6. `g2p.rs`: the gather, steps 7 to 10.
+//!
+//! [`Substep::run_batch`] records a batch of substeps in one submission and
+//! reads back the step state.
+
+use bytemuck::Zeroable;
+use firn_core::scene::Transfer;
+
+use super::begin_step::BeginStep;
+use super::bindings::StepBindings;
+use super::binning::Binning;
+use super::buffers::SnowBuffers;
+use super::g2p::G2p;
+use super::grid_update::GridUpdate;
+use super::layout::{Params, StepState};
+use super::p2g::{BinnedP2g, P2g, Scatter, binned_fits};
+use crate::buffers::{read_back, storage_buffer};
+use crate::context::GpuContext;
+use crate::dispatch::workgroups;
+use crate::error::GpuError;
+use crate::shaders::{SNOW_STEP, compute_pipeline};
+
+/// The step program compiled once, with its pipeline layout: the stages
+/// make their pipelines from it.
+pub struct StepProgram<'a> {
+    device: &'a wgpu::Device,
+    module: wgpu::ShaderModule,
+    layout: wgpu::PipelineLayout,
+}
+
+impl StepProgram<'_> {
+    /// The pipeline of entry point `entry`.
+    pub fn pipeline(&self, entry: &str) -> wgpu::ComputePipeline {
+        compute_pipeline(self.device, &self.module, &self.layout, entry)
+    }
+}
+
+/// A compute pass over the step's bind group.
+pub fn compute_pass<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    label: &str,
+    bind_group: &wgpu::BindGroup,
+) -> wgpu::ComputePass<'e> {
+    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some(label),
+        timestamp_writes: None,
+    });
+    pass.set_bind_group(0, bind_group, &[]);
+    pass
+}
+
+/// The binned scatter and the sort it runs on, built where the adapter's
+/// workgroup memory allows.
+struct Binned {
+    binning: Binning,
+    scatter: BinnedP2g,
+}
+
+/// The stages of a run's substep, its parameters, state and bind group.
+pub struct Substep {
+    params: wgpu::Buffer,
+    state: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+    begin_step: BeginStep,
+    binned: Option<Binned>,
+    p2g: P2g,
+    grid_update: GridUpdate,
+    g2p: G2p,
+    mode: Scatter,
+    particle_groups: (u32, u32, u32),
+    node_groups: (u32, u32, u32),
+}
+
+impl Substep {
+    /// Builds the stages of `transfer` and binds every buffer.
+    pub fn new(
+        context: &GpuContext,
+        transfer: Transfer,
+        params: &Params,
+        state: &StepState,
+        buffers: &SnowBuffers,
+    ) -> Substep {
+        let device = &context.device;
+        let params_buffer = wgpu::util::DeviceExt::create_buffer_init(
+            device,
+            &wgpu::util::BufferInitDescriptor {
+                label: Some("snow params"),
+                contents: bytemuck::bytes_of(params),
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            },
+        );
+        let state_buffer = storage_buffer(context, "snow step state", std::slice::from_ref(state));
+        let layout = StepBindings::TABLE.layout(device);
+        let bind_group = buffers
+            .bindings(&params_buffer, &state_buffer)
+            .bind_group(device, &layout);
+        let program = StepProgram {
+            device,
+            module: SNOW_STEP.module(device),
+            layout: device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("snow step"),
+                bind_group_layouts: &[Some(&layout)],
+                immediate_size: 0,
+            }),
+        };
+        let binned = binned_fits(&context.limits).then(|| Binned {
+            binning: Binning::new(&program),
+            scatter: BinnedP2g::new(&program, transfer),
+        });
+        let limit = context.limits.max_compute_workgroups_per_dimension;
+        Substep {
+            begin_step: BeginStep::new(&program),
+            p2g: P2g::new(&program, transfer),
+            mode: if binned.is_some() {
+                Scatter::Binned
+            } else {
+                Scatter::Atomic
+            },
+            binned,
+            grid_update: GridUpdate::new(&program),
+            g2p: G2p::new(&program, transfer),
+            particle_groups: workgroups(params.dims[3], limit),
+            node_groups: workgroups(buffers.grid.nodes as u32, limit),
+            params: params_buffer,
+            state: state_buffer,
+            bind_group,
+        }
+    }
+
+    /// The scatter in use: binned where the adapter's workgroup memory
+    /// allows, else atomic.
+    pub fn scatter_mode(&self) -> Scatter {
+        self.mode
+    }
+
+    /// Chooses the scatter; binned falls back to atomic where the adapter
+    /// lacks the workgroup memory. Returns the scatter now in use.
+    pub fn set_scatter_mode(&mut self, mode: Scatter) -> Scatter {
+        self.mode = if self.binned.is_some() {
+            mode
+        } else {
+            Scatter::Atomic
+        };
+        self.mode
+    }
+
+    /// Writes a frame's parameters and starting state.
+    pub fn write_frame(&self, context: &GpuContext, params: &Params, state: &StepState) {
+        context
+            .queue
+            .write_buffer(&self.params, 0, bytemuck::bytes_of(params));
+        // Only the first four words: the maxima and trouble flags stay as
+        // the last gather left them.
+        let head = [
+            state.dt.to_bits(),
+            state.elapsed.to_bits(),
+            state.running,
+            state.steps,
+        ];
+        context
+            .queue
+            .write_buffer(&self.state, 0, bytemuck::cast_slice(&head));
+    }
+
+    /// Sets the largest squared wave speed the next substep's Δt starts from
+    /// (after the materials changed); the rest of the state stays.
+    pub fn write_max_wave_speed(&self, context: &GpuContext, wave_speed_squared: f32) {
+        let offset = std::mem::offset_of!(StepState, max_wave_bits) as u64;
+        let bits = wave_speed_squared.to_bits();
+        context
+            .queue
+            .write_buffer(&self.state, offset, bytemuck::bytes_of(&bits));
+    }
+
+    /// Records and runs `substeps` substeps over `buffers` (those after the
+    /// frame's end do nothing), then reads the state back.
+    pub fn run_batch(
+        &self,
+        context: &GpuContext,
+        substeps: u32,
+        buffers: &SnowBuffers,
+    ) -> Result<StepState, GpuError> {
+        let mut encoder = context
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("snow substeps"),
+            });
+        for _ in 0..substeps {
+            self.record(&mut encoder, buffers);
+        }
+        context.queue.submit([encoder.finish()]);
+        let state = read_back::<StepState>(context, &[(&self.state, 1)])?;
+        Ok(state[0].first().copied().unwrap_or_else(StepState::zeroed))
+    }
+
+    /// Records one substep, stage by stage.
+    fn record(&self, encoder: &mut wgpu::CommandEncoder, buffers: &SnowBuffers) {
+        self.begin_step
+            .record(&mut compute_pass(encoder, "snow substep", &self.bind_group));
+        buffers.grid.clear(encoder);
+        match (&self.binned, self.mode) {
+            (Some(binned), Scatter::Binned) => {
+                let groups = self.particle_groups;
+                let binning = &buffers.binning;
+                binned
+                    .binning
+                    .record(encoder, &self.bind_group, binning, groups);
+                let mut pass = compute_pass(encoder, "binned scatter", &self.bind_group);
+                binned.scatter.record(&mut pass, &binning.indirect);
+            }
+            _ => self.p2g.record(
+                &mut compute_pass(encoder, "snow substep", &self.bind_group),
+                self.particle_groups,
+            ),
+        }
+        let mut pass = compute_pass(encoder, "snow substep", &self.bind_group);
+        self.grid_update.record(&mut pass, self.node_groups);
+        self.g2p.record(&mut pass, self.particle_groups);
+    }
+}
