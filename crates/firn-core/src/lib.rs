@@ -6,7 +6,6 @@
 //! - [`math`]: the robust 3x3 SVD and polar decomposition, and the B-spline
 //!   interpolation kernels of the Material Point Method.
 
-
 pub mod math;
 pub mod scene;
 

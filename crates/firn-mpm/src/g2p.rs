@@ -131,6 +131,11 @@ impl Interpolated {
 
 /// Steps 7 and 9 for a batch over a substep of `dt`, compiled for the
 /// chosen instruction set.
+///
+/// Each instruction set's copy is a function of its own, shared by both
+/// transfer schemes and never inlined into their block loops, so the
+/// 16-lane snow model is compiled three times rather than six; one call
+/// per 16 particles costs nothing beside the SVD.
 #[inline(always)]
 fn elastic_update(simd: Simd, batch: &Interpolated, dt: f32) -> ElasticUpdate<BATCH> {
     match simd {
@@ -145,11 +150,17 @@ fn elastic_update(simd: Simd, batch: &Interpolated, dt: f32) -> ElasticUpdate<BA
     }
 }
 
+/// [`elastic_update_lanes`] in the baseline instruction set (SSE2 on x86-64).
+#[inline(never)]
+fn elastic_update_portable(batch: &Interpolated, dt: f32) -> ElasticUpdate<BATCH> {
+    elastic_update_lanes(batch, dt)
+}
+
 /// The trial F̂_E = (I + Δt ∇v_p) F_E is formed in the lanes too, with the
 /// operations glam's `Mat3` does in the same order (so the bits of
 /// `(Mat3::IDENTITY + gradient * dt) * elastic`).
 #[inline(always)]
-fn elastic_update_portable(batch: &Interpolated, dt: f32) -> ElasticUpdate<BATCH> {
+fn elastic_update_lanes(batch: &Interpolated, dt: f32) -> ElasticUpdate<BATCH> {
     let step = Mat3s::splat(Mat3::IDENTITY).add(&batch.velocity_gradient.scale(F32s::splat(dt)));
     ElasticUpdate::new(
         &step.mul_mat(&batch.elastic),
@@ -159,18 +170,20 @@ fn elastic_update_portable(batch: &Interpolated, dt: f32) -> ElasticUpdate<BATCH
     )
 }
 
-/// [`elastic_update_portable`] in 512-bit registers.
+/// [`elastic_update_lanes`] in 512-bit registers.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
+#[inline(never)]
 fn elastic_update_avx512(batch: &Interpolated, dt: f32) -> ElasticUpdate<BATCH> {
-    elastic_update_portable(batch, dt)
+    elastic_update_lanes(batch, dt)
 }
 
-/// [`elastic_update_portable`] in 256-bit registers.
+/// [`elastic_update_lanes`] in 256-bit registers.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
+#[inline(never)]
 fn elastic_update_avx2(batch: &Interpolated, dt: f32) -> ElasticUpdate<BATCH> {
-    elastic_update_portable(batch, dt)
+    elastic_update_lanes(batch, dt)
 }
 
 /// The instruction set the solver uses unless told otherwise: AVX2 where the
@@ -198,7 +211,8 @@ pub(crate) fn checked_simd(simd: Simd) -> Simd {
 /// How a transfer scheme reads the grid at a particle (step 8): from a
 /// copy of the nodes around the particle's block, made once per block.
 /// Its methods are `#[inline(always)]` in every implementation, so that
-/// the whole particle update compiles into one function per instruction set.
+/// the particle update of each scheme compiles into one function per
+/// instruction set (which calls that set's [`elastic_update`]).
 pub(crate) trait Interpolation: Sync {
     /// What the copy keeps of each node.
     type LocalNode: Copy + Default + Send;
@@ -265,7 +279,7 @@ pub(crate) fn gather_with<I: Interpolation>(
             // SAFETY: as above, for AVX2.
             Simd::Avx2 => unsafe { update_block_avx2(&block) },
             // SAFETY: the block's particles are this task's alone.
-            _ => unsafe { update_block(&block, Simd::Portable) },
+            _ => unsafe { update_block_portable(&block) },
         }
     };
     bins.occupied
@@ -317,6 +331,17 @@ unsafe fn update_block<I: Interpolation>(block: &Block<I>, simd: Simd) -> Gather
 unsafe fn update_block_avx512<I: Interpolation>(block: &Block<I>) -> GatherStats {
     // SAFETY: by the caller's contract.
     unsafe { update_block(block, Simd::Avx512) }
+}
+
+/// [`update_block`] in the baseline instruction set, out of line like the
+/// others (see [`elastic_update`]).
+///
+/// # Safety
+/// As for [`update_block`].
+#[inline(never)]
+unsafe fn update_block_portable<I: Interpolation>(block: &Block<I>) -> GatherStats {
+    // SAFETY: by the caller's contract.
+    unsafe { update_block(block, Simd::Portable) }
 }
 
 /// [`update_block_avx512`] for AVX2.

@@ -22,13 +22,19 @@ pub struct F32s<const N: usize>(pub [f32; N]);
 #[repr(transparent)]
 pub struct U32s<const N: usize>(pub [u32; N]);
 
-/// Lane-wise map of one array (a plain loop: it inlines and vectorises
-/// reliably, unlike `std::array::from_fn`).
+/// Lane-wise map of one array.
+///
+/// The lane loops of this module count an index from 0 to `N` rather than
+/// zip iterators: LLVM unrolls a counted loop with a constant trip count at
+/// once, while a zipped loop stays a loop until the caller has been
+/// simplified several times over. The snow model holds about a thousand of
+/// them, and re-simplifying its 16-lane SVD for each took three quarters of
+/// firn-mpm's release build (docs/benchmarks.md, "Build time").
 #[inline(always)]
 pub fn map1<T: Copy, U: Copy + Default, const N: usize>(a: [T; N], f: impl Fn(T) -> U) -> [U; N] {
     let mut out = [U::default(); N];
-    for (o, x) in out.iter_mut().zip(a) {
-        *o = f(x);
+    for i in 0..N {
+        out[i] = f(a[i]);
     }
     out
 }
@@ -41,8 +47,8 @@ pub fn map2<T: Copy, U: Copy + Default, const N: usize>(
     f: impl Fn(T, T) -> U,
 ) -> [U; N] {
     let mut out = [U::default(); N];
-    for ((o, x), y) in out.iter_mut().zip(a).zip(b) {
-        *o = f(x, y);
+    for i in 0..N {
+        out[i] = f(a[i], b[i]);
     }
     out
 }
@@ -111,10 +117,15 @@ impl<const N: usize> F32s<N> {
 
     /// Per lane: `yes` where `mask` holds, else `no`.
     #[inline(always)]
+    #[expect(
+        clippy::needless_range_loop,
+        reason = "counted loops compile fast (map1)"
+    )]
     pub fn select(mask: U32s<N>, yes: F32s<N>, no: F32s<N>) -> F32s<N> {
         let mut out = no.0;
-        for ((o, y), m) in out.iter_mut().zip(yes.0).zip(mask.0) {
-            *o = f32::from_bits((y.to_bits() & m) | (o.to_bits() & !m));
+        for i in 0..N {
+            let m = mask.0[i];
+            out[i] = f32::from_bits((yes.0[i].to_bits() & m) | (out[i].to_bits() & !m));
         }
         F32s(out)
     }
@@ -178,8 +189,8 @@ impl<const N: usize> U32s<N> {
     #[inline(always)]
     pub fn any(self) -> bool {
         let mut any = 0;
-        for lane in self.0 {
-            any |= lane;
+        for i in 0..N {
+            any |= self.0[i];
         }
         any != 0
     }
@@ -188,8 +199,8 @@ impl<const N: usize> U32s<N> {
     #[inline(always)]
     pub fn all(self) -> bool {
         let mut all = u32::MAX;
-        for lane in self.0 {
-            all &= lane;
+        for i in 0..N {
+            all &= self.0[i];
         }
         all == u32::MAX
     }
