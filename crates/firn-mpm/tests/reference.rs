@@ -2,21 +2,27 @@
 //! (`firn_mpm::reference`) on random states, for both transfer schemes.
 //!
 //! Tolerances, and why:
+//! Every tolerance is relative to the largest |value| of the quantity (over
+//! the grid or the particles), about ten times the worst difference seen
+//! over the cases of a run (in brackets, measured on 2026-11-25 with 12
+//! random states per stage and scheme):
 //! - P2G: every node sums up to 64 (cubic) or 27 (quadratic) terms per
 //!   particle in another order (block-local copies added colour by colour,
 //!   APIC's terms built in SIMD lanes with the affine map factored
 //!   differently). Each f32 addition rounds by at most 2⁻²⁴ of the running
-//!   sum, so the difference is bounded by a few hundred ulps of the largest
-//!   node value: 1e-5 of the largest |value| of the quantity over the grid.
-//! - Grid update: the same IEEE operations node by node, from the same
-//!   inputs: equal to 1 ulp (tolerance 1e-6 relative).
-//! - G2P: the velocity and ∇v_p sum over the stencil in another order (1e-5
-//!   of the largest value). The snow model differs more: the fast path keeps
-//!   F̂_E unchanged inside the yield surface and takes R_E from Newton's
-//!   polar iteration, uses its own exponential, and evaluates in lanes; the
-//!   reference always goes through the SVD. F_E and J_P agree to 1e-5; the
-//!   stress V_p^0 τ_p, a difference of nearly equal matrices (F_E − R_E)
-//!   scaled by 2μ, agrees to 1e-3 of its largest entry.
+//!   sum, so the difference stays within some ulps of the largest node
+//!   value: 1e-5 (mass 7.3e-7, momentum 6.1e-7, force 6.1e-7).
+//! - Grid update: the same IEEE operations node by node, but from node
+//!   sums that differ as above: 1e-6 (v_i 1.1e-7, v_i^{n+1} 1.3e-7).
+//! - G2P: the velocity and ∇v_p sum over the stencil in another order:
+//!   1e-5 (v_p 2.4e-7, ∇v_p 9.1e-7). The snow model differs more: the fast
+//!   path keeps F̂_E unchanged inside the yield surface and takes R_E from
+//!   Newton's polar iteration, uses its own exponential, and evaluates in
+//!   lanes; the reference always goes through the SVD. F_E and J_P: 1e-5
+//!   (9.5e-7, 9.9e-7); the stress V_p^0 τ_p, a difference of nearly equal
+//!   matrices (F_E − R_E) scaled by 2μ, loses digits to cancellation: 1e-4
+//!   (1.3e-5); positions 1e-6 (8.0e-8). Every instruction set the CPU has
+//!   is checked (they give the same bits; tests/determinism.rs).
 //! - Whole substeps: the differences above feed back through the stress;
 //!   after ten substeps positions agree to 1e-5 of a cell.
 
@@ -259,7 +265,7 @@ fn check_grid_update(transfer: Transfer, seed: u64) {
 /// Steps 7-10 on both sides from the same grid and particles.
 fn check_g2p(transfer: Transfer, seed: u64) {
     let setup = Setup::new(transfer);
-    let mut fast = random_particles(seed, &setup.scene.materials[0]);
+    let fast = random_particles(seed, &setup.scene.materials[0]);
     let (mut grid, bins) = setup.fast_p2g(&fast);
     setup.fast_grid_update(&mut grid);
     let dense = dense_copy(&grid);
@@ -273,14 +279,27 @@ fn check_g2p(transfer: Transfer, seed: u64) {
         lower: setup.scene.domain.min - margin,
         upper: setup.scene.domain.max + margin,
     };
-    let stats = match transfer {
-        Transfer::PicFlip => {
-            g2p::gather_pic_flip(&grid, &bins, &mut fast, FLIP, &context, Simd::detect())
-        }
-        Transfer::Apic => g2p::gather_apic(&grid, &bins, &mut fast, &context, Simd::detect()),
-    };
-    assert_eq!(stats.problem, None);
     reference::grid_to_particles(&mut plain, &dense, &setup.step());
+    let start = fast;
+    for simd in [Simd::Portable, Simd::Avx2, Simd::Avx512] {
+        if !simd.is_available() {
+            continue;
+        }
+        let mut fast = start.clone();
+        let stats = match transfer {
+            Transfer::PicFlip => {
+                g2p::gather_pic_flip(&grid, &bins, &mut fast, FLIP, &context, simd)
+            }
+            Transfer::Apic => g2p::gather_apic(&grid, &bins, &mut fast, &context, simd),
+        };
+        assert_eq!(stats.problem, None);
+        check_particles(&fast, &plain);
+    }
+}
+
+/// The particles after G2P, fast against plain, within the tolerances of
+/// the module docs.
+fn check_particles(fast: &Particles, plain: &Particles) {
     vectors("v_p", &fast.velocity, &plain.velocity, 1e-5);
     matrices(
         "∇v_p",
@@ -290,7 +309,7 @@ fn check_g2p(transfer: Transfer, seed: u64) {
     );
     matrices("F_E", &fast.elastic, &plain.elastic, 1e-5);
     scalars("J_P", &fast.plastic_j, &plain.plastic_j, 1e-5);
-    matrices("V_p^0 τ_p", &fast.stress, &plain.stress, 1e-3);
+    matrices("V_p^0 τ_p", &fast.stress, &plain.stress, 1e-4);
     vectors("x_p", &fast.position, &plain.position, 1e-6);
 }
 
