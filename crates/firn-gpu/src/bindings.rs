@@ -1,7 +1,7 @@
 //! Bindings named in one place. Each bind group of a program is one table,
-//! written once with the [`bind_group!`](crate::bindings::bind_group) macro
-//! (in `snow/bindings.rs` and `flow/bindings.rs`): every binding's number,
-//! name, WGSL type and access. From that table come
+//! written once with the crate's `bind_group!` macro (in `snow/bindings.rs`
+//! and `flow/bindings.rs`): every binding's number, name, WGSL type and
+//! access. From that table come
 //!
 //! - the WGSL declarations `@group(G) @binding(N) var<...> name: type;`
 //!   that the program text gets ([`BindGroupTable::declarations`], placed by
