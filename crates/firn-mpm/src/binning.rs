@@ -34,14 +34,16 @@ pub struct OccupiedBlock {
 /// numbers the occupied blocks, and is reset entry by entry afterwards.
 #[derive(Clone, Debug, Default)]
 pub struct Bins {
-    /// Particle indices, stably sorted by block index.
-    pub order: Vec<u32>,
+    /// Particle indices, stably sorted by block index: a permutation, which
+    /// the parallel gather relies on (each particle in exactly one block), so
+    /// only [`Bins::rebuild`] writes it.
+    order: Vec<u32>,
     /// Occupied blocks in increasing block index.
-    pub occupied: Vec<OccupiedBlock>,
+    occupied: Vec<OccupiedBlock>,
     /// Indices into `occupied`, one list per colour.
-    pub colours: [Vec<u32>; 8],
+    colours: [Vec<u32>; 8],
     /// Linear indices of the blocks that the particles' stencils reach, increasing.
-    pub active_blocks: Vec<u32>,
+    active_blocks: Vec<u32>,
     /// Block index of each particle.
     keys: Vec<u32>,
     /// Block index → number of the block in `seen`; [`ABSENT`] between rebuilds.
@@ -55,6 +57,27 @@ pub struct Bins {
 }
 
 impl Bins {
+    /// Particle indices, stably sorted by block index (a permutation).
+    pub fn order(&self) -> &[u32] {
+        &self.order
+    }
+
+    /// Occupied blocks in increasing block index.
+    pub fn occupied(&self) -> &[OccupiedBlock] {
+        &self.occupied
+    }
+
+    /// Indices into [`Bins::occupied`], one list per colour: blocks of one
+    /// colour never share a grid node.
+    pub fn colours(&self) -> &[Vec<u32>; 8] {
+        &self.colours
+    }
+
+    /// Linear indices of the blocks that the particles' stencils reach, increasing.
+    pub fn active_blocks(&self) -> &[u32] {
+        &self.active_blocks
+    }
+
     /// Re-bins all particles by their current positions (a stable counting
     /// sort). The block keys are computed in parallel and cut into runs of
     /// equal keys (particles are kept sorted by block, so runs are long);

@@ -70,10 +70,10 @@ pub(crate) fn scatter_blocks_by_colour<T: Send>(
     scatter: impl Fn(&OccupiedBlock, &NodeWriter<T>) + Sync,
 ) {
     let writer = NodeWriter::new(nodes);
-    for colour in &bins.colours {
+    for colour in bins.colours() {
         colour
             .par_iter()
-            .for_each(|&block| scatter(&bins.occupied[block as usize], &writer));
+            .for_each(|&block| scatter(&bins.occupied()[block as usize], &writer));
     }
 }
 

@@ -282,7 +282,7 @@ pub(crate) fn gather_with<I: Interpolation>(
             _ => unsafe { update_block_portable(&block) },
         }
     };
-    bins.occupied
+    bins.occupied()
         .par_iter()
         .map_init(LocalNodes::for_gather, gather_block)
         .reduce(GatherStats::default, GatherStats::merge)

@@ -823,7 +823,7 @@ mod tests {
             .collect();
         let mut bins = Bins::default();
         bins.rebuild(&grid.layout, &positions);
-        grid.allocate(&bins.active_blocks);
+        grid.allocate(bins.active_blocks());
         State {
             grid,
             bins,
@@ -874,7 +874,7 @@ mod tests {
     fn check_hessian<K: ForceKernel>(kernel: K, seed: u64) {
         let mut random = Random(seed);
         let state = random_state(&mut random, 40, (0.9, 1.1));
-        let len = state.bins.active_blocks.len() * BLOCK_NODES;
+        let len = state.bins.active_blocks().len() * BLOCK_NODES;
         let velocity: Vec<Vec3> = (0..len).map(|_| random.vector(1.0)).collect();
         let (dt, beta) = (1e-3, 1.0);
         let operator = state.operator(kernel, beta * dt * dt);
@@ -919,7 +919,7 @@ mod tests {
         for kernel_is_cubic in [true, false] {
             let mut random = Random(11);
             let state = random_state(&mut random, 40, (0.9, 1.1));
-            let len = state.bins.active_blocks.len() * BLOCK_NODES;
+            let len = state.bins.active_blocks().len() * BLOCK_NODES;
             let velocity: Vec<Vec3> = (0..len).map(|_| random.vector(1.0)).collect();
             let mut product = vec![Vec3::ZERO; len];
             if kernel_is_cubic {
@@ -948,7 +948,7 @@ mod tests {
         // converge.)
         let mut random = Random(5);
         let state = random_state(&mut random, 40, (0.995, 1.005));
-        let len = state.bins.active_blocks.len() * BLOCK_NODES;
+        let len = state.bins.active_blocks().len() * BLOCK_NODES;
         let operator = state.operator(CubicGradient, 2e-5);
         let mut nodes = NodeVectors::default();
         nodes.reset(len);

@@ -128,7 +128,7 @@ fn estimate_volumes(scene: &Scene, particles: &mut Particles) {
     let mut grid = Grid::new(domain.min, domain.max, domain.cell_size);
     let mut bins = Bins::default();
     bins.rebuild(&grid.layout, &particles.position);
-    grid.allocate(&bins.active_blocks);
+    grid.allocate(bins.active_blocks());
     match scene.solver.transfer {
         Transfer::PicFlip => {
             p2g::scatter_mass(&mut grid, &bins, particles, cubic_weights);
@@ -299,10 +299,10 @@ impl Simulation {
         if self.steps.is_multiple_of(REORDER_INTERVAL) {
             self.bins.rebuild(&layout, &self.particles.position);
             self.particles
-                .permute(&self.bins.order, &mut self.permute_buffers);
+                .permute(self.bins.order(), &mut self.permute_buffers);
         }
         self.bins.rebuild(&layout, &self.particles.position);
-        self.grid.allocate(&self.bins.active_blocks);
+        self.grid.allocate(self.bins.active_blocks());
         clock.lap(&mut self.profile.binning);
         let transfer_scheme = self.scene.solver.transfer;
         match transfer_scheme {

@@ -157,7 +157,7 @@ impl Setup {
         let mut grid = Grid::new(domain.min, domain.max, domain.cell_size);
         let mut bins = Bins::default();
         bins.rebuild(&self.layout, &particles.position);
-        grid.allocate(&bins.active_blocks);
+        grid.allocate(bins.active_blocks());
         match self.transfer() {
             Transfer::PicFlip => p2g::scatter_pic_flip(&mut grid, &bins, particles),
             Transfer::Apic => p2g::scatter_apic(&mut grid, &bins, particles, DT, Simd::detect()),

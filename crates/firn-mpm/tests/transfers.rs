@@ -80,7 +80,7 @@ fn round_trip(transfer_scheme: Transfer) {
     let mut grid = Grid::new(Vec3::ZERO, Vec3::ONE, H);
     let mut bins = Bins::default();
     bins.rebuild(&grid.layout, &particles.position);
-    grid.allocate(&bins.active_blocks);
+    grid.allocate(bins.active_blocks());
     // No stress and Δt = 0: a pure transfer, no forces, no motion.
     match transfer_scheme {
         Transfer::PicFlip => p2g::scatter_pic_flip(&mut grid, &bins, &particles),
@@ -181,7 +181,7 @@ fn density_estimate_recovers_the_rest_density() {
         let mut grid = Grid::new(Vec3::ZERO, Vec3::ONE, H);
         let mut bins = Bins::default();
         bins.rebuild(&grid.layout, &particles.position);
-        grid.allocate(&bins.active_blocks);
+        grid.allocate(bins.active_blocks());
         if is_cubic {
             p2g::scatter_mass(&mut grid, &bins, &particles, cubic_weights);
             p2g::estimate_volumes(&grid, &mut particles, cubic_weights);
