@@ -9,7 +9,6 @@
 //! Writers borrow particle data through [`FrameData`] instead of copying it out
 //! of the solver.
 
-
 // The writers hand raw slices of `f32`/`u32`/`u64` to formats that are
 // little-endian by definition; refusing big-endian targets keeps that sound.
 #[cfg(not(target_endian = "little"))]

@@ -25,7 +25,6 @@
 //! # Ok::<(), firn_mesh::MeshError>(())
 //! ```
 
-
 mod bvh;
 mod diagnostics;
 mod error;
