@@ -17,6 +17,8 @@
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
+use super::model::Domain;
+
 /// What a scene simulates.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -88,14 +90,21 @@ pub struct FlowSettings {
     pub emitters: Vec<FlowEmitter>,
 }
 
-impl Default for FlowSettings {
-    /// The defaults of the scene format for a 100-unit domain (L = 20), with
-    /// no obstacles and no emitters.
-    fn default() -> FlowSettings {
+impl FlowSettings {
+    /// The defaults of the scene format for a domain whose longest edge is
+    /// `extent` metres, with no obstacles and no emitters: the noise length
+    /// scale L is a fifth of the extent (as in the seed's scene, L ≈ 20 in
+    /// 100 units) and the turbulence strength M is L / 4, so that the
+    /// turbulence's root-mean-square speed (about 4.2 γ M / L) is about γ
+    /// times the background speed of 1. The rest: γ = 0.5, background along
+    /// +x, speed scale 1, seed 1, offsets drawn from the seed, a steady
+    /// field, the analytic curl, RK2 and 2 substeps per frame.
+    pub fn for_extent(extent: f32) -> FlowSettings {
+        let length_scale = FlowSettings::default_length_scale(extent);
         FlowSettings {
             noise_share: 0.5,
-            noise_strength: 5.0,
-            length_scale: 20.0,
+            noise_strength: FlowSettings::default_noise_strength(length_scale),
+            length_scale,
             background_direction: Vec3::X,
             background_strength: 1.0,
             speed_scale: 1.0,
@@ -108,6 +117,38 @@ impl Default for FlowSettings {
             obstacles: Vec::new(),
             emitters: Vec::new(),
         }
+    }
+
+    /// [`FlowSettings::for_extent`] of the longest edge of `domain`: the
+    /// settings a scene file over that domain gets for the keys it leaves out.
+    pub fn for_domain(domain: &Domain) -> FlowSettings {
+        FlowSettings::for_extent((domain.max - domain.min).max_element())
+    }
+
+    /// The default noise length scale L for a domain whose longest edge is
+    /// `extent`: a fifth of it.
+    pub fn default_length_scale(extent: f32) -> f32 {
+        extent / 5.0
+    }
+
+    /// The default turbulence strength M for a noise length scale L: L / 4.
+    pub fn default_noise_strength(length_scale: f32) -> f32 {
+        length_scale / 4.0
+    }
+
+    /// The default step of the finite-difference curl for a noise length
+    /// scale L: L / 1000.
+    pub fn default_curl_step(length_scale: f32) -> f32 {
+        length_scale / 1000.0
+    }
+}
+
+impl Default for FlowSettings {
+    /// The defaults of the scene format for a 100-unit domain
+    /// ([`FlowSettings::for_extent`]`(100.0)`: L = 20, M = 5), with no
+    /// obstacles and no emitters.
+    fn default() -> FlowSettings {
+        FlowSettings::for_extent(100.0)
     }
 }
 
@@ -146,6 +187,24 @@ pub struct FlowObstacle {
     pub influence: f32,
 }
 
+impl FlowObstacle {
+    /// A sphere whose influence reaches one radius from its surface (the
+    /// default `influence`).
+    pub fn new(center: Vec3, radius: f32) -> FlowObstacle {
+        FlowObstacle {
+            center,
+            radius,
+            influence: radius,
+        }
+    }
+
+    /// The same obstacle with influence distance d0 = `influence` metres.
+    pub fn influence(mut self, influence: f32) -> FlowObstacle {
+        self.influence = influence;
+        self
+    }
+}
+
 /// A source of particles.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FlowEmitter {
@@ -167,6 +226,51 @@ pub struct FlowEmitter {
 }
 
 impl FlowEmitter {
+    /// An emitter over `shape` with the defaults of the scene format: its
+    /// particles live forever (no lifetime, spread 0) and are born with no
+    /// extra velocity (decay time 1 s).
+    pub fn new(shape: FlowEmitterShape, emission: FlowEmission) -> FlowEmitter {
+        FlowEmitter {
+            shape,
+            emission,
+            lifetime: None,
+            lifetime_spread: 0.0,
+            velocity: Vec3::ZERO,
+            velocity_decay: 1.0,
+        }
+    }
+
+    /// `count` particles born in `shape` at time 0 (`count = ...`).
+    pub fn count(shape: FlowEmitterShape, count: u32) -> FlowEmitter {
+        FlowEmitter::new(shape, FlowEmission::Count(count))
+    }
+
+    /// `rate` particles born per second in `shape` (`rate = ...`).
+    pub fn rate(shape: FlowEmitterShape, rate: f32) -> FlowEmitter {
+        FlowEmitter::new(shape, FlowEmission::Rate(rate))
+    }
+
+    /// The same emitter whose particles live `seconds` before they are born
+    /// again.
+    pub fn lifetime(mut self, seconds: f32) -> FlowEmitter {
+        self.lifetime = Some(seconds);
+        self
+    }
+
+    /// The same emitter with a relative lifetime spread in [0, 1).
+    pub fn lifetime_spread(mut self, spread: f32) -> FlowEmitter {
+        self.lifetime_spread = spread;
+        self
+    }
+
+    /// The same emitter with an extra birth velocity that fades by a factor
+    /// e every `decay` seconds.
+    pub fn velocity(mut self, velocity: Vec3, decay: f32) -> FlowEmitter {
+        self.velocity = velocity;
+        self.velocity_decay = decay;
+        self
+    }
+
     /// Particle slots the emitter needs over a run of `duration` seconds.
     ///
     /// A `count` emitter has exactly that many. A `rate` emitter with a

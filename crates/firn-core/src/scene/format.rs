@@ -32,7 +32,7 @@ use super::flow::SceneKind;
 use super::material::{Material, PRESET_NAMES};
 use super::mesh::{MeshBody, MeshCollider, MeshPlacement};
 use super::model::{
-    Attribute, Body, CacheFormat, Collider, ColliderGeometry, Contact, ContactMode, Domain,
+    self, Attribute, Body, CacheFormat, Collider, ColliderGeometry, Contact, ContactMode, Domain,
     ImplicitSettings, Integrator, Keyframe, Motion, OutputSettings, Scene, Shape, SolverSettings,
     TimeSettings, TimeStep, Transfer,
 };
@@ -943,12 +943,6 @@ enum RawAttribute {
 // Resolution: defaults and presets
 // ---------------------------------------------------------------------------
 
-/// Default wall and collider contact.
-const DEFAULT_CONTACT: Contact = Contact {
-    mode: ContactMode::Separate,
-    friction: 0.2,
-};
-
 /// Check `format` before anything else, so that a file written for another
 /// version gets that message rather than one about unknown keys.
 fn check_format_version(root: &Spanned<DeValue<'_>>) -> Check {
@@ -1024,37 +1018,34 @@ fn vec3(v: [f32; 3]) -> Vec3 {
 
 /// Normalise a direction, leaving the zero vector (an error the checks report).
 fn unit_or_zero(v: [f32; 3]) -> Vec3 {
-    let v = vec3(v);
-    let length = v.length();
-    if length > 0.0 && length.is_finite() {
-        v / length
-    } else {
-        v
-    }
+    model::unit_or_zero(vec3(v))
 }
 
+/// A contact table over [`Contact::default`].
 fn contact(raw: Option<RawContact>) -> Contact {
-    let raw = raw.unwrap_or(RawContact {
-        mode: None,
-        friction: None,
-    });
+    let defaults = Contact::default();
+    let Some(raw) = raw else {
+        return defaults;
+    };
     Contact {
         mode: match raw.mode {
             Some(RawMode::Sticky) => ContactMode::Sticky,
             Some(RawMode::Slip) => ContactMode::Slip,
-            Some(RawMode::Separate) | None => DEFAULT_CONTACT.mode,
+            Some(RawMode::Separate) => ContactMode::Separate,
+            None => defaults.mode,
         },
-        friction: raw.friction.unwrap_or(DEFAULT_CONTACT.friction),
+        friction: raw.friction.unwrap_or(defaults.friction),
     }
 }
 
-/// The default scene name for a file: its stem if it is a `.toml` file.
+/// The default scene name for a file: its stem if it is a `.toml` file,
+/// else [`Scene::DEFAULT_NAME`].
 fn default_name(origin: &str) -> String {
     let path = Path::new(origin);
     let is_toml = path.extension().is_some_and(|ext| ext == "toml");
     match path.file_stem().and_then(|stem| stem.to_str()) {
         Some(stem) if is_toml && !stem.is_empty() => stem.to_string(),
-        _ => "scene".to_string(),
+        _ => Scene::DEFAULT_NAME.to_string(),
     }
 }
 
@@ -1183,18 +1174,20 @@ fn resolve(raw: RawScene, origin: &str) -> Result<Scene, Issue> {
         )
     })?;
     let domain = Domain {
-        min: vec3(raw_domain.min.unwrap_or([0.0; 3])),
-        max: vec3(require(
-            raw_domain.max,
-            domain_path.key("max"),
-            "the upper corner",
-        )?),
-        cell_size: require(
-            raw_domain.cell_size,
-            domain_path.key("cell_size"),
-            "the grid spacing in metres",
-        )?,
         walls: contact(raw_domain.walls),
+        ..Domain::new(
+            raw_domain.min.map_or(Vec3::ZERO, vec3),
+            vec3(require(
+                raw_domain.max,
+                domain_path.key("max"),
+                "the upper corner",
+            )?),
+            require(
+                raw_domain.cell_size,
+                domain_path.key("cell_size"),
+                "the grid spacing in metres",
+            )?,
+        )
     };
 
     let time = resolve_time(raw.time)?;
@@ -1208,7 +1201,7 @@ fn resolve(raw: RawScene, origin: &str) -> Result<Scene, Issue> {
         let material_name = raw_body
             .material
             .clone()
-            .unwrap_or_else(|| "snow".to_string());
+            .unwrap_or_else(|| Material::DEFAULT_PRESET.to_string());
         let material = match materials.iter().position(|m| m.name == material_name) {
             Some(found) => found,
             None => {
@@ -1230,7 +1223,7 @@ fn resolve(raw: RawScene, origin: &str) -> Result<Scene, Issue> {
         colliders.push(resolve_collider(&path, raw_collider, origin, &domain)?);
     }
 
-    let output = resolve_output(raw.output, &name);
+    let output = resolve_output(raw.output, &name, &SceneKind::Snow);
     let camera = resolve_camera(raw.camera)?;
     let render = resolve_render(raw.render);
     Ok(Scene {
@@ -1270,7 +1263,7 @@ fn resolve_time(raw: Option<RawTime>) -> Result<TimeSettings, Issue> {
         path.key("duration"),
         "the simulated time in seconds",
     )?;
-    let fps = raw.fps.unwrap_or(30.0);
+    let fps = raw.fps.unwrap_or(TimeSettings::DEFAULT_FPS);
     let step = match raw.step.unwrap_or(RawStep::Adaptive) {
         RawStep::Fixed => {
             if raw.cfl.is_some() {
@@ -1291,15 +1284,9 @@ fn resolve_time(raw: Option<RawTime>) -> Result<TimeSettings, Issue> {
             TimeStep::Fixed { dt }
         }
         RawStep::Adaptive => TimeStep::Adaptive {
-            cfl: raw.cfl.unwrap_or(0.4),
+            cfl: raw.cfl.unwrap_or(TimeStep::DEFAULT_CFL),
             // The default bound never exceeds one frame.
-            max_dt: raw.dt.unwrap_or_else(|| {
-                if fps > 0.0 {
-                    1e-3_f32.min((1.0 / fps) as f32)
-                } else {
-                    1e-3
-                }
-            }),
+            max_dt: raw.dt.unwrap_or_else(|| TimeStep::default_max_dt(fps)),
         },
     };
     Ok(TimeSettings {
@@ -1321,14 +1308,16 @@ fn resolve_solver(raw: Option<RawSolver>) -> Result<SolverSettings, Issue> {
         solver_max_iterations: None,
     });
     let integrator = resolve_integrator(&raw)?;
+    let defaults = SolverSettings::default();
     Ok(SolverSettings {
         transfer: match raw.transfer {
             Some(RawTransfer::Apic) => Transfer::Apic,
-            Some(RawTransfer::PicFlip) | None => Transfer::PicFlip,
+            Some(RawTransfer::PicFlip) => Transfer::PicFlip,
+            None => defaults.transfer,
         },
-        flip_blend: raw.flip.unwrap_or(0.95),
-        gravity: vec3(raw.gravity.unwrap_or([0.0, -9.81, 0.0])),
-        seed: raw.seed.unwrap_or(1),
+        flip_blend: raw.flip.unwrap_or(defaults.flip_blend),
+        gravity: raw.gravity.map_or(defaults.gravity, vec3),
+        seed: raw.seed.unwrap_or(defaults.seed),
         integrator,
     })
 }
@@ -1336,9 +1325,14 @@ fn resolve_solver(raw: Option<RawSolver>) -> Result<SolverSettings, Issue> {
 /// The time integrator; the semi-implicit solver's keys are an error with
 /// the explicit one, like `cfl` with a fixed step.
 fn resolve_integrator(raw: &RawSolver) -> Result<Integrator, Issue> {
-    match raw.integrator.unwrap_or(RawIntegrator::Explicit) {
+    // Without the key: the kind of `Integrator::default()`.
+    let integrator = raw.integrator.unwrap_or(match Integrator::default() {
+        Integrator::Explicit => RawIntegrator::Explicit,
+        Integrator::SemiImplicit(_) => RawIntegrator::SemiImplicit,
+    });
+    match integrator {
         RawIntegrator::SemiImplicit => {
-            let defaults = ImplicitSettings::DEFAULT;
+            let defaults = ImplicitSettings::default();
             Ok(Integrator::SemiImplicit(ImplicitSettings {
                 beta: raw.implicit_beta.unwrap_or(defaults.beta),
                 tolerance: raw.solver_tolerance.unwrap_or(defaults.tolerance),
@@ -1376,7 +1370,7 @@ fn resolve_materials(
         let base_name = match &raw_material.preset {
             Some(preset) => preset.clone(),
             None if PRESET_NAMES.contains(&name.as_str()) => name.clone(),
-            None => "snow".to_string(),
+            None => Material::DEFAULT_PRESET.to_string(),
         };
         let base = Material::preset(&base_name).ok_or_else(|| {
             let mut hint = String::new();
@@ -1498,12 +1492,14 @@ fn resolve_body(
             }
         }
     };
-    Ok(Body {
-        shape,
-        velocity: vec3(raw.velocity.unwrap_or([0.0; 3])),
-        material,
-        particles_per_cell: raw.particles_per_cell.unwrap_or(8),
-    })
+    let mut body = Body::new(shape).material(material);
+    if let Some(velocity) = raw.velocity {
+        body.velocity = vec3(velocity);
+    }
+    if let Some(count) = raw.particles_per_cell {
+        body.particles_per_cell = count;
+    }
+    Ok(body)
 }
 
 fn resolve_collider(
@@ -1611,57 +1607,52 @@ fn resolve_collider(
         (None, None) => Motion::Static,
     };
     Ok(Collider {
-        geometry,
         motion,
         contact: contact(Some(RawContact {
             mode: raw.mode,
             friction: raw.friction,
         })),
+        ..Collider::new(geometry)
     })
 }
 
-fn resolve_output(raw: Option<RawOutput>, name: &str) -> OutputSettings {
-    let raw = raw.unwrap_or(RawOutput {
-        directory: None,
-        formats: None,
-        attributes: None,
-        checkpoint_every: None,
+/// The `[output]` table over [`OutputSettings::for_scene`]; the attributes
+/// default to those of `kind`.
+fn resolve_output(raw: Option<RawOutput>, name: &str, kind: &SceneKind) -> OutputSettings {
+    let defaults = OutputSettings {
+        attributes: OutputSettings::default_attributes(kind),
+        ..OutputSettings::for_scene(name)
+    };
+    let Some(raw) = raw else {
+        return defaults;
+    };
+    let formats = raw.formats.map_or(defaults.formats, |formats| {
+        formats
+            .into_iter()
+            .map(|format| match format {
+                RawFormat::Ply => CacheFormat::Ply,
+                RawFormat::Vtk => CacheFormat::Vtk,
+            })
+            .collect()
     });
-    let formats = raw.formats.map_or_else(
-        || vec![CacheFormat::Ply, CacheFormat::Vtk],
-        |formats| {
-            formats
-                .into_iter()
-                .map(|format| match format {
-                    RawFormat::Ply => CacheFormat::Ply,
-                    RawFormat::Vtk => CacheFormat::Vtk,
-                })
-                .collect()
-        },
-    );
-    let attributes = raw.attributes.map_or_else(
-        || vec![Attribute::Velocity, Attribute::PlasticJ, Attribute::Density],
-        |attributes| {
-            attributes
-                .into_iter()
-                .map(|attribute| match attribute {
-                    RawAttribute::Velocity => Attribute::Velocity,
-                    RawAttribute::PlasticJ => Attribute::PlasticJ,
-                    RawAttribute::ElasticJ => Attribute::ElasticJ,
-                    RawAttribute::Density => Attribute::Density,
-                    RawAttribute::Mass => Attribute::Mass,
-                    RawAttribute::Material => Attribute::Material,
-                })
-                .collect()
-        },
-    );
+    let attributes = raw.attributes.map_or(defaults.attributes, |attributes| {
+        attributes
+            .into_iter()
+            .map(|attribute| match attribute {
+                RawAttribute::Velocity => Attribute::Velocity,
+                RawAttribute::PlasticJ => Attribute::PlasticJ,
+                RawAttribute::ElasticJ => Attribute::ElasticJ,
+                RawAttribute::Density => Attribute::Density,
+                RawAttribute::Mass => Attribute::Mass,
+                RawAttribute::Material => Attribute::Material,
+            })
+            .collect()
+    });
     OutputSettings {
-        directory: raw
-            .directory
-            .map_or_else(|| Path::new("out").join(name), PathBuf::from),
+        directory: raw.directory.map_or(defaults.directory, PathBuf::from),
         formats,
         attributes,
-        checkpoint_every: raw.checkpoint_every.unwrap_or(10),
+        checkpoint_every: raw.checkpoint_every.unwrap_or(defaults.checkpoint_every),
     }
 }
 

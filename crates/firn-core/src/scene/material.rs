@@ -26,6 +26,10 @@ pub struct Material {
 pub const PRESET_NAMES: [&str; 6] = ["snow", "thesis", "powder", "wet", "icy", "slush"];
 
 impl Material {
+    /// The preset a body without a material gets, and the one a
+    /// `[materials.NAME]` table without `preset` starts from: `"snow"`.
+    pub const DEFAULT_PRESET: &'static str = "snow";
+
     /// Lamé parameters (μ0, λ0) from E0 and ν (thesis eq. 36).
     pub fn lame(&self) -> (f32, f32) {
         let e = self.youngs_modulus;
@@ -82,5 +86,13 @@ impl Material {
             .iter()
             .filter_map(|name| Material::preset(name))
             .collect()
+    }
+}
+
+impl Default for Material {
+    /// The [`Material::DEFAULT_PRESET`] preset, `snow`: what a body of a
+    /// scene file gets when it names no material.
+    fn default() -> Material {
+        Material::preset(Material::DEFAULT_PRESET).expect("the default preset exists")
     }
 }

@@ -1,13 +1,15 @@
 //! The scene: what is simulated, for how long, and where results go.
 //!
-//! [`model`] holds the plain data types a program can build in code;
-//! [`mod@format`] reads them from TOML scene files (`format = 1`) and reports bad
+//! [`model`] holds the plain data types a program can build in code, with the
+//! defaults of the scene format; [`builder`] builds them from those defaults
+//! ([`Scene::builder`]); [`mod@format`] reads them from TOML scene files (`format = 1`) and reports bad
 //! input with file, line, column and a fix; [`sampling`] turns bodies of snow
 //! into particles; [`render`] holds the camera and the picture settings;
 //! [`flow`] holds the settings of curl-noise particle flows (`kind = "flow"`);
 //! [`mesh`] places triangle meshes as bodies and colliders; [`compute`] says
 //! which backend (CPU or GPU) computes the scene.
 
+pub mod builder;
 pub mod compute;
 pub mod flow;
 pub mod format;
@@ -17,6 +19,7 @@ pub mod model;
 pub mod render;
 pub mod sampling;
 
+pub use builder::SceneBuilder;
 pub use compute::*;
 pub use flow::*;
 pub use format::SceneError;

@@ -2,6 +2,12 @@
 //! scene file with [`Scene::load`](crate::Scene::load).
 //!
 //! Units are SI throughout: metres, seconds, kilograms, pascals.
+//!
+//! The defaults of the scene format live here, as [`Default`] impls, named
+//! constants and small constructors ([`Body::sphere`], [`Collider::plane`],
+//! ...). The format's resolver fills omitted keys from them and
+//! [`SceneBuilder`](super::builder::SceneBuilder) starts from them, so a scene
+//! file and a scene built in code agree on every value left out.
 
 use std::path::PathBuf;
 
@@ -45,6 +51,43 @@ pub struct Scene {
     pub compute: ComputeSettings,
 }
 
+impl Scene {
+    /// The name of [`Scene::default`], and of a scene parsed from text whose
+    /// origin is not a `.toml` file.
+    pub const DEFAULT_NAME: &'static str = "scene";
+}
+
+impl Default for Scene {
+    /// The defaults of the scene format with no snow: named
+    /// [`Scene::DEFAULT_NAME`] (`"scene"`), the unit box `[0, 1]³` with a
+    /// grid spacing of [`Domain::DEFAULT_CELL_SIZE`] (0.05 m, 20 cells per
+    /// axis) and separate walls with friction 0.2, one simulated second at
+    /// 30 fps with the adaptive step (CFL 0.4, Δt at most 1 ms), PIC/FLIP
+    /// (α = 0.95) with the explicit integrator, gravity (0, −9.81, 0) and
+    /// seed 1, no materials, bodies or colliders, output to `out/scene`, and
+    /// the default camera, render and compute settings.
+    ///
+    /// It does not [`validate`](Scene::validate): a snow scene needs at least
+    /// one body. Build scenes with [`Scene::builder`] instead, or fill in
+    /// `materials` and `bodies` (and a fitting `name` and `output`).
+    fn default() -> Scene {
+        Scene {
+            name: Scene::DEFAULT_NAME.to_string(),
+            domain: Domain::default(),
+            time: TimeSettings::default(),
+            solver: SolverSettings::default(),
+            materials: Vec::new(),
+            bodies: Vec::new(),
+            colliders: Vec::new(),
+            output: OutputSettings::for_scene(Scene::DEFAULT_NAME),
+            camera: Camera::default(),
+            render: RenderSettings::default(),
+            kind: SceneKind::Snow,
+            compute: ComputeSettings::default(),
+        }
+    }
+}
+
 /// The axis-aligned simulation box, its grid spacing and its walls.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Domain {
@@ -59,6 +102,26 @@ pub struct Domain {
 }
 
 impl Domain {
+    /// Grid spacing of [`Domain::default`]: 0.05 m, 20 cells along each edge
+    /// of the unit box. A scene file has no default; it must give `cell_size`.
+    pub const DEFAULT_CELL_SIZE: f32 = 0.05;
+
+    /// The box from `min` to `max` with grid spacing `cell_size` and the
+    /// default walls ([`Contact::default`]).
+    pub fn new(min: Vec3, max: Vec3, cell_size: f32) -> Domain {
+        Domain {
+            min,
+            max,
+            cell_size,
+            walls: Contact::default(),
+        }
+    }
+
+    /// The unit box `[0, 1]³` with grid spacing `cell_size` and the default walls.
+    pub fn unit_box(cell_size: f32) -> Domain {
+        Domain::new(Vec3::ZERO, Vec3::ONE, cell_size)
+    }
+
     /// Number of grid cells along each axis (rounded up to cover the box).
     pub fn cells(&self) -> [u32; 3] {
         let extent = (self.max - self.min) / self.cell_size;
@@ -82,10 +145,44 @@ pub struct TimeSettings {
     pub step: TimeStep,
 }
 
+impl Default for Domain {
+    /// The unit box `[0, 1]³` with a grid spacing of
+    /// [`Domain::DEFAULT_CELL_SIZE`] (0.05 m) and the default walls.
+    fn default() -> Domain {
+        Domain::unit_box(Domain::DEFAULT_CELL_SIZE)
+    }
+}
+
 impl TimeSettings {
+    /// Output frames per simulated second when the scene gives none (`time.fps`).
+    pub const DEFAULT_FPS: f64 = 30.0;
+
+    /// Simulated seconds of [`TimeSettings::default`]. A scene file has no
+    /// default; it must give `time.duration`.
+    pub const DEFAULT_DURATION: f64 = 1.0;
+
+    /// `duration` simulated seconds at [`TimeSettings::DEFAULT_FPS`] with the
+    /// default adaptive step for that frame rate
+    /// ([`TimeStep::default_for_fps`]).
+    pub fn new(duration: f64) -> TimeSettings {
+        TimeSettings {
+            duration,
+            fps: TimeSettings::DEFAULT_FPS,
+            step: TimeStep::default_for_fps(TimeSettings::DEFAULT_FPS),
+        }
+    }
+
     /// Number of output frames after the initial state (frame 0).
     pub fn frame_count(&self) -> u32 {
         (self.duration * self.fps - 1e-9).ceil().max(0.0) as u32
+    }
+}
+
+impl Default for TimeSettings {
+    /// One simulated second ([`TimeSettings::DEFAULT_DURATION`]) at 30 fps,
+    /// adaptive step with CFL 0.4 and Δt at most 1 ms.
+    fn default() -> TimeSettings {
+        TimeSettings::new(TimeSettings::DEFAULT_DURATION)
     }
 }
 
@@ -108,11 +205,41 @@ pub enum TimeStep {
     },
 }
 
+impl TimeStep {
+    /// CFL number of the adaptive step when the scene gives none (`time.cfl`).
+    pub const DEFAULT_CFL: f32 = 0.4;
+
+    /// Upper bound on the adaptive Δt when the scene gives none (`time.dt`),
+    /// unless one frame is shorter: see [`TimeStep::default_max_dt`].
+    pub const DEFAULT_MAX_DT: f32 = 1e-3;
+
+    /// The default bound on the adaptive Δt at `fps` frames per second:
+    /// 1 ms, or one frame if frames are shorter than that.
+    pub fn default_max_dt(fps: f64) -> f32 {
+        if fps > 0.0 {
+            TimeStep::DEFAULT_MAX_DT.min((1.0 / fps) as f32)
+        } else {
+            TimeStep::DEFAULT_MAX_DT
+        }
+    }
+
+    /// The default step at `fps` frames per second: adaptive with
+    /// [`TimeStep::DEFAULT_CFL`] and [`TimeStep::default_max_dt`].
+    pub fn default_for_fps(fps: f64) -> TimeStep {
+        TimeStep::Adaptive {
+            cfl: TimeStep::DEFAULT_CFL,
+            max_dt: TimeStep::default_max_dt(fps),
+        }
+    }
+}
+
 /// How particle and grid momentum are exchanged.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Transfer {
-    /// PIC/FLIP blend with cubic B-splines, as in Stomakhin et al. 2013 and the thesis.
+    /// PIC/FLIP blend with cubic B-splines, as in Stomakhin et al. 2013 and the
+    /// thesis (the default).
+    #[default]
     PicFlip,
     /// Affine PIC (Jiang et al. 2015) with quadratic B-splines; conserves angular momentum.
     Apic,
@@ -133,12 +260,27 @@ pub struct SolverSettings {
     pub integrator: Integrator,
 }
 
+impl Default for SolverSettings {
+    /// PIC/FLIP with α = 0.95, gravity (0, −9.81, 0) m/s², seed 1 and the
+    /// explicit integrator.
+    fn default() -> SolverSettings {
+        SolverSettings {
+            transfer: Transfer::default(),
+            flip_blend: 0.95,
+            gravity: Vec3::new(0.0, -9.81, 0.0),
+            seed: 1,
+            integrator: Integrator::default(),
+        }
+    }
+}
+
 /// How the grid velocities v_i^{n+1} are computed from the grid forces.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "kebab-case")]
 pub enum Integrator {
     /// Forward (symplectic) Euler: v_i^{n+1} = v_i* (the thesis; step 6 skipped).
-    /// Δt must resolve the elastic waves.
+    /// Δt must resolve the elastic waves. The default.
+    #[default]
     Explicit,
     /// Stomakhin et al. 2013, eq. 9: solve (I + β Δt² M⁻¹ H) v^{n+1} = v* on the
     /// grid, with H the Hessian of the elastic energy, by preconditioned
@@ -166,6 +308,13 @@ impl ImplicitSettings {
     };
 }
 
+impl Default for ImplicitSettings {
+    /// [`ImplicitSettings::DEFAULT`].
+    fn default() -> ImplicitSettings {
+        ImplicitSettings::DEFAULT
+    }
+}
+
 /// A body of snow: a shape filled with particles of one material.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Body {
@@ -177,6 +326,78 @@ pub struct Body {
     pub material: usize,
     /// Particles per grid cell (8 by default), placed on a jittered lattice.
     pub particles_per_cell: u32,
+}
+
+impl Body {
+    /// Particles per cell when the body gives none (`particles_per_cell`).
+    pub const DEFAULT_PARTICLES_PER_CELL: u32 = 8;
+
+    /// A body filling `shape`, at rest, of material 0, with
+    /// [`Body::DEFAULT_PARTICLES_PER_CELL`] particles per cell.
+    pub fn new(shape: Shape) -> Body {
+        Body {
+            shape,
+            velocity: Vec3::ZERO,
+            material: 0,
+            particles_per_cell: Body::DEFAULT_PARTICLES_PER_CELL,
+        }
+    }
+
+    /// A ball of snow (`shape = "sphere"`).
+    pub fn sphere(center: Vec3, radius: f32) -> Body {
+        Body::new(Shape::Sphere { center, radius })
+    }
+
+    /// An axis-aligned box of snow (`shape = "box"`) with edge lengths `size`.
+    pub fn cuboid(center: Vec3, size: Vec3) -> Body {
+        Body::new(Shape::Box { center, size })
+    }
+
+    /// A solid cylinder of snow (`shape = "cylinder"`); `axis` is normalised
+    /// as in a scene file (a zero axis is left for validation to report).
+    pub fn cylinder(center: Vec3, axis: Vec3, radius: f32, height: f32) -> Body {
+        Body::new(Shape::Cylinder {
+            center,
+            axis: unit_or_zero(axis),
+            radius,
+            height,
+        })
+    }
+
+    /// The inside of a loaded triangle mesh (`shape = "mesh"`; see
+    /// [`MeshBody::load`]).
+    pub fn mesh(mesh: MeshBody) -> Body {
+        Body::new(Shape::Mesh(Box::new(mesh)))
+    }
+
+    /// The same body with every particle starting at `velocity` (m/s).
+    pub fn velocity(mut self, velocity: Vec3) -> Body {
+        self.velocity = velocity;
+        self
+    }
+
+    /// The same body of material `index` into [`Scene::materials`].
+    pub fn material(mut self, index: usize) -> Body {
+        self.material = index;
+        self
+    }
+
+    /// The same body with `count` particles per grid cell (1 to 64).
+    pub fn particles_per_cell(mut self, count: u32) -> Body {
+        self.particles_per_cell = count;
+        self
+    }
+}
+
+/// A direction scaled to unit length; the zero vector (and one that is not
+/// finite) is left as it is, for validation to report.
+pub(crate) fn unit_or_zero(v: Vec3) -> Vec3 {
+    let length = v.length();
+    if length > 0.0 && length.is_finite() {
+        v / length
+    } else {
+        v
+    }
 }
 
 /// A solid primitive that bodies fill.
@@ -265,6 +486,43 @@ pub struct Contact {
     pub friction: f32,
 }
 
+impl Contact {
+    /// The contact of walls and colliders when the scene gives none:
+    /// [`ContactMode::Separate`] with friction μ = 0.2.
+    pub const DEFAULT: Contact = Contact {
+        mode: ContactMode::Separate,
+        friction: 0.2,
+    };
+
+    /// A contact of the given mode and friction coefficient.
+    pub fn new(mode: ContactMode, friction: f32) -> Contact {
+        Contact { mode, friction }
+    }
+
+    /// [`ContactMode::Sticky`]: snow in contact moves with the surface (the
+    /// friction, which sticky contact does not use, is the default 0.2).
+    pub fn sticky() -> Contact {
+        Contact::new(ContactMode::Sticky, Contact::DEFAULT.friction)
+    }
+
+    /// [`ContactMode::Slip`] with Coulomb friction `friction`.
+    pub fn slip(friction: f32) -> Contact {
+        Contact::new(ContactMode::Slip, friction)
+    }
+
+    /// [`ContactMode::Separate`] with Coulomb friction `friction`.
+    pub fn separate(friction: f32) -> Contact {
+        Contact::new(ContactMode::Separate, friction)
+    }
+}
+
+impl Default for Contact {
+    /// [`Contact::DEFAULT`]: separate, friction 0.2.
+    fn default() -> Contact {
+        Contact::DEFAULT
+    }
+}
+
 /// Boundary condition applied to velocities relative to the collider.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -288,6 +546,76 @@ pub struct Collider {
     pub motion: Motion,
     /// Contact behaviour.
     pub contact: Contact,
+}
+
+impl Collider {
+    /// A static collider of `geometry` with the default contact
+    /// ([`Contact::default`]).
+    pub fn new(geometry: ColliderGeometry) -> Collider {
+        Collider {
+            geometry,
+            motion: Motion::Static,
+            contact: Contact::default(),
+        }
+    }
+
+    /// The half-space below a plane through `point` (`shape = "plane"`);
+    /// `normal` points into the free side and is normalised as in a scene
+    /// file.
+    pub fn plane(point: Vec3, normal: Vec3) -> Collider {
+        Collider::new(ColliderGeometry::HalfPlane {
+            point,
+            normal: unit_or_zero(normal),
+        })
+    }
+
+    /// A solid ball (`shape = "sphere"`).
+    pub fn sphere(center: Vec3, radius: f32) -> Collider {
+        Collider::new(ColliderGeometry::Sphere { center, radius })
+    }
+
+    /// A solid axis-aligned box (`shape = "box"`) with edge lengths `size`.
+    pub fn cuboid(center: Vec3, size: Vec3) -> Collider {
+        Collider::new(ColliderGeometry::Box { center, size })
+    }
+
+    /// A loaded triangle mesh (`shape = "mesh"`; see [`MeshCollider::load`]).
+    pub fn mesh(mesh: MeshCollider) -> Collider {
+        Collider::new(ColliderGeometry::Mesh(Box::new(mesh)))
+    }
+
+    /// The same collider moving at a constant `velocity` (m/s).
+    pub fn moving(mut self, velocity: Vec3) -> Collider {
+        self.motion = Motion::Linear { velocity };
+        self
+    }
+
+    /// The same collider moving through keyframed positions of its
+    /// reference point (at least two, in strictly increasing time).
+    pub fn keyframed(mut self, keys: impl IntoIterator<Item = Keyframe>) -> Collider {
+        self.motion = Motion::Keyframed {
+            keys: keys.into_iter().collect(),
+        };
+        self
+    }
+
+    /// The same collider with `contact`.
+    pub fn contact(mut self, contact: Contact) -> Collider {
+        self.contact = contact;
+        self
+    }
+
+    /// The same collider with contact mode `mode` (its friction unchanged).
+    pub fn mode(mut self, mode: ContactMode) -> Collider {
+        self.contact.mode = mode;
+        self
+    }
+
+    /// The same collider with Coulomb friction `friction` (its mode unchanged).
+    pub fn friction(mut self, friction: f32) -> Collider {
+        self.contact.friction = friction;
+        self
+    }
 }
 
 /// Collider geometry; snow is kept outside of it.
@@ -347,6 +675,13 @@ pub struct Keyframe {
     pub position: Vec3,
 }
 
+impl Keyframe {
+    /// The collider's reference point is at `position` at `time` seconds.
+    pub fn new(time: f64, position: Vec3) -> Keyframe {
+        Keyframe { time, position }
+    }
+}
+
 /// Per-particle attributes that caches can carry besides position.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -386,6 +721,49 @@ pub struct OutputSettings {
     pub attributes: Vec<Attribute>,
     /// Write a checkpoint every this many frames (0: never).
     pub checkpoint_every: u32,
+}
+
+impl OutputSettings {
+    /// Checkpoint interval in frames when the scene gives none
+    /// (`output.checkpoint_every`).
+    pub const DEFAULT_CHECKPOINT_EVERY: u32 = 10;
+
+    /// The output of a snow scene named `name` when the scene gives none:
+    /// directory `out/<name>` ([`OutputSettings::default_directory`]), PLY
+    /// and VTK caches, the attributes of
+    /// [`OutputSettings::default_attributes`] for snow, and a checkpoint
+    /// every 10 frames.
+    pub fn for_scene(name: &str) -> OutputSettings {
+        OutputSettings {
+            directory: OutputSettings::default_directory(name),
+            formats: vec![CacheFormat::Ply, CacheFormat::Vtk],
+            attributes: OutputSettings::default_attributes(&SceneKind::Snow),
+            checkpoint_every: OutputSettings::DEFAULT_CHECKPOINT_EVERY,
+        }
+    }
+
+    /// The output directory of a scene named `name`: `out/<name>`, relative
+    /// to the working directory.
+    pub fn default_directory(name: &str) -> PathBuf {
+        PathBuf::from("out").join(name)
+    }
+
+    /// The attributes written when the scene names none: velocity, J_P and
+    /// density for snow; velocity for a flow (its particles carry nothing
+    /// else).
+    pub fn default_attributes(kind: &SceneKind) -> Vec<Attribute> {
+        match kind {
+            SceneKind::Snow => vec![Attribute::Velocity, Attribute::PlasticJ, Attribute::Density],
+            SceneKind::Flow(_) => vec![Attribute::Velocity],
+        }
+    }
+}
+
+impl Default for OutputSettings {
+    /// [`OutputSettings::for_scene`] of [`Scene::DEFAULT_NAME`]: `out/scene`.
+    fn default() -> OutputSettings {
+        OutputSettings::for_scene(Scene::DEFAULT_NAME)
+    }
 }
 
 impl Motion {

@@ -223,26 +223,14 @@ pub(super) fn resolve_flow_scene(raw: RawScene, origin: &str) -> Result<Scene, I
     let cell_size = raw_domain
         .cell_size
         .unwrap_or(if extent > 0.0 { extent / 100.0 } else { 1.0 });
-    let domain = Domain {
-        min,
-        max,
-        cell_size,
-        walls: super::contact(None),
-    };
+    let domain = Domain::new(min, max, cell_size);
 
     let time = resolve_time(raw.time)?;
     let solver = resolve_solver(None)?;
-    let default_attributes = raw
-        .output
-        .as_ref()
-        .is_none_or(|output| output.attributes.is_none());
-    let mut output = resolve_output(raw.output, &name);
-    if default_attributes {
-        output.attributes = vec![Attribute::Velocity];
-    }
     let camera = resolve_camera(raw.camera)?;
     let render = resolve_render(raw.render);
-    let flow = resolve_flow(raw.flow, &domain)?;
+    let kind = SceneKind::Flow(Box::new(resolve_flow(raw.flow, &domain)?));
+    let output = resolve_output(raw.output, &name, &kind);
     Ok(Scene {
         name,
         domain,
@@ -254,7 +242,7 @@ pub(super) fn resolve_flow_scene(raw: RawScene, origin: &str) -> Result<Scene, I
         output,
         camera,
         render,
-        kind: SceneKind::Flow(Box::new(flow)),
+        kind,
         compute: super::resolve_compute(raw.compute),
     })
 }
@@ -269,10 +257,13 @@ fn resolve_flow(raw: Option<RawFlow>, domain: &Domain) -> Result<FlowSettings, I
         )
         .pointing_at(KeyPath::of("kind"))
     })?;
-    let defaults = FlowSettings::default();
-    // L defaults to a fifth of the domain, as in the seed's scene (L ≈ 20 in 100 units).
-    let extent = (domain.max - domain.min).max_element();
-    let length_scale = raw.length_scale.unwrap_or(extent / 5.0);
+    // L defaults to a fifth of the domain, as in the seed's scene (L ≈ 20 in
+    // 100 units), and M to L / 4 (see `FlowSettings::for_extent`).
+    let defaults = FlowSettings::for_domain(domain);
+    let length_scale = raw.length_scale.unwrap_or(defaults.length_scale);
+    let noise_strength = raw
+        .noise_strength
+        .unwrap_or_else(|| FlowSettings::default_noise_strength(length_scale));
 
     let curl = match raw.curl.unwrap_or(RawCurl::Analytic) {
         RawCurl::Analytic => {
@@ -286,7 +277,9 @@ fn resolve_flow(raw: Option<RawFlow>, domain: &Domain) -> Result<FlowSettings, I
             FlowCurl::Analytic
         }
         RawCurl::FiniteDifference => FlowCurl::FiniteDifference {
-            step: raw.curl_step.unwrap_or(length_scale / 1000.0),
+            step: raw
+                .curl_step
+                .unwrap_or_else(|| FlowSettings::default_curl_step(length_scale)),
         },
     };
 
@@ -294,11 +287,12 @@ fn resolve_flow(raw: Option<RawFlow>, domain: &Domain) -> Result<FlowSettings, I
     for (index, obstacle) in raw.obstacles.unwrap_or_default().into_iter().enumerate() {
         let at = path.key("obstacles").index(index);
         let radius = require(obstacle.radius, at.key("radius"), "the radius in metres")?;
-        obstacles.push(FlowObstacle {
-            center: vec3(require(obstacle.center, at.key("center"), "the centre")?),
-            radius,
-            influence: obstacle.influence.unwrap_or(radius),
-        });
+        let center = vec3(require(obstacle.center, at.key("center"), "the centre")?);
+        let mut resolved = FlowObstacle::new(center, radius);
+        if let Some(influence) = obstacle.influence {
+            resolved = resolved.influence(influence);
+        }
+        obstacles.push(resolved);
     }
 
     let mut emitters = Vec::new();
@@ -311,10 +305,7 @@ fn resolve_flow(raw: Option<RawFlow>, domain: &Domain) -> Result<FlowSettings, I
 
     Ok(FlowSettings {
         noise_share: raw.noise_share.unwrap_or(defaults.noise_share),
-        // M defaults to L / 4: the turbulence's root-mean-square speed
-        // (about 4.2 γ M / L) is then about γ times the default background
-        // speed of 1.
-        noise_strength: raw.noise_strength.unwrap_or(length_scale / 4.0),
+        noise_strength,
         length_scale,
         background_direction: raw
             .background_direction
@@ -329,7 +320,8 @@ fn resolve_flow(raw: Option<RawFlow>, domain: &Domain) -> Result<FlowSettings, I
         curl,
         integrator: match raw.integration {
             Some(RawIntegration::Rk4) => FlowIntegrator::Rk4,
-            Some(RawIntegration::Rk2) | None => FlowIntegrator::Rk2,
+            Some(RawIntegration::Rk2) => FlowIntegrator::Rk2,
+            None => defaults.integrator,
         },
         substeps: raw.substeps.unwrap_or(defaults.substeps),
         obstacles,
@@ -411,13 +403,13 @@ fn resolve_emitter(path: &KeyPath, raw: RawEmitter) -> Result<FlowEmitter, Issue
             "add velocity = [0.0, 5.0, 0.0], or remove velocity_decay",
         ));
     }
+    let defaults = FlowEmitter::new(shape, emission);
     Ok(FlowEmitter {
-        shape,
-        emission,
         lifetime: raw.lifetime,
-        lifetime_spread: raw.lifetime_spread.unwrap_or(0.0),
-        velocity: vec3(raw.velocity.unwrap_or([0.0; 3])),
-        velocity_decay: raw.velocity_decay.unwrap_or(1.0),
+        lifetime_spread: raw.lifetime_spread.unwrap_or(defaults.lifetime_spread),
+        velocity: raw.velocity.map_or(defaults.velocity, vec3),
+        velocity_decay: raw.velocity_decay.unwrap_or(defaults.velocity_decay),
+        ..defaults
     })
 }
 
