@@ -6,6 +6,7 @@
 //! methods and the colour-by-colour drivers below.
 
 use std::marker::PhantomData;
+use std::ops::Range;
 
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
@@ -87,29 +88,166 @@ pub(crate) struct ParticleState<'a> {
     pub(crate) velocity_gradient: &'a mut Mat3,
 }
 
-/// The particle arrays, shared by the tasks of the block-by-block gather.
+/// The per-particle matrices the gather moves in and out of SIMD lanes
+/// eight at a time.
+#[derive(Clone, Copy)]
+pub(crate) enum ParticleMatrix {
+    /// F_E.
+    Elastic,
+    /// V_p^0 τ_p.
+    Stress,
+    /// ∇v_p (C_p for APIC).
+    VelocityGradient,
+}
+
+/// Runs `update` on every occupied block's particles in parallel and
+/// merges the results with `merge` (which must not depend on the order).
+/// Each call gets a [`BlockParticles`] with exclusive access to its
+/// block's particles, and a scratch value made by `scratch` per task.
+pub(crate) fn update_by_block<S, R: Send>(
+    particles: &mut Particles,
+    bins: &Bins,
+    scratch: impl Fn() -> S + Sync + Send,
+    update: impl Fn(&mut S, &OccupiedBlock, BlockParticles) -> R + Sync + Send,
+    merge: impl Fn(R, R) -> R + Sync + Send,
+    empty: impl Fn() -> R + Sync + Send,
+) -> R {
+    let arrays = ParticleArrays::new(particles);
+    bins.occupied()
+        .par_iter()
+        .map_init(scratch, |scratch, block| {
+            let particles = BlockParticles {
+                arrays: &arrays,
+                indices: bins.particles_of(block),
+            };
+            update(scratch, block, particles)
+        })
+        .reduce(empty, merge)
+}
+
+/// One occupied block's particles, with exclusive access to their mutable
+/// state, addressed by their place `k` in the block (`0..len()`).
 ///
-/// Sound only because every particle belongs to exactly one occupied block
-/// ([`Bins::order`] is a permutation) and each block is one task: no two
-/// tasks ever reach the same particle.
-pub(crate) struct ParticleArrays<'a> {
-    pub(crate) position: *mut Vec3,
-    pub(crate) velocity: *mut Vec3,
-    pub(crate) elastic: *mut Mat3,
-    pub(crate) plastic_j: *mut f32,
-    pub(crate) stress: *mut Mat3,
-    pub(crate) velocity_gradient: *mut Mat3,
-    pub(crate) volume0: &'a [f32],
-    pub(crate) material: &'a [u16],
-    pub(crate) _particles: PhantomData<&'a mut Particles>,
+/// Made only by [`update_by_block`], one per block: every particle belongs
+/// to exactly one block ([`Bins::order`] is a permutation, written only by
+/// [`Bins::rebuild`]), so no two of them reach the same particle, and a
+/// `&mut self` method's borrow keeps this one from reaching a particle twice.
+pub(crate) struct BlockParticles<'a> {
+    arrays: &'a ParticleArrays<'a>,
+    indices: &'a [u32],
+}
+
+impl BlockParticles<'_> {
+    /// How many particles the block holds.
+    #[inline(always)]
+    pub(crate) fn len(&self) -> usize {
+        self.indices.len()
+    }
+
+    /// The index in the particle arrays of the block's `k`-th particle.
+    #[inline(always)]
+    pub(crate) fn index(&self, k: usize) -> usize {
+        self.indices[k] as usize
+    }
+
+    /// V_p^0 of the `k`-th particle.
+    #[inline(always)]
+    pub(crate) fn volume0(&self, k: usize) -> f32 {
+        self.arrays.volume0[self.index(k)]
+    }
+
+    /// The material index of the `k`-th particle.
+    #[inline(always)]
+    pub(crate) fn material(&self, k: usize) -> u16 {
+        self.arrays.material[self.index(k)]
+    }
+
+    /// The `k`-th particle's mutable state.
+    #[inline(always)]
+    pub(crate) fn state(&mut self, k: usize) -> ParticleState<'_> {
+        let p = self.arrays.checked(self.index(k));
+        // SAFETY: in bounds (checked); the particle is this block's alone
+        // (the type's documentation) and `&mut self` lets no other
+        // reference into the block live meanwhile.
+        unsafe {
+            ParticleState {
+                position: &mut *self.arrays.position.add(p),
+                velocity: &mut *self.arrays.velocity.add(p),
+                elastic: &mut *self.arrays.elastic.add(p),
+                plastic_j: &mut *self.arrays.plastic_j.add(p),
+                stress: &mut *self.arrays.stress.add(p),
+                velocity_gradient: &mut *self.arrays.velocity_gradient.add(p),
+            }
+        }
+    }
+
+    /// `matrix` of the particles at places `ks` (a place may repeat).
+    #[inline(always)]
+    pub(crate) fn matrices(&self, matrix: ParticleMatrix, ks: [usize; 8]) -> [&Mat3; 8] {
+        let base = self.arrays.matrix(matrix);
+        std::array::from_fn(|lane| {
+            let p = self.arrays.checked(self.index(ks[lane]));
+            // SAFETY: in bounds (checked); this block's alone, and only
+            // read while `&self` is borrowed, so nothing writes it.
+            unsafe { &*base.add(p) }
+        })
+    }
+
+    /// `matrix` of the particles at the places `ks`, mutably, one after
+    /// another.
+    #[inline(always)]
+    pub(crate) fn matrices_mut(
+        &mut self,
+        matrix: ParticleMatrix,
+        ks: Range<usize>,
+    ) -> impl Iterator<Item = &mut Mat3> + '_ {
+        let base = self.arrays.matrix(matrix);
+        let arrays = self.arrays;
+        self.indices[ks].iter().map(move |&p| {
+            let p = arrays.checked(p as usize);
+            // SAFETY: in bounds (checked); the block's places hold distinct
+            // particles, this block's alone, and `&mut self` stays borrowed
+            // while the references live.
+            unsafe { &mut *base.add(p) }
+        })
+    }
+}
+
+/// The particle arrays as raw pointers, shared by the tasks of
+/// [`update_by_block`], which reach them only through [`BlockParticles`].
+struct ParticleArrays<'a> {
+    position: *mut Vec3,
+    velocity: *mut Vec3,
+    elastic: *mut Mat3,
+    plastic_j: *mut f32,
+    stress: *mut Mat3,
+    velocity_gradient: *mut Mat3,
+    volume0: &'a [f32],
+    material: &'a [u16],
+    _particles: PhantomData<&'a mut Particles>,
 }
 
 // SAFETY: shared across the gather's tasks only, which touch disjoint
-// particles (see the type's documentation).
+// particles (see `BlockParticles`).
 unsafe impl Sync for ParticleArrays<'_> {}
 
 impl<'a> ParticleArrays<'a> {
-    pub(crate) fn new(particles: &'a mut Particles) -> ParticleArrays<'a> {
+    fn new(particles: &'a mut Particles) -> ParticleArrays<'a> {
+        let count = particles.len();
+        assert!(
+            [
+                particles.velocity.len(),
+                particles.elastic.len(),
+                particles.plastic_j.len(),
+                particles.stress.len(),
+                particles.velocity_gradient.len(),
+                particles.volume0.len(),
+                particles.material.len(),
+            ]
+            .iter()
+            .all(|&len| len == count),
+            "the particle arrays differ in length"
+        );
         ParticleArrays {
             position: particles.position.as_mut_ptr(),
             velocity: particles.velocity.as_mut_ptr(),
@@ -123,24 +261,20 @@ impl<'a> ParticleArrays<'a> {
         }
     }
 
-    /// Particle `p`'s mutable state.
-    ///
-    /// # Safety
-    /// No other reference to particle `p` may exist while the result lives.
+    /// `p`, after checking that it is a particle of the arrays.
     #[inline(always)]
-    pub(crate) unsafe fn state(&self, p: usize) -> ParticleState<'_> {
+    fn checked(&self, p: usize) -> usize {
         assert!(p < self.volume0.len(), "particle {p} out of range");
-        // SAFETY: in bounds (all arrays have the same length, checked by
-        // `Particles`' users); exclusive by the caller's contract.
-        unsafe {
-            ParticleState {
-                position: &mut *self.position.add(p),
-                velocity: &mut *self.velocity.add(p),
-                elastic: &mut *self.elastic.add(p),
-                plastic_j: &mut *self.plastic_j.add(p),
-                stress: &mut *self.stress.add(p),
-                velocity_gradient: &mut *self.velocity_gradient.add(p),
-            }
+        p
+    }
+
+    /// The first element of the array of `matrix`.
+    #[inline(always)]
+    fn matrix(&self, matrix: ParticleMatrix) -> *mut Mat3 {
+        match matrix {
+            ParticleMatrix::Elastic => self.elastic,
+            ParticleMatrix::Stress => self.stress,
+            ParticleMatrix::VelocityGradient => self.velocity_gradient,
         }
     }
 }

@@ -24,13 +24,14 @@
 
 use firn_core::math::bspline::{StencilValues, cubic_weights, quadratic_values};
 use firn_core::math::lanes::{F32s, Mat3s, Simd, U32s, Vec3s};
+use std::ops::Range;
+
 use glam::{Mat3, Vec3, Vec4};
-use rayon::prelude::*;
 
 use crate::binning::{Bins, OccupiedBlock};
 use crate::constitutive::{ElasticUpdate, MaterialConstants, MaterialLanes};
 use crate::contact::Colliders;
-use crate::disjoint::ParticleArrays;
+use crate::disjoint::{BlockParticles, ParticleMatrix, update_by_block};
 use crate::grid::{Grid, Node};
 use crate::local_nodes::{CUBIC_SPAN, LocalNodes, QUADRATIC_SPAN, at};
 use crate::particles::Particles;
@@ -258,51 +259,50 @@ pub(crate) fn gather_with<I: Interpolation>(
     interpolation: &I,
 ) -> GatherStats {
     let simd = checked_simd(simd);
-    let arrays = ParticleArrays::new(particles);
     let grid = interpolation.grid();
     let table = grid.page_table();
-    let gather_block = |local: &mut LocalNodes<I::LocalNode>, block: &OccupiedBlock| {
+    let gather_block = |local: &mut LocalNodes<I::LocalNode>,
+                        block: &OccupiedBlock,
+                        particles: BlockParticles<'_>| {
         local.copy_from(&table, &grid.nodes, block.coord, I::local_node);
-        let block = Block {
-            arrays: &arrays,
-            particles: bins.particles_of(block),
+        let mut block = Block {
+            particles,
             context,
             interpolation,
             local,
         };
         match simd {
             #[cfg(target_arch = "x86_64")]
-            // SAFETY: `Simd::Avx512` is only used where the CPU has AVX-512F
-            // (`checked_simd`); the block's particles are this task's alone.
-            Simd::Avx512 => unsafe { update_block_avx512(&block) },
+            // SAFETY: `Simd::Avx512` is only used where the CPU has
+            // AVX-512F (`checked_simd`).
+            Simd::Avx512 => unsafe { update_block_avx512(&mut block) },
             #[cfg(target_arch = "x86_64")]
             // SAFETY: as above, for AVX2.
-            Simd::Avx2 => unsafe { update_block_avx2(&block) },
-            // SAFETY: the block's particles are this task's alone.
-            _ => unsafe { update_block_portable(&block) },
+            Simd::Avx2 => unsafe { update_block_avx2(&mut block) },
+            _ => update_block_portable(&mut block),
         }
     };
-    bins.occupied()
-        .par_iter()
-        .map_init(LocalNodes::for_gather, gather_block)
-        .reduce(GatherStats::default, GatherStats::merge)
+    update_by_block(
+        particles,
+        bins,
+        LocalNodes::for_gather,
+        gather_block,
+        GatherStats::merge,
+        GatherStats::default,
+    )
 }
 
 /// One block's particles and what their update reads.
 struct Block<'a, I: Interpolation> {
-    arrays: &'a ParticleArrays<'a>,
-    particles: &'a [u32],
+    particles: BlockParticles<'a>,
     context: &'a UpdateContext<'a>,
     interpolation: &'a I,
     local: &'a LocalNodes<I::LocalNode>,
 }
 
 /// Steps 7-10 for the particles of one block, batch by batch.
-///
-/// # Safety
-/// No other task may touch the block's particles meanwhile.
 #[inline(always)]
-unsafe fn update_block<I: Interpolation>(block: &Block<I>, simd: Simd) -> GatherStats {
+fn update_block<I: Interpolation>(block: &mut Block<I>, simd: Simd) -> GatherStats {
     let mut stats = GatherStats::default();
     // Filled once per block: each batch overwrites the lanes it uses (the
     // material lanes only where the block mixes materials; otherwise they
@@ -312,10 +312,16 @@ unsafe fn update_block<I: Interpolation>(block: &Block<I>, simd: Simd) -> Gather
     let padding = material.unwrap_or(&block.context.materials[0]);
     let mut interpolated = Interpolated::padded(padding);
     let per_lane = material.is_none();
-    for batch in block.particles.chunks(BATCH) {
-        // SAFETY: by the caller's contract.
-        stats =
-            stats.merge(unsafe { update_batch(block, batch, &mut interpolated, per_lane, simd) });
+    let count = block.particles.len();
+    for start in (0..count).step_by(BATCH) {
+        let batch = start..count.min(start + BATCH);
+        stats = stats.merge(update_batch(
+            block,
+            batch,
+            &mut interpolated,
+            per_lane,
+            simd,
+        ));
     }
     stats
 }
@@ -323,36 +329,24 @@ unsafe fn update_block<I: Interpolation>(block: &Block<I>, simd: Simd) -> Gather
 /// [`update_block`] compiled for AVX-512 throughout: the interpolation and
 /// the particle bookkeeping get its 3-operand encodings too. No fused
 /// multiply-add is enabled, so the bits stay those of portable code.
-///
-/// # Safety
-/// The CPU must have AVX-512F, and as for [`update_block`].
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-unsafe fn update_block_avx512<I: Interpolation>(block: &Block<I>) -> GatherStats {
-    // SAFETY: by the caller's contract.
-    unsafe { update_block(block, Simd::Avx512) }
+fn update_block_avx512<I: Interpolation>(block: &mut Block<I>) -> GatherStats {
+    update_block(block, Simd::Avx512)
 }
 
 /// [`update_block`] in the baseline instruction set, out of line like the
 /// others (see [`elastic_update`]).
-///
-/// # Safety
-/// As for [`update_block`].
 #[inline(never)]
-unsafe fn update_block_portable<I: Interpolation>(block: &Block<I>) -> GatherStats {
-    // SAFETY: by the caller's contract.
-    unsafe { update_block(block, Simd::Portable) }
+fn update_block_portable<I: Interpolation>(block: &mut Block<I>) -> GatherStats {
+    update_block(block, Simd::Portable)
 }
 
 /// [`update_block_avx512`] for AVX2.
-///
-/// # Safety
-/// The CPU must have AVX2, and as for [`update_block`].
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn update_block_avx2<I: Interpolation>(block: &Block<I>) -> GatherStats {
-    // SAFETY: by the caller's contract.
-    unsafe { update_block(block, Simd::Avx2) }
+fn update_block_avx2<I: Interpolation>(block: &mut Block<I>) -> GatherStats {
+    update_block(block, Simd::Avx2)
 }
 
 impl<I: Interpolation> Block<'_, I> {
@@ -360,84 +354,84 @@ impl<I: Interpolation> Block<'_, I> {
     /// common case: a batch then needs no material lanes filled).
     #[inline(always)]
     fn uniform_material(&self) -> Option<&MaterialConstants> {
-        let material = self.arrays.material;
-        let first = material[*self.particles.first()? as usize];
-        self.particles
-            .iter()
-            .all(|&p| material[p as usize] == first)
+        let particles = &self.particles;
+        if particles.len() == 0 {
+            return None;
+        }
+        let first = particles.material(0);
+        (0..particles.len())
+            .all(|k| particles.material(k) == first)
             .then(|| &self.context.materials[usize::from(first)])
     }
 }
 
-/// Steps 7-10 for one batch of particle indices. The batch's material lanes
-/// are filled particle by particle if `per_lane`, else they already hold
-/// the block's one material.
-///
-/// # Safety
-/// No other task may touch these particles meanwhile.
+/// Steps 7-10 for the particles at places `batch` of the block. The
+/// batch's material lanes are filled particle by particle if `per_lane`,
+/// else they already hold the block's one material.
 #[inline(always)]
-unsafe fn update_batch<I: Interpolation>(
-    block: &Block<I>,
-    batch: &[u32],
+fn update_batch<I: Interpolation>(
+    block: &mut Block<I>,
+    batch: Range<usize>,
     interpolated: &mut Interpolated,
     per_lane: bool,
     simd: Simd,
 ) -> GatherStats {
-    let (arrays, context) = (block.arrays, block.context);
+    let context = block.context;
     // Matrices move in and out of the lanes eight at a time by AVX2
     // shuffles where the CPU has them, else one lane at a time: the same
     // values either way.
     let transposes = matches!(simd, Simd::Avx2 | Simd::Avx512) && cfg!(target_arch = "x86_64");
-    let motion = |p: u32| {
-        // SAFETY: exclusive by the caller's contract; the borrow ends here.
-        let state = unsafe { arrays.state(p as usize) };
+    let particles = &mut block.particles;
+    let mut motion = |k: usize| {
+        let state = particles.state(k);
         (*state.position, *state.velocity)
     };
-    for (pair, particles) in batch.chunks(2).enumerate() {
-        let results = match *particles {
-            [a, b] => {
-                block
-                    .interpolation
-                    .interpolate_pair(block.local, simd, [motion(a), motion(b)])
-            }
-            _ => {
-                let (position, velocity) = motion(particles[0]);
-                let alone = block
-                    .interpolation
-                    .interpolate(block.local, position, velocity);
-                [alone, alone]
-            }
-        };
-        for ((lane, &p), (new_velocity, gradient)) in (2 * pair..).zip(particles).zip(&results) {
-            interpolated.velocity.set_lane(lane, *new_velocity);
-            if !transposes {
-                interpolated.velocity_gradient.set_lane(lane, *gradient);
-            }
-            // Stored now, while at hand: nothing reads the old one again.
-            // SAFETY: as above.
-            *unsafe { arrays.state(p as usize) }.velocity_gradient = *gradient;
+    let mut results = [(Vec3::ZERO, Mat3::ZERO); BATCH];
+    for first in batch.clone().step_by(2) {
+        let lane = first - batch.start;
+        if first + 1 < batch.end {
+            let pair = [motion(first), motion(first + 1)];
+            results[lane..lane + 2].copy_from_slice(&block.interpolation.interpolate_pair(
+                block.local,
+                simd,
+                pair,
+            ));
+        } else {
+            let (position, velocity) = motion(first);
+            results[lane] = block
+                .interpolation
+                .interpolate(block.local, position, velocity);
         }
+    }
+    for (lane, k) in batch.clone().enumerate() {
+        let (new_velocity, gradient) = results[lane];
+        interpolated.velocity.set_lane(lane, new_velocity);
+        if !transposes {
+            interpolated.velocity_gradient.set_lane(lane, gradient);
+        }
+        // Stored now, while at hand: nothing reads the old one again.
+        *particles.state(k).velocity_gradient = gradient;
     }
     if transposes {
         #[cfg(target_arch = "x86_64")]
-        // SAFETY: as above; `transposes` only where the CPU has AVX2.
+        // SAFETY: `transposes` only where the CPU has AVX2.
         unsafe {
-            load_matrices_avx2(arrays, batch, interpolated)
+            load_matrices_avx2(particles, batch.clone(), interpolated)
         };
     }
-    for (lane, &p) in batch.iter().enumerate() {
-        let p = p as usize;
-        // SAFETY: as above.
-        let state = unsafe { arrays.state(p) };
+    for (lane, k) in batch.clone().enumerate() {
+        let volume0 = particles.volume0(k);
+        let material = particles.material(k);
+        let state = particles.state(k);
         if !transposes {
             interpolated.elastic.set_lane(lane, *state.elastic);
         }
         interpolated.plastic_j.0[lane] = *state.plastic_j;
-        interpolated.volume0.0[lane] = arrays.volume0[p];
+        interpolated.volume0.0[lane] = volume0;
         if per_lane {
             interpolated
                 .materials
-                .set_lane(lane, &context.materials[arrays.material[p] as usize]);
+                .set_lane(lane, &context.materials[usize::from(material)]);
         }
     }
     let update = elastic_update(simd, interpolated, context.dt);
@@ -445,39 +439,33 @@ unsafe fn update_batch<I: Interpolation>(
         #[cfg(target_arch = "x86_64")]
         // SAFETY: as above.
         unsafe {
-            store_matrices_avx2(arrays, batch, &update)
+            store_matrices_avx2(particles, batch.clone(), &update)
         };
     } else {
-        for (lane, &p) in batch.iter().enumerate() {
-            // SAFETY: as above.
-            let state = unsafe { arrays.state(p as usize) };
+        for (lane, k) in batch.clone().enumerate() {
+            let state = particles.state(k);
             *state.elastic = update.elastic.lane(lane);
             *state.stress = update.stress.lane(lane);
         }
     }
-    // SAFETY: as above.
-    unsafe { finish_batch(block, batch, interpolated, &update) }
+    finish_batch(particles, context, batch, interpolated, &update)
 }
 
 /// Step 10 and the bookkeeping for a batch whose new F_E and stress are
 /// stored, in lanes: collides at the predicted positions, advects, stores
 /// J_P, velocities and positions, and reports the largest speed and wave
 /// speed and the first particle in trouble.
-///
-/// # Safety
-/// No other task may touch these particles meanwhile.
 #[inline(always)]
-unsafe fn finish_batch<I: Interpolation>(
-    block: &Block<I>,
-    batch: &[u32],
+fn finish_batch(
+    particles: &mut BlockParticles,
+    context: &UpdateContext,
+    batch: Range<usize>,
     interpolated: &Interpolated,
     update: &ElasticUpdate<BATCH>,
 ) -> GatherStats {
-    let (arrays, context) = (block.arrays, block.context);
     let mut position = Vec3s::splat(Vec3::ZERO);
-    for (lane, &p) in batch.iter().enumerate() {
-        // SAFETY: exclusive by the caller's contract; the borrow ends here.
-        position.set_lane(lane, *unsafe { arrays.state(p as usize) }.position);
+    for (lane, k) in batch.clone().enumerate() {
+        position.set_lane(lane, *particles.state(k).position);
     }
     let dt = F32s::splat(context.dt);
     let mut velocity = interpolated.velocity;
@@ -503,9 +491,8 @@ unsafe fn finish_batch<I: Interpolation>(
         .and(inside(position.z, lower.z, upper.z));
 
     let mut stats = GatherStats::default();
-    for (lane, &p) in batch.iter().enumerate() {
-        // SAFETY: as above.
-        let state = unsafe { arrays.state(p as usize) };
+    for (lane, k) in batch.enumerate() {
+        let state = particles.state(k);
         *state.velocity = velocity.lane(lane);
         *state.position = position.lane(lane);
         *state.plastic_j = update.plastic_j.lane(lane);
@@ -515,7 +502,7 @@ unsafe fn finish_batch<I: Interpolation>(
             .max(wave_speed_squared.lane(lane));
         if finite.0[lane] & inside.0[lane] == 0 {
             let problem = ParticleProblem {
-                particle: p as usize,
+                particle: particles.index(k),
                 kind: problem_kind(finite, lane),
                 position: position.lane(lane),
             };
@@ -541,56 +528,47 @@ fn problem_kind(finite: U32s<BATCH>, lane: usize) -> ProblemKind {
 /// Loads the batch's ∇v_p (stored by the interpolation) and F_E into the
 /// lanes, eight particles per transpose; lanes past the batch's end repeat
 /// its last particle, so they stay finite.
-///
-/// # Safety
-/// The CPU must have AVX2, and no other task may touch these particles.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline]
-unsafe fn load_matrices_avx2(
-    arrays: &ParticleArrays,
-    batch: &[u32],
+fn load_matrices_avx2(
+    particles: &BlockParticles,
+    batch: Range<usize>,
     interpolated: &mut Interpolated,
 ) {
+    let last = batch.end - 1;
     for first in (0..batch.len()).step_by(8) {
-        let particle = |lane: usize| batch[(first + lane).min(batch.len() - 1)] as usize;
-        let eight = |array: *mut Mat3| -> [&Mat3; 8] {
-            // SAFETY: the batch's particles are in bounds (binning) and this
-            // task's alone (the caller's contract); only read here.
-            std::array::from_fn(|lane| unsafe { &*array.add(particle(lane)) })
-        };
-        interpolated
-            .velocity_gradient
-            .load_eight(first, eight(arrays.velocity_gradient));
+        let places = std::array::from_fn(|lane| (batch.start + first + lane).min(last));
+        interpolated.velocity_gradient.load_eight(
+            first,
+            particles.matrices(ParticleMatrix::VelocityGradient, places),
+        );
         interpolated
             .elastic
-            .load_eight(first, eight(arrays.elastic));
+            .load_eight(first, particles.matrices(ParticleMatrix::Elastic, places));
     }
 }
 
 /// Stores the batch's new F_E and V_p^0 τ_p from the lanes, eight particles
 /// per transpose.
-///
-/// # Safety
-/// As for [`load_matrices_avx2`].
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline]
-unsafe fn store_matrices_avx2(
-    arrays: &ParticleArrays,
-    batch: &[u32],
+fn store_matrices_avx2(
+    particles: &mut BlockParticles,
+    batch: Range<usize>,
     update: &ElasticUpdate<BATCH>,
 ) {
-    for (chunk, first) in batch.chunks(8).zip((0..).step_by(8)) {
-        let targets = |array: *mut Mat3| {
-            chunk.iter().map(move |&p| {
-                // SAFETY: as in `load_matrices_avx2`; each particle's
-                // reference is used and dropped before the next is made.
-                unsafe { &mut *array.add(p as usize) }
-            })
-        };
-        update.elastic.store_eight(first, targets(arrays.elastic));
-        update.stress.store_eight(first, targets(arrays.stress));
+    for first in (0..batch.len()).step_by(8) {
+        let places = batch.start + first..batch.end.min(batch.start + first + 8);
+        update.elastic.store_eight(
+            first,
+            particles.matrices_mut(ParticleMatrix::Elastic, places.clone()),
+        );
+        update.stress.store_eight(
+            first,
+            particles.matrices_mut(ParticleMatrix::Stress, places),
+        );
     }
 }
 
