@@ -18,8 +18,6 @@
 //! 32-bit integer atomics ([`snow::fixed_point`]): no float atomics, and the
 //! sums do not depend on the order the GPU runs the particles in.
 
-#![warn(missing_docs)]
-
 pub mod bindings;
 pub mod buffers;
 pub mod context;
