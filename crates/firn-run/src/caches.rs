@@ -1,0 +1,109 @@
+//! A frame's particle caches: the scene's `[output] attributes` in each of
+//! its `[output] formats` (binary PLY, VTK PolyData), and the ParaView
+//! collection (PVD) that lists the VTK frames by time.
+
+use firn_core::scene::{Attribute as SceneAttribute, CacheFormat};
+use firn_io::{Attribute, FrameData, IoError, PvdCollection, write_ply, write_vtp};
+use firn_mpm::{Particles, Simulation};
+
+use crate::run_dir::RunDirectory;
+use crate::simulation::HostState;
+
+/// Writes frame `index` of `state` in every cache format of its scene into
+/// `run`, and updates the collection `pvd` with a VTK frame; returns the
+/// files' paths relative to the run directory.
+pub fn write_frame(
+    state: HostState<'_>,
+    index: u32,
+    run: &RunDirectory,
+    pvd: &mut PvdCollection,
+) -> Result<Vec<String>, IoError> {
+    match state {
+        HostState::Snow(simulation) => write_snow_frame(simulation, index, run, pvd),
+        HostState::Flow(flow) => {
+            let frame = FrameData::new(index, flow.time(), flow.positions())
+                .with_attribute(Attribute::vector("velocity", flow.velocities()))
+                .with_attribute(Attribute::scalar("age", flow.ages()));
+            write_caches(&flow.scene().output.formats, &frame, run, pvd)
+        }
+    }
+}
+
+/// Attribute arrays computed for output (those the solver does not store).
+struct DerivedAttributes {
+    density: Vec<f32>,
+    elastic_j: Vec<f32>,
+    material: Vec<u32>,
+}
+
+/// Writes a snow frame with the scene's `[output] attributes`.
+fn write_snow_frame(
+    simulation: &Simulation,
+    index: u32,
+    run: &RunDirectory,
+    pvd: &mut PvdCollection,
+) -> Result<Vec<String>, IoError> {
+    let scene = simulation.scene();
+    let particles = simulation.particles();
+    let wanted = &scene.output.attributes;
+    let derived = DerivedAttributes {
+        density: if wanted.contains(&SceneAttribute::Density) {
+            simulation.densities()
+        } else {
+            Vec::new()
+        },
+        elastic_j: if wanted.contains(&SceneAttribute::ElasticJ) {
+            simulation.elastic_j()
+        } else {
+            Vec::new()
+        },
+        material: particles.material.iter().map(|&m| m as u32).collect(),
+    };
+    let mut frame = FrameData::new(index, simulation.time(), &particles.position);
+    for attribute in wanted {
+        frame = frame.with_attribute(attribute_data(*attribute, particles, &derived));
+    }
+    write_caches(&scene.output.formats, &frame, run, pvd)
+}
+
+/// Writes `frame` in each of `formats` into `run`; returns the files' paths
+/// relative to the run directory.
+fn write_caches(
+    formats: &[CacheFormat],
+    frame: &FrameData,
+    run: &RunDirectory,
+    pvd: &mut PvdCollection,
+) -> Result<Vec<String>, IoError> {
+    let mut files = Vec::new();
+    for &format in formats {
+        let name = RunDirectory::cache_name(format, frame.index);
+        let path = run.path().join(&name);
+        match format {
+            CacheFormat::Ply => write_ply(&path, frame)?,
+            CacheFormat::Vtk => {
+                write_vtp(&path, frame)?;
+                pvd.remove_after(frame.time - 1e-12);
+                pvd.push(frame.time, name.clone());
+                pvd.write(&run.collection_path())?;
+            }
+        }
+        files.push(name);
+    }
+    Ok(files)
+}
+
+/// The values of one cached attribute.
+fn attribute_data<'a>(
+    attribute: SceneAttribute,
+    particles: &'a Particles,
+    derived: &'a DerivedAttributes,
+) -> Attribute<'a> {
+    match attribute {
+        SceneAttribute::Velocity => Attribute::vector("velocity", &particles.velocity),
+        SceneAttribute::PlasticJ => Attribute::scalar("plastic_j", &particles.plastic_j),
+        SceneAttribute::ElasticJ => Attribute::scalar("elastic_j", &derived.elastic_j),
+        SceneAttribute::Density => Attribute::scalar("density", &derived.density),
+        SceneAttribute::Mass => Attribute::scalar("mass", &particles.mass),
+        SceneAttribute::Material => Attribute::integer("material", &derived.material),
+    }
+}

@@ -1,0 +1,219 @@
+//! Checkpoint files: a solver's complete state after a frame, with the
+//! resolved scene it was simulating, in firn-io's checkpoint format (JSON
+//! metadata and named raw arrays). A snow checkpoint holds the particle
+//! arrays and the counters as bits; a flow checkpoint its snapshot's arrays.
+//! Either resumes on either backend.
+
+use std::path::Path;
+
+use firn_core::Scene;
+use firn_core::scene::SceneKind;
+use firn_flow::FlowSnapshot;
+use firn_io::{Checkpoint, IoError};
+use firn_mpm::{Particles, Snapshot};
+
+use crate::error::CheckpointError;
+use crate::simulation::SolverState;
+
+/// A checkpoint read back.
+pub struct SavedCheckpoint {
+    /// The frame the checkpoint was taken after.
+    pub frame: u32,
+    /// The resolved scene the run was started with, as JSON.
+    pub scene_json: serde_json::Value,
+    /// The solver's state.
+    pub state: SolverState,
+}
+
+/// Writes `state`, taken after frame `frame` of the scene `scene_json`, to
+/// `path` (atomically).
+pub fn write(
+    state: &SolverState,
+    frame: u32,
+    scene_json: &serde_json::Value,
+    path: &Path,
+) -> Result<(), IoError> {
+    let checkpoint = match state {
+        SolverState::Snow(snapshot) => snow_checkpoint(snapshot, frame, scene_json),
+        SolverState::Flow(snapshot) => flow_checkpoint(snapshot, frame, scene_json),
+    };
+    checkpoint.write(path)
+}
+
+/// Reads the checkpoint at `path` of a simulation of `kind`.
+pub fn read(path: &Path, kind: &SceneKind) -> Result<SavedCheckpoint, CheckpointError> {
+    let checkpoint = Checkpoint::read(path)?;
+    match kind {
+        SceneKind::Snow => read_snow(&checkpoint, path),
+        SceneKind::Flow(_) => read_flow(&checkpoint, path),
+    }
+}
+
+/// The resolved scene as JSON, for manifests and checkpoints.
+pub fn scene_json(scene: &Scene) -> serde_json::Value {
+    serde_json::to_value(scene).unwrap_or_default()
+}
+
+/// Whether two resolved scenes (as JSON) simulate the same thing: equal but
+/// for `compute`, which says only where, and which checkpoints written
+/// before it existed lack.
+pub fn same_physics(a: &serde_json::Value, b: &serde_json::Value) -> bool {
+    without_compute(a) == without_compute(b)
+}
+
+/// `scene` without its `compute` table.
+fn without_compute(scene: &serde_json::Value) -> serde_json::Value {
+    let mut scene = scene.clone();
+    if let Some(table) = scene.as_object_mut() {
+        table.remove("compute");
+    }
+    scene
+}
+
+/// A snow checkpoint: the counters (floats as their bits) and the particles.
+fn snow_checkpoint(snapshot: &Snapshot, frame: u32, scene_json: &serde_json::Value) -> Checkpoint {
+    let mut checkpoint = Checkpoint::new(serde_json::json!({
+        "frame": frame,
+        "time_bits": snapshot.time.to_bits(),
+        "steps": snapshot.steps,
+        "max_speed_squared_bits": snapshot.max_speed_squared.to_bits(),
+        "max_wave_speed_squared_bits": snapshot.max_wave_speed_squared.to_bits(),
+        "scene": scene_json,
+    }));
+    let p = &snapshot.particles;
+    checkpoint.push_array("position", &p.position);
+    checkpoint.push_array("velocity", &p.velocity);
+    checkpoint.push_array("mass", &p.mass);
+    checkpoint.push_array("volume0", &p.volume0);
+    checkpoint.push_array("elastic", &p.elastic);
+    checkpoint.push_array("plastic_j", &p.plastic_j);
+    checkpoint.push_array("stress", &p.stress);
+    checkpoint.push_array("velocity_gradient", &p.velocity_gradient);
+    checkpoint.push_array("material", &p.material);
+    checkpoint
+}
+
+/// A flow checkpoint: the snapshot's arrays and its counters.
+fn flow_checkpoint(
+    snapshot: &FlowSnapshot,
+    frame: u32,
+    scene_json: &serde_json::Value,
+) -> Checkpoint {
+    let mut checkpoint = Checkpoint::new(serde_json::json!({
+        "kind": "flow",
+        "frame": frame,
+        "substeps": snapshot.substeps,
+        "trail_capacity": snapshot.trail_capacity,
+        "trail_head": snapshot.trail_head,
+        "scene": scene_json,
+    }));
+    checkpoint.push_array("births", &snapshot.births);
+    checkpoint.push_array("positions", &snapshot.positions);
+    checkpoint.push_array("velocities", &snapshot.velocities);
+    checkpoint.push_array("ages", &snapshot.ages);
+    checkpoint.push_array("lifetimes", &snapshot.lifetimes);
+    checkpoint.push_array("generations", &snapshot.generations);
+    checkpoint.push_array("emitters", &snapshot.emitters);
+    checkpoint.push_array("trail_points", &snapshot.trail_points);
+    checkpoint.push_array("trail_lengths", &snapshot.trail_lengths);
+    checkpoint.push_array("trail_generations", &snapshot.trail_generations);
+    checkpoint
+}
+
+/// The unsigned counter `name` of a checkpoint's metadata.
+fn counter(
+    checkpoint: &Checkpoint,
+    path: &Path,
+    name: &'static str,
+) -> Result<u64, CheckpointError> {
+    checkpoint
+        .meta
+        .get(name)
+        .and_then(serde_json::Value::as_u64)
+        .ok_or_else(|| CheckpointError::MissingField {
+            path: path.to_path_buf(),
+            field: name,
+        })
+}
+
+/// The scene a checkpoint was written for.
+fn saved_scene(checkpoint: &Checkpoint) -> serde_json::Value {
+    checkpoint.meta.get("scene").cloned().unwrap_or_default()
+}
+
+/// Reads a checkpoint written by [`snow_checkpoint`].
+fn read_snow(checkpoint: &Checkpoint, path: &Path) -> Result<SavedCheckpoint, CheckpointError> {
+    let particles = Particles {
+        position: checkpoint.array("position")?,
+        velocity: checkpoint.array("velocity")?,
+        mass: checkpoint.array("mass")?,
+        volume0: checkpoint.array("volume0")?,
+        elastic: checkpoint.array("elastic")?,
+        plastic_j: checkpoint.array("plastic_j")?,
+        stress: checkpoint.array("stress")?,
+        velocity_gradient: checkpoint.array("velocity_gradient")?,
+        material: checkpoint.array("material")?,
+    };
+    let counter = |name| counter(checkpoint, path, name);
+    Ok(SavedCheckpoint {
+        frame: counter("frame")? as u32,
+        scene_json: saved_scene(checkpoint),
+        state: SolverState::Snow(Snapshot {
+            time: f64::from_bits(counter("time_bits")?),
+            steps: counter("steps")?,
+            max_speed_squared: f32::from_bits(counter("max_speed_squared_bits")? as u32),
+            max_wave_speed_squared: f32::from_bits(counter("max_wave_speed_squared_bits")? as u32),
+            particles,
+        }),
+    })
+}
+
+/// Reads a checkpoint written by [`flow_checkpoint`].
+fn read_flow(checkpoint: &Checkpoint, path: &Path) -> Result<SavedCheckpoint, CheckpointError> {
+    let counter = |name| counter(checkpoint, path, name);
+    let snapshot = FlowSnapshot {
+        substeps: counter("substeps")?,
+        births: checkpoint.array("births")?,
+        positions: checkpoint.array("positions")?,
+        velocities: checkpoint.array("velocities")?,
+        ages: checkpoint.array("ages")?,
+        lifetimes: checkpoint.array("lifetimes")?,
+        generations: checkpoint.array("generations")?,
+        emitters: checkpoint.array("emitters")?,
+        trail_capacity: counter("trail_capacity")? as u32,
+        trail_head: counter("trail_head")? as u32,
+        trail_points: checkpoint.array("trail_points")?,
+        trail_lengths: checkpoint.array("trail_lengths")?,
+        trail_generations: checkpoint.array("trail_generations")?,
+    };
+    Ok(SavedCheckpoint {
+        frame: counter("frame")? as u32,
+        scene_json: saved_scene(checkpoint),
+        state: SolverState::Flow(snapshot),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn scenes_that_differ_only_in_their_backend_simulate_the_same() {
+        let before_compute = json!({ "name": "ball", "time": { "fps": 30.0 } });
+        let on_gpu = json!({
+            "name": "ball",
+            "time": { "fps": 30.0 },
+            "compute": { "backend": "gpu" }
+        });
+        let on_cpu = json!({
+            "name": "ball",
+            "time": { "fps": 30.0 },
+            "compute": { "backend": "cpu" }
+        });
+        assert!(same_physics(&before_compute, &on_gpu));
+        assert!(same_physics(&on_cpu, &on_gpu));
+        let faster = json!({ "name": "ball", "time": { "fps": 60.0 } });
+        assert!(!same_physics(&faster, &before_compute));
+    }
+}

@@ -1,0 +1,33 @@
+//! firn-run: firn's app layer, shared by every front door (the `firn`
+//! command, the viewer, and later a Python module or MPI ranks): a scene
+//! simulated on the CPU or the GPU, snow or flow, turned into frames,
+//! checkpoints and a run directory, and a run directory read back.
+//!
+//! - [`backend`]: where a scene runs ([`Placement`]), chosen from its
+//!   `[compute] backend` and the adapters present;
+//! - [`simulation`]: [`Solver`], one type for a simulation on any backend:
+//!   step it, read its particles, change its parameters, take its state;
+//! - [`checkpoint`]: the snow and flow checkpoint files;
+//! - [`caches`]: a frame's PLY and VTK caches and the PVD collection;
+//! - [`run_dir`]: [`RunDirectory`], the layout of a run's folder, written
+//!   and read back;
+//! - [`recording`]: [`Recording`], a run in progress: its solver, its
+//!   manifest and its checkpoints, frame by frame, with an
+//!   [`Observer`](recording::Observer) for what the front door shows;
+//! - [`error`]: what can go wrong, as [`RunError`].
+
+#![warn(missing_docs)]
+
+pub mod backend;
+pub mod caches;
+pub mod checkpoint;
+pub mod error;
+pub mod recording;
+pub mod run_dir;
+pub mod simulation;
+
+pub use backend::{Chosen, Placement, choose_backend};
+pub use error::RunError;
+pub use recording::Recording;
+pub use run_dir::RunDirectory;
+pub use simulation::Solver;

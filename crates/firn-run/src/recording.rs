@@ -1,0 +1,408 @@
+//! [`Recording`]: a run in progress, as `firn run` makes one: a solver
+//! stepped frame by frame, each frame written to the run directory (caches,
+//! pictures, a manifest record), a checkpoint every `checkpoint_every`
+//! frames and at the end, and the manifest kept current so that an
+//! interrupted run can be resumed or read.
+//!
+//! What is shown while it runs and how pictures are made is the front
+//! door's: it hands in an [`Observer`].
+
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use firn_core::Scene;
+use firn_io::{FrameRecord, Manifest, PvdCollection, RunStatus, SolverFrameStats};
+use firn_mpm::SolverStats;
+
+use crate::backend::Placement;
+use crate::caches;
+use crate::checkpoint::{self, same_physics, scene_json};
+use crate::error::{ResumeError, RunError};
+use crate::run_dir::RunDirectory;
+use crate::simulation::{HostParticles, Solver};
+
+/// A run in progress: its solver, where it writes, and what it wrote.
+pub struct Recording {
+    solver: Solver,
+    run: RunDirectory,
+    manifest: Manifest,
+    pvd: PvdCollection,
+    /// The last frame recorded.
+    frame: u32,
+    scene_json: serde_json::Value,
+    /// The solver's running totals when the previous frame was recorded.
+    solver_totals: Option<SolverStats>,
+}
+
+/// What a front door does while a run is recorded. Every method does
+/// nothing by default.
+pub trait Observer {
+    /// Makes the pictures of a frame just written (called only when the
+    /// scene's `[render] enabled` is on); returns their paths relative to
+    /// the run directory.
+    fn pictures(&mut self, frame: &FrameToPicture<'_>) -> Result<Vec<String>, String> {
+        let _ = frame;
+        Ok(Vec::new())
+    }
+
+    /// Hears that a frame was recorded.
+    fn frame_recorded(&mut self, progress: &Progress) {
+        let _ = progress;
+    }
+
+    /// Makes the animations of the frames `frames` (their indices, in
+    /// order, all pictured) once the last is recorded (called only when
+    /// the scene's `[render] enabled` is on); returns their paths relative
+    /// to the run directory.
+    fn animations(&mut self, scene: &Scene, frames: &[u32]) -> Result<Vec<String>, String> {
+        let _ = (scene, frames);
+        Ok(Vec::new())
+    }
+}
+
+/// A frame to make pictures of.
+pub struct FrameToPicture<'a> {
+    /// The scene simulated.
+    pub scene: &'a Scene,
+    /// The frame's index.
+    pub index: u32,
+    /// Its simulated time.
+    pub time: f64,
+    /// Its particles, with the values of the scene's `color_by`.
+    pub particles: HostParticles<'a>,
+}
+
+/// How far a run has come, after a frame.
+#[derive(Clone, Copy, Debug)]
+pub struct Progress {
+    /// The frame just recorded.
+    pub frame: u32,
+    /// The frame this session of the run started after.
+    pub first_frame: u32,
+    /// The frame the run stops after.
+    pub last_frame: u32,
+    /// Simulated time reached.
+    pub time: f64,
+    /// Substeps taken in this session.
+    pub substeps: u64,
+    /// Wall-clock time of this session.
+    pub elapsed: Duration,
+}
+
+impl Progress {
+    /// Substeps per wall-clock second in this session.
+    pub fn substeps_per_second(&self) -> f64 {
+        self.substeps as f64 / self.elapsed.as_secs_f64().max(1e-9)
+    }
+
+    /// Wall-clock seconds left at this session's pace.
+    pub fn seconds_left(&self) -> f64 {
+        let done = f64::from(self.frame - self.first_frame);
+        self.elapsed.as_secs_f64() / done * f64::from(self.last_frame - self.frame)
+    }
+}
+
+impl Recording {
+    /// Starts a new run of `solver` (at time 0) in `run`, whose folders
+    /// exist ([`RunDirectory::create`]), and records frame 0. `scene_file`
+    /// is where the scene came from, for the manifest.
+    pub fn start(
+        solver: Solver,
+        run: RunDirectory,
+        scene_file: Option<PathBuf>,
+        observer: &mut dyn Observer,
+    ) -> Result<Recording, RunError> {
+        let scene = solver.scene();
+        let scene_json = scene_json(scene);
+        let placement = solver.placement();
+        let manifest = Manifest {
+            firn_version: env!("CARGO_PKG_VERSION").to_string(),
+            scene_file: scene_file.map(|path| path.display().to_string()),
+            scene: scene_json.clone(),
+            backend: placement.name().into(),
+            adapter: placement.adapter(),
+            threads: rayon::current_num_threads(),
+            particle_count: solver.particle_count(),
+            grid_cells: scene.domain.cells(),
+            frames: Vec::new(),
+            status: RunStatus::Running,
+            animations: Vec::new(),
+        };
+        let mut recording = Recording {
+            solver,
+            run,
+            manifest,
+            pvd: PvdCollection::new(),
+            frame: 0,
+            scene_json,
+            solver_totals: None,
+        };
+        recording.record_frame(0, 0, Duration::ZERO, observer)?;
+        Ok(recording)
+    }
+
+    /// Picks up the run in `run` from its checkpoint, to continue `scene`
+    /// where `placement` says (the checkpoint may come from either backend).
+    pub fn resume(
+        scene: Scene,
+        run: RunDirectory,
+        placement: &Placement,
+    ) -> Result<Recording, ResumeError> {
+        let checkpoint_path = run.checkpoint_path();
+        if !checkpoint_path.exists() {
+            return Err(ResumeError::NoCheckpoint {
+                path: checkpoint_path,
+            });
+        }
+        let scene_json = scene_json(&scene);
+        let saved = checkpoint::read(&checkpoint_path, &scene.kind).map_err(RunError::from)?;
+        let solver = Solver::restore(scene, saved.state, placement)?;
+        if !same_physics(&saved.scene_json, &scene_json) {
+            return Err(ResumeError::SceneDiffers {
+                path: checkpoint_path,
+            });
+        }
+        let mut manifest = Manifest::read(&run.manifest_path()).map_err(ResumeError::Manifest)?;
+        manifest.frames.retain(|record| record.index <= saved.frame);
+        manifest.status = RunStatus::Running;
+        manifest.threads = rayon::current_num_threads();
+        manifest.backend = placement.name().into();
+        manifest.adapter = placement.adapter();
+        let mut pvd = PvdCollection::read(&run.collection_path()).unwrap_or_default();
+        pvd.remove_after(solver.time() + 1e-12);
+        Ok(Recording {
+            solver,
+            run,
+            manifest,
+            pvd,
+            frame: saved.frame,
+            scene_json,
+            solver_totals: None,
+        })
+    }
+
+    /// The solver.
+    pub fn solver(&self) -> &Solver {
+        &self.solver
+    }
+
+    /// The last frame recorded.
+    pub fn frame(&self) -> u32 {
+        self.frame
+    }
+
+    /// Where the run writes.
+    pub fn run_directory(&self) -> &RunDirectory {
+        &self.run
+    }
+
+    /// Simulates and records the frames after the last one up to
+    /// `last_frame`, then the animations and a checkpoint; the run is
+    /// finished when `last_frame` is the scene's last. A failure is written
+    /// into the manifest before it is returned.
+    pub fn run_to(&mut self, last_frame: u32, observer: &mut dyn Observer) -> Result<(), RunError> {
+        let first_frame = self.frame;
+        let started = Instant::now();
+        let mut substeps_total = 0u64;
+        while self.frame < last_frame {
+            let frame = self.frame + 1;
+            let frame_started = Instant::now();
+            let substeps = self
+                .advance_to_frame(frame)
+                .map_err(|error| self.fail(error))?;
+            self.record_frame(frame, substeps, frame_started.elapsed(), observer)?;
+            substeps_total += u64::from(substeps);
+            observer.frame_recorded(&Progress {
+                frame,
+                first_frame,
+                last_frame,
+                time: self.solver.time(),
+                substeps: substeps_total,
+                elapsed: started.elapsed(),
+            });
+        }
+        self.write_animations(observer)?;
+        self.write_checkpoint()?;
+        if last_frame >= self.solver.scene().time.frame_count() {
+            self.manifest.status = RunStatus::Finished;
+        }
+        self.write_manifest()
+    }
+
+    /// Substeps over the whole run whose semi-implicit solve stopped before
+    /// reaching its tolerance.
+    pub fn unconverged_substeps(&self) -> u64 {
+        self.manifest
+            .frames
+            .iter()
+            .filter_map(|record| record.solver)
+            .map(|stats| stats.unconverged)
+            .sum()
+    }
+
+    /// Mean wall-clock nanoseconds per particle-substep over the frames
+    /// recorded that took substeps.
+    pub fn mean_cost(&self) -> f64 {
+        let (seconds, work) =
+            self.manifest
+                .frames
+                .iter()
+                .fold((0.0, 0.0), |(seconds, work), record| {
+                    (seconds + record.wall_seconds, work + record.substeps as f64)
+                });
+        if work > 0.0 {
+            seconds * 1e9 / (work * self.manifest.particle_count.max(1) as f64)
+        } else {
+            0.0
+        }
+    }
+
+    /// Advances the solver to the end of `frame` and brings its particles
+    /// to the host; returns the substeps taken.
+    fn advance_to_frame(&mut self, frame: u32) -> Result<u32, RunError> {
+        let fps = self.solver.scene().time.fps;
+        let stopped = |error| RunError::Stopped {
+            frame,
+            source: Box::new(error),
+        };
+        let substeps = self
+            .solver
+            .advance_to(frame as f64 / fps)
+            .map_err(stopped)?;
+        self.solver.host().map_err(stopped)?;
+        Ok(substeps)
+    }
+
+    /// Writes the current state as frame `index`: its caches, pictures and
+    /// manifest record and, when due, a checkpoint.
+    fn record_frame(
+        &mut self,
+        index: u32,
+        substeps: u32,
+        wall: Duration,
+        observer: &mut dyn Observer,
+    ) -> Result<(), RunError> {
+        let (files, images) = self
+            .write_frame_files(index, observer)
+            .map_err(|error| self.fail(error))?;
+        let particles = self.solver.particle_count().max(1) as f64;
+        let wall_seconds = wall.as_secs_f64();
+        let solver = self.frame_solver_stats();
+        self.manifest.record_frame(FrameRecord {
+            index,
+            time: self.solver.time(),
+            substeps,
+            wall_seconds,
+            ns_per_particle_substep: if substeps > 0 {
+                wall_seconds * 1e9 / (particles * substeps as f64)
+            } else {
+                0.0
+            },
+            files,
+            images,
+            solver,
+        });
+        self.frame = index;
+        let every = self.solver.scene().output.checkpoint_every;
+        if every > 0 && index > 0 && index.is_multiple_of(every) {
+            self.write_checkpoint()?;
+        }
+        self.write_manifest()
+    }
+
+    /// Writes frame `index`'s caches and has its pictures made; returns
+    /// both lists of files.
+    fn write_frame_files(
+        &mut self,
+        index: u32,
+        observer: &mut dyn Observer,
+    ) -> Result<(Vec<String>, Vec<String>), RunError> {
+        let host = self.solver.host()?;
+        let files = caches::write_frame(host, index, &self.run, &mut self.pvd)?;
+        let scene = host.scene();
+        if !scene.render.enabled {
+            return Ok((files, Vec::new()));
+        }
+        let frame = FrameToPicture {
+            scene,
+            index,
+            time: host.time(),
+            particles: host.particles(scene.render.color_by),
+        };
+        let images = observer.pictures(&frame).map_err(RunError::Pictures)?;
+        Ok((files, images))
+    }
+
+    /// The solver's work since the previous frame, if it runs a
+    /// semi-implicit solve.
+    fn frame_solver_stats(&mut self) -> Option<SolverFrameStats> {
+        let totals = self.solver.solver_stats()?;
+        let stats = frame_solver_stats(self.solver_totals, totals);
+        self.solver_totals = Some(totals);
+        Some(stats)
+    }
+
+    /// Has the animations of all frames recorded made, if pictures are.
+    fn write_animations(&mut self, observer: &mut dyn Observer) -> Result<(), RunError> {
+        let scene = self.solver.scene();
+        if !scene.render.enabled {
+            return Ok(());
+        }
+        let frames: Vec<u32> = self.manifest.frames.iter().map(|f| f.index).collect();
+        let animations = observer
+            .animations(scene, &frames)
+            .map_err(|error| self.fail(RunError::Pictures(error)))?;
+        self.manifest.animations = animations;
+        Ok(())
+    }
+
+    /// Writes a checkpoint of the last frame recorded.
+    fn write_checkpoint(&mut self) -> Result<(), RunError> {
+        let path = self.run.checkpoint_path();
+        self.solver
+            .state()
+            .and_then(|state| {
+                Ok(checkpoint::write(
+                    &state,
+                    self.frame,
+                    &self.scene_json,
+                    &path,
+                )?)
+            })
+            .map_err(|error| self.fail(error))
+    }
+
+    /// Writes the manifest as it is now.
+    fn write_manifest(&self) -> Result<(), RunError> {
+        Ok(self.manifest.write(&self.run.manifest_path())?)
+    }
+
+    /// Records `error` in the manifest (best effort: the run has failed
+    /// already) and returns it.
+    fn fail(&mut self, error: RunError) -> RunError {
+        self.manifest.status = RunStatus::Failed {
+            message: format!("error: {error}"),
+        };
+        // A manifest that cannot be written changes nothing about the failure.
+        let _ = self.write_manifest();
+        error
+    }
+}
+
+/// The solver's work between two readings of its running totals.
+fn frame_solver_stats(before: Option<SolverStats>, after: SolverStats) -> SolverFrameStats {
+    let before = before.unwrap_or_default();
+    let solves = after.steps - before.steps;
+    let iterations = after.total_iterations - before.total_iterations;
+    SolverFrameStats {
+        solves,
+        iterations,
+        mean_iterations: if solves > 0 {
+            iterations as f64 / solves as f64
+        } else {
+            0.0
+        },
+        final_residual: after.last_residual,
+        unconverged: after.unconverged_steps - before.unconverged_steps,
+    }
+}

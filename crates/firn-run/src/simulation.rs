@@ -1,0 +1,417 @@
+//! [`Solver`]: a scene simulated on the CPU or the GPU, snow or flow,
+//! behind one interface: step it, read its particles, change its
+//! parameters while it runs, take its state and start again from one.
+//!
+//! A GPU simulation keeps its particles on the device; they come to the
+//! host only when asked for ([`Solver::host`]), and that copy serves until
+//! the next step or parameter change. Its state is the CPU solver's, so
+//! writers, renderers and checkpoints read both backends alike, and a state
+//! taken on one backend continues on the other.
+
+use std::sync::Arc;
+
+use firn_core::Scene;
+use firn_core::scene::{ColorBy, FlowSettings, Material, SceneKind};
+use firn_flow::{FlowSimulation, FlowSnapshot};
+use firn_gpu::draw::ParticleArrays;
+use firn_gpu::{GpuError, GpuFlow, GpuSnow};
+use firn_mpm::{Simulation, Snapshot, SolverStats};
+use glam::Vec3;
+
+use crate::backend::Placement;
+use crate::error::RunError;
+
+/// A running simulation of a scene, snow or flow, on the CPU or the GPU.
+pub struct Solver {
+    engine: Engine,
+}
+
+/// What computes the simulation.
+enum Engine {
+    /// Snow on the CPU MPM solver.
+    CpuSnow(Box<Simulation>),
+    /// A curl-noise flow on the CPU.
+    CpuFlow(Box<FlowSimulation>),
+    /// Snow on the GPU.
+    GpuSnow(Box<OnGpu<GpuSnow, Simulation>>),
+    /// A curl-noise flow on the GPU.
+    GpuFlow(Box<OnGpu<GpuFlow, FlowSimulation>>),
+}
+
+/// A simulation on the GPU, its substeps so far, and the CPU solver's copy
+/// of its state while that copy is current.
+struct OnGpu<Device, Host> {
+    device: Device,
+    steps: u64,
+    host: Option<Host>,
+}
+
+/// The complete state of a solver, as the CPU solvers hold it: what a
+/// checkpoint stores, and what any backend continues from bit for bit.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SolverState {
+    /// A snow simulation's state.
+    Snow(Snapshot),
+    /// A flow's state.
+    Flow(FlowSnapshot),
+}
+
+/// A solver's state in host memory, as the CPU code reads it whatever
+/// backend computed it.
+#[derive(Clone, Copy)]
+pub enum HostState<'a> {
+    /// Snow.
+    Snow(&'a Simulation),
+    /// A curl-noise flow.
+    Flow(&'a FlowSimulation),
+}
+
+/// A frame's particles on the host, as pictures need them.
+pub struct HostParticles<'a> {
+    /// Positions.
+    pub positions: &'a [Vec3],
+    /// Masses (snow only).
+    pub masses: Option<&'a [f32]>,
+    /// Values of the colour quantity, one per particle, if it is a ramp
+    /// quantity the simulation has.
+    pub values: Option<Vec<f32>>,
+    /// The flow's trails, if it keeps them.
+    pub trails: Option<TrailRings>,
+}
+
+/// A flow's trails, flattened: per particle a ring of `capacity` recent
+/// positions, oldest first.
+pub struct TrailRings {
+    /// The rings, particle-major, `capacity` positions each.
+    pub points: Vec<Vec3>,
+    /// Positions per ring.
+    pub capacity: usize,
+    /// Valid positions per ring.
+    pub lengths: Vec<u32>,
+}
+
+impl Solver {
+    /// Starts `scene` at time 0 where `placement` says.
+    pub fn new(scene: Scene, placement: &Placement) -> Result<Solver, RunError> {
+        let state = match scene.kind {
+            SceneKind::Snow => HostSimulation::Snow(Box::new(Simulation::new(scene)?)),
+            SceneKind::Flow(_) => HostSimulation::Flow(Box::new(FlowSimulation::new(scene)?)),
+        };
+        Solver::place(state, placement)
+    }
+
+    /// Continues `scene` from `state` (taken on either backend) where
+    /// `placement` says.
+    pub fn restore(
+        scene: Scene,
+        state: SolverState,
+        placement: &Placement,
+    ) -> Result<Solver, RunError> {
+        let state = match state {
+            SolverState::Snow(snapshot) => {
+                HostSimulation::Snow(Box::new(Simulation::from_snapshot(scene, snapshot)?))
+            }
+            SolverState::Flow(snapshot) => {
+                HostSimulation::Flow(Box::new(FlowSimulation::from_snapshot(scene, snapshot)?))
+            }
+        };
+        Solver::place(state, placement)
+    }
+
+    /// Runs `state` where `placement` says: as it is on the CPU, or moved
+    /// to the GPU, where it stays the host copy until the first step.
+    fn place(state: HostSimulation, placement: &Placement) -> Result<Solver, RunError> {
+        let engine = match (state, placement) {
+            (HostSimulation::Snow(simulation), Placement::Cpu) => Engine::CpuSnow(simulation),
+            (HostSimulation::Flow(flow), Placement::Cpu) => Engine::CpuFlow(flow),
+            (HostSimulation::Snow(simulation), Placement::Gpu(context)) => {
+                let scene = simulation.scene().clone();
+                let device =
+                    GpuSnow::from_snapshot(Arc::clone(context), scene, simulation.snapshot())?;
+                Engine::GpuSnow(Box::new(OnGpu {
+                    device,
+                    steps: simulation.steps(),
+                    host: Some(*simulation),
+                }))
+            }
+            (HostSimulation::Flow(flow), Placement::Gpu(context)) => {
+                let scene = flow.scene().clone();
+                let device = GpuFlow::from_snapshot(Arc::clone(context), scene, flow.snapshot())?;
+                Engine::GpuFlow(Box::new(OnGpu {
+                    device,
+                    steps: flow.substeps(),
+                    host: Some(*flow),
+                }))
+            }
+        };
+        Ok(Solver { engine })
+    }
+
+    /// Where the simulation runs.
+    pub fn placement(&self) -> Placement {
+        match &self.engine {
+            Engine::CpuSnow(_) | Engine::CpuFlow(_) => Placement::Cpu,
+            Engine::GpuSnow(run) => Placement::Gpu(Arc::clone(run.device.context())),
+            Engine::GpuFlow(run) => Placement::Gpu(Arc::clone(run.device.context())),
+        }
+    }
+
+    /// Whether the simulation runs on the GPU.
+    pub fn on_gpu(&self) -> bool {
+        matches!(self.engine, Engine::GpuSnow(_) | Engine::GpuFlow(_))
+    }
+
+    /// The scene as it runs now (with any parameters changed while it runs).
+    pub fn scene(&self) -> &Scene {
+        match &self.engine {
+            Engine::CpuSnow(simulation) => simulation.scene(),
+            Engine::CpuFlow(flow) => flow.scene(),
+            Engine::GpuSnow(run) => run.device.scene(),
+            Engine::GpuFlow(run) => run.device.scene(),
+        }
+    }
+
+    /// Simulated time in seconds.
+    pub fn time(&self) -> f64 {
+        match &self.engine {
+            Engine::CpuSnow(simulation) => simulation.time(),
+            Engine::CpuFlow(flow) => flow.time(),
+            Engine::GpuSnow(run) => run.device.time(),
+            Engine::GpuFlow(run) => run.device.time(),
+        }
+    }
+
+    /// Substeps taken since time 0.
+    pub fn steps(&self) -> u64 {
+        match &self.engine {
+            Engine::CpuSnow(simulation) => simulation.steps(),
+            Engine::CpuFlow(flow) => flow.substeps(),
+            Engine::GpuSnow(run) => run.steps,
+            Engine::GpuFlow(run) => run.steps,
+        }
+    }
+
+    /// The last whole frame of the scene's frame rate reached.
+    pub fn frame(&self) -> u32 {
+        (self.time() * self.scene().time.fps + FRAME_TOLERANCE).floor() as u32
+    }
+
+    /// Current number of particles.
+    pub fn particle_count(&self) -> usize {
+        match &self.engine {
+            Engine::CpuSnow(simulation) => simulation.particles().len(),
+            Engine::CpuFlow(flow) => flow.len(),
+            Engine::GpuSnow(run) => run.device.particle_arrays().count as usize,
+            Engine::GpuFlow(run) => run.device.len(),
+        }
+    }
+
+    /// The semi-implicit solver's running totals (snow with that integrator,
+    /// on the CPU only).
+    pub fn solver_stats(&self) -> Option<SolverStats> {
+        match &self.engine {
+            Engine::CpuSnow(simulation) => simulation.solver_stats(),
+            Engine::CpuFlow(_) | Engine::GpuSnow(_) | Engine::GpuFlow(_) => None,
+        }
+    }
+
+    /// Advances to simulated time `until`; returns the substeps taken.
+    pub fn advance_to(&mut self, until: f64) -> Result<u32, RunError> {
+        let taken = match &mut self.engine {
+            Engine::CpuSnow(simulation) => simulation.advance_to(until)?,
+            Engine::CpuFlow(flow) => flow.advance_to(until),
+            Engine::GpuSnow(run) => run.advance(|device| device.advance_to(until))?,
+            Engine::GpuFlow(run) => run.advance(|device| device.advance_to(until))?,
+        };
+        Ok(taken)
+    }
+
+    /// Advances to the end of the next frame; returns the substeps taken.
+    pub fn advance_frame(&mut self) -> Result<u32, RunError> {
+        let next = f64::from(self.frame() + 1) / self.scene().time.fps;
+        self.advance_to(next)
+    }
+
+    /// Replaces the snow materials; they take effect at the next substep.
+    /// Refused, with nothing changed, for a flow, or materials that differ
+    /// from the running ones in number, names, order or density.
+    pub fn set_materials(&mut self, materials: &[Material]) -> Result<(), RunError> {
+        match &mut self.engine {
+            Engine::CpuSnow(simulation) => simulation.set_materials(materials)?,
+            Engine::GpuSnow(run) => {
+                run.device.set_materials(materials)?;
+                run.host = None;
+            }
+            Engine::CpuFlow(_) | Engine::GpuFlow(_) => {
+                return Err(RunError::Unsupported("a flow scene has no snow materials"));
+            }
+        }
+        Ok(())
+    }
+
+    /// Replaces the flow's field parameters; they take effect at the next
+    /// substep. Refused, with nothing changed, for snow, or settings that
+    /// change the emitters or substeps.
+    pub fn set_flow(&mut self, settings: &FlowSettings) -> Result<(), RunError> {
+        match &mut self.engine {
+            Engine::CpuFlow(flow) => flow.set_settings(settings.clone())?,
+            Engine::GpuFlow(run) => {
+                run.device.set_settings(settings.clone())?;
+                run.host = None;
+            }
+            Engine::CpuSnow(_) | Engine::GpuSnow(_) => {
+                return Err(RunError::Unsupported("a snow scene has no flow parameters"));
+            }
+        }
+        Ok(())
+    }
+
+    /// The state in host memory, read back from the GPU if it is not there
+    /// yet.
+    pub fn host(&mut self) -> Result<HostState<'_>, RunError> {
+        match &mut self.engine {
+            Engine::CpuSnow(simulation) => Ok(HostState::Snow(simulation)),
+            Engine::CpuFlow(flow) => Ok(HostState::Flow(flow)),
+            Engine::GpuSnow(run) => {
+                let simulation = run.host(|device| {
+                    let scene = device.scene().clone();
+                    Ok(Simulation::from_snapshot(scene, device.snapshot()?)?)
+                })?;
+                Ok(HostState::Snow(simulation))
+            }
+            Engine::GpuFlow(run) => {
+                let flow = run.host(|device| {
+                    let scene = device.scene().clone();
+                    Ok(FlowSimulation::from_snapshot(scene, device.snapshot()?)?)
+                })?;
+                Ok(HostState::Flow(flow))
+            }
+        }
+    }
+
+    /// The particles with the values of `color_by`, if they are in host
+    /// memory now: always on the CPU, and on the GPU until the first step
+    /// after they were last read back (see [`Solver::host`]).
+    pub fn host_particles(&self, color_by: ColorBy) -> Option<HostParticles<'_>> {
+        let host = match &self.engine {
+            Engine::CpuSnow(simulation) => HostState::Snow(simulation),
+            Engine::CpuFlow(flow) => HostState::Flow(flow),
+            Engine::GpuSnow(run) => HostState::Snow(run.host.as_ref()?),
+            Engine::GpuFlow(run) => HostState::Flow(run.host.as_ref()?),
+        };
+        Some(host.particles(color_by))
+    }
+
+    /// The particles of a GPU simulation in its own buffers, for a renderer
+    /// on the same device (`None` on the CPU).
+    pub fn device_particles(&self) -> Option<ParticleArrays<'_>> {
+        match &self.engine {
+            Engine::GpuSnow(run) => Some(run.device.particle_arrays()),
+            Engine::GpuFlow(run) => Some(run.device.particle_arrays()),
+            Engine::CpuSnow(_) | Engine::CpuFlow(_) => None,
+        }
+    }
+
+    /// The complete state, to continue from later on either backend
+    /// ([`Solver::restore`]); read back from the GPU unless the host copy
+    /// is current.
+    pub fn state(&self) -> Result<SolverState, RunError> {
+        Ok(match &self.engine {
+            Engine::CpuSnow(simulation) => SolverState::Snow(simulation.snapshot()),
+            Engine::CpuFlow(flow) => SolverState::Flow(flow.snapshot()),
+            Engine::GpuSnow(run) => SolverState::Snow(match &run.host {
+                Some(simulation) => simulation.snapshot(),
+                None => run.device.snapshot()?,
+            }),
+            Engine::GpuFlow(run) => SolverState::Flow(match &run.host {
+                Some(flow) => flow.snapshot(),
+                None => run.device.snapshot()?,
+            }),
+        })
+    }
+}
+
+/// How far below a whole frame the time may fall and still count as having
+/// reached it (flows step in substeps of 1/(fps·n) seconds).
+const FRAME_TOLERANCE: f64 = 1e-6;
+
+/// A simulation on the CPU, before it is placed.
+enum HostSimulation {
+    Snow(Box<Simulation>),
+    Flow(Box<FlowSimulation>),
+}
+
+impl<Device, Host> OnGpu<Device, Host> {
+    /// Steps the device by `advance` and counts the substeps it took; the
+    /// host copy is no longer current.
+    fn advance(
+        &mut self,
+        advance: impl FnOnce(&mut Device) -> Result<u32, GpuError>,
+    ) -> Result<u32, GpuError> {
+        self.host = None;
+        let taken = advance(&mut self.device)?;
+        self.steps += u64::from(taken);
+        Ok(taken)
+    }
+
+    /// The host copy, read back from the device by `download` unless it is
+    /// current.
+    fn host(
+        &mut self,
+        download: impl FnOnce(&Device) -> Result<Host, RunError>,
+    ) -> Result<&Host, RunError> {
+        let host = match self.host.take() {
+            Some(host) => host,
+            None => download(&self.device)?,
+        };
+        Ok(self.host.insert(host))
+    }
+}
+
+impl<'a> HostState<'a> {
+    /// The scene simulated.
+    pub fn scene(self) -> &'a Scene {
+        match self {
+            HostState::Snow(simulation) => simulation.scene(),
+            HostState::Flow(flow) => flow.scene(),
+        }
+    }
+
+    /// Simulated time in seconds.
+    pub fn time(self) -> f64 {
+        match self {
+            HostState::Snow(simulation) => simulation.time(),
+            HostState::Flow(flow) => flow.time(),
+        }
+    }
+
+    /// The particles with the values of `color_by`: snow has every ramp
+    /// quantity, a flow only its speed.
+    pub fn particles(self, color_by: ColorBy) -> HostParticles<'a> {
+        match self {
+            HostState::Snow(simulation) => {
+                let particles = simulation.particles();
+                HostParticles {
+                    positions: &particles.position,
+                    masses: Some(&particles.mass),
+                    values: simulation.color_values(color_by),
+                    trails: None,
+                }
+            }
+            HostState::Flow(flow) => HostParticles {
+                positions: flow.positions(),
+                masses: None,
+                values: (color_by == ColorBy::Speed)
+                    .then(|| flow.velocities().iter().map(|v| v.length()).collect()),
+                trails: flow.trails().map(|trails| {
+                    let (points, lengths) = trails.oldest_first();
+                    TrailRings {
+                        points,
+                        capacity: trails.capacity(),
+                        lengths,
+                    }
+                }),
+            },
+        }
+    }
+}

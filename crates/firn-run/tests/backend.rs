@@ -1,0 +1,45 @@
+//! Where a scene runs: `[compute] backend` and the adapters present.
+
+mod common;
+
+use firn_core::scene::{Backend, ImplicitSettings, Integrator};
+use firn_run::backend::gpu_supports;
+use firn_run::choose_backend;
+
+#[test]
+fn a_scene_asking_for_the_cpu_runs_there() {
+    let mut scene = common::slab();
+    scene.compute.backend = Backend::Cpu;
+    let chosen = choose_backend(&scene).expect("the CPU is always there");
+    assert_eq!(chosen.placement.name(), "cpu");
+    assert_eq!(chosen.placement.adapter(), None);
+    assert!(chosen.placement.describe().starts_with("the CPU ("));
+    assert!(chosen.note.is_none());
+}
+
+#[test]
+fn the_gpu_runs_explicit_snow_and_flows() {
+    assert!(gpu_supports(&common::slab()).is_ok());
+    assert!(gpu_supports(&common::flow()).is_ok());
+}
+
+#[test]
+fn a_semi_implicit_scene_is_not_for_the_gpu() {
+    let mut scene = common::slab();
+    scene.solver.integrator = Integrator::SemiImplicit(ImplicitSettings::DEFAULT);
+    let why = gpu_supports(&scene).expect_err("the GPU steps explicitly only");
+    assert!(why.to_string().contains("semi-implicit"), "{why}");
+    scene.compute.backend = Backend::Gpu;
+    assert!(choose_backend(&scene).is_err());
+    scene.compute.backend = Backend::Auto;
+    let chosen = choose_backend(&scene).expect("auto falls back to the CPU");
+    assert_eq!(chosen.placement.name(), "cpu");
+    if let Some(note) = chosen.note {
+        assert!(
+            note.starts_with(
+                "firn: --backend auto stays on the CPU: the GPU backend cannot run this scene"
+            ),
+            "{note}"
+        );
+    }
+}

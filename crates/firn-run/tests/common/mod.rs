@@ -1,0 +1,57 @@
+//! Small scenes for the tests: a slab of snow thrown onto the floor and a
+//! curl-noise flow around a sphere, each a fraction of a second of a few
+//! hundred particles, without pictures.
+
+use firn_core::Scene;
+use firn_core::scene::{
+    Attribute, Body, FlowEmitter, FlowEmitterShape, FlowObstacle, RenderStyle, Transfer,
+};
+use glam::Vec3;
+
+/// A slab of snow thrown onto the floor: six frames, every attribute
+/// cached in PLY and VTK, a checkpoint every second frame.
+pub fn slab() -> Scene {
+    let mut scene = Scene::builder("slab")
+        .unit_box(0.1)
+        .duration(0.25)
+        .fps(24.0)
+        .transfer(Transfer::Apic)
+        .body(
+            Body::cuboid(Vec3::new(0.5, 0.25, 0.5), Vec3::new(0.3, 0.2, 0.3))
+                .velocity(Vec3::new(0.0, -1.0, 0.0)),
+        )
+        .attributes([
+            Attribute::Velocity,
+            Attribute::PlasticJ,
+            Attribute::ElasticJ,
+            Attribute::Density,
+            Attribute::Mass,
+            Attribute::Material,
+        ])
+        .checkpoint_every(2)
+        .build()
+        .expect("the slab is a valid scene");
+    scene.render.enabled = false;
+    scene
+}
+
+/// A curl-noise flow of 200 particles around a sphere, with trails.
+pub fn flow() -> Scene {
+    let mut scene = Scene::builder("flow")
+        .unit_box(0.05)
+        .duration(0.5)
+        .fps(30.0)
+        .obstacle(FlowObstacle::new(Vec3::splat(0.5), 0.15))
+        .emitter(FlowEmitter::count(
+            FlowEmitterShape::Box {
+                center: Vec3::new(0.2, 0.5, 0.5),
+                size: Vec3::new(0.1, 0.3, 0.3),
+            },
+            200,
+        ))
+        .build()
+        .expect("the flow is a valid scene");
+    scene.render.enabled = false;
+    scene.render.styles = vec![RenderStyle::Trails];
+    scene
+}

@@ -1,0 +1,204 @@
+//! A run recorded into its directory and read back: frame caches, the
+//! manifest, pictures handed in by the front door, checkpoints, and a run
+//! resumed to the same bytes as one never interrupted.
+
+mod common;
+
+use std::path::Path;
+
+use firn_core::Scene;
+use firn_core::scene::ColorBy;
+use firn_io::RunStatus;
+use firn_run::error::{ReadRunError, ResumeError};
+use firn_run::recording::{FrameToPicture, Observer, Progress};
+use firn_run::{Placement, Recording, RunDirectory, Solver};
+
+/// An observer that remembers what it was told and "draws" a file name.
+#[derive(Default)]
+struct Notes {
+    pictured: Vec<(u32, usize)>,
+    recorded: Vec<Progress>,
+    animated: Vec<u32>,
+}
+
+impl Observer for Notes {
+    fn pictures(&mut self, frame: &FrameToPicture<'_>) -> Result<Vec<String>, String> {
+        self.pictured
+            .push((frame.index, frame.particles.positions.len()));
+        Ok(vec![format!("images/test/{}.png", frame.index)])
+    }
+
+    fn frame_recorded(&mut self, progress: &Progress) {
+        self.recorded.push(*progress);
+    }
+
+    fn animations(&mut self, _scene: &Scene, frames: &[u32]) -> Result<Vec<String>, String> {
+        self.animated = frames.to_vec();
+        Ok(vec!["images/test.gif".into()])
+    }
+}
+
+/// Starts `scene` on the CPU in `path` and records frame 0.
+fn start(scene: Scene, path: &Path, observer: &mut Notes) -> Recording {
+    let run = RunDirectory::new(path);
+    run.create(&scene).expect("the run directory is created");
+    let solver = Solver::new(scene, &Placement::Cpu).expect("the scene starts");
+    Recording::start(solver, run, None, observer).expect("frame 0 is recorded")
+}
+
+#[test]
+fn a_recorded_frame_cache_reads_back_as_written() {
+    let folder = tempfile::tempdir().unwrap();
+    let mut notes = Notes::default();
+    let mut recording = start(common::slab(), folder.path(), &mut notes);
+    recording
+        .run_to(3, &mut notes)
+        .expect("three frames are recorded");
+    assert_eq!(recording.frame(), 3);
+    let frames: Vec<u32> = notes
+        .recorded
+        .iter()
+        .map(|progress| progress.frame)
+        .collect();
+    assert_eq!(frames, [1, 2, 3]);
+    assert!(notes.pictured.is_empty(), "pictures are off in the scene");
+
+    let run = RunDirectory::new(folder.path());
+    assert!(RunDirectory::holds_run(folder.path()));
+    assert!(run.checkpoint_path().is_file() && run.collection_path().is_file());
+    let read = run.read().expect("the run reads back");
+    assert_eq!(read.scene.name, "slab");
+    assert_eq!(read.manifest.status, RunStatus::Running);
+    let indices: Vec<u32> = read.manifest.frames.iter().map(|f| f.index).collect();
+    assert_eq!(indices, [0, 1, 2, 3]);
+    let last = &read.manifest.frames[3];
+    assert_eq!(
+        last.files,
+        [
+            RunDirectory::cache_name(firn_core::scene::CacheFormat::Ply, 3),
+            RunDirectory::cache_name(firn_core::scene::CacheFormat::Vtk, 3)
+        ]
+    );
+    let cached = run.read_frame(last).expect("the frame's cache reads back");
+    assert_eq!(cached.path(), folder.path().join("ply/frame_00003.ply"));
+    let particles = recording
+        .solver()
+        .host_particles(ColorBy::Density)
+        .expect("on the CPU");
+    let bits = |positions: &[glam::Vec3]| -> Vec<[u32; 3]> {
+        positions
+            .iter()
+            .map(|x| x.to_array().map(f32::to_bits))
+            .collect()
+    };
+    let positions = cached.positions().expect("x, y and z are cached");
+    assert_eq!(bits(&positions), bits(particles.positions));
+    assert_eq!(cached.masses(), particles.masses);
+    let density = cached
+        .color_values(ColorBy::Density)
+        .expect("density is cached");
+    assert_eq!(density, particles.values);
+    assert_eq!(cached.color_values(ColorBy::Uniform), Ok(None));
+}
+
+#[test]
+fn pictures_and_animations_come_from_the_observer() {
+    let folder = tempfile::tempdir().unwrap();
+    let mut scene = common::slab();
+    scene.render.enabled = true;
+    let mut notes = Notes::default();
+    let mut recording = start(scene, folder.path(), &mut notes);
+    let last = recording.solver().scene().time.frame_count();
+    recording
+        .run_to(last, &mut notes)
+        .expect("the run finishes");
+    let count = recording.solver().particle_count();
+    let expected: Vec<(u32, usize)> = (0..=last).map(|index| (index, count)).collect();
+    assert_eq!(notes.pictured, expected);
+    assert_eq!(notes.animated, (0..=last).collect::<Vec<_>>());
+    let read = RunDirectory::new(folder.path()).read().unwrap();
+    assert_eq!(read.manifest.status, RunStatus::Finished);
+    assert_eq!(read.manifest.animations, ["images/test.gif"]);
+    assert_eq!(read.manifest.frames[2].images, ["images/test/2.png"]);
+}
+
+#[test]
+fn a_resumed_run_writes_the_same_bytes_as_an_uninterrupted_one() {
+    let (whole, parts) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let scene = common::slab();
+    let last = scene.time.frame_count();
+    let mut notes = Notes::default();
+    start(scene.clone(), whole.path(), &mut notes)
+        .run_to(last, &mut notes)
+        .unwrap();
+    start(scene.clone(), parts.path(), &mut notes)
+        .run_to(3, &mut notes)
+        .unwrap();
+    let mut resumed = Recording::resume(scene, RunDirectory::new(parts.path()), &Placement::Cpu)
+        .expect("the run resumes");
+    assert_eq!(resumed.frame(), 3);
+    resumed.run_to(last, &mut notes).unwrap();
+    for file in [
+        format!("ply/frame_{last:05}.ply"),
+        format!("vtk/frame_{last:05}.vtp"),
+        "particles.pvd".into(),
+        "checkpoint.firnckpt".into(),
+    ] {
+        let read = |folder: &Path| std::fs::read(folder.join(&file)).unwrap();
+        assert!(read(whole.path()) == read(parts.path()), "{file} differs");
+    }
+    let manifest = RunDirectory::new(parts.path()).read().unwrap().manifest;
+    assert_eq!(manifest.frames.len() as u32, last + 1);
+    assert_eq!(manifest.status, RunStatus::Finished);
+}
+
+#[test]
+fn a_run_resumes_only_from_its_own_checkpoint() {
+    let folder = tempfile::tempdir().unwrap();
+    let scene = common::slab();
+    let run = RunDirectory::new(folder.path());
+    let missing = Recording::resume(scene.clone(), run.clone(), &Placement::Cpu);
+    assert!(matches!(missing, Err(ResumeError::NoCheckpoint { .. })));
+    let mut notes = Notes::default();
+    start(scene.clone(), folder.path(), &mut notes)
+        .run_to(2, &mut notes)
+        .unwrap();
+    let mut other = scene;
+    other.solver.gravity *= 2.0;
+    let differs = Recording::resume(other, run, &Placement::Cpu);
+    assert!(matches!(differs, Err(ResumeError::SceneDiffers { .. })));
+}
+
+#[test]
+fn a_folder_without_a_run_says_how_to_fix_it() {
+    let folder = tempfile::tempdir().unwrap();
+    assert!(!RunDirectory::holds_run(folder.path()));
+    let error = RunDirectory::new(folder.path())
+        .read()
+        .err()
+        .expect("no run");
+    assert!(matches!(error, ReadRunError::Manifest { .. }));
+    assert!(
+        error
+            .to_string()
+            .contains("fix: pass the directory of a run made by `firn run`")
+    );
+}
+
+#[test]
+fn a_flow_frame_caches_its_velocities_and_ages() {
+    let folder = tempfile::tempdir().unwrap();
+    let mut notes = Notes::default();
+    let mut recording = start(common::flow(), folder.path(), &mut notes);
+    recording.run_to(2, &mut notes).unwrap();
+    let run = recording.run_directory();
+    let read = run.read().unwrap();
+    let cached = run.read_frame(&read.manifest.frames[2]).unwrap();
+    let particles = recording
+        .solver()
+        .host_particles(ColorBy::Speed)
+        .expect("on the CPU");
+    assert_eq!(cached.positions().as_deref(), Some(particles.positions));
+    assert_eq!(cached.color_values(ColorBy::Speed), Ok(particles.values));
+    assert_eq!(cached.color_values(ColorBy::Density), Err("density"));
+}

@@ -1,0 +1,136 @@
+//! One solver type for every simulation: counters, particles on the host,
+//! live parameter changes, and states that continue bit for bit through a
+//! checkpoint file.
+
+mod common;
+
+use std::path::Path;
+
+use firn_core::Scene;
+use firn_core::scene::{ColorBy, SceneKind};
+use firn_run::checkpoint::{self, same_physics, scene_json};
+use firn_run::{Placement, Solver};
+
+/// Writes `solver`'s state as a checkpoint after `frame` at `path` and
+/// returns the file's bytes.
+fn checkpoint_bytes(solver: &Solver, path: &Path) -> Vec<u8> {
+    let state = solver.state().expect("a CPU state");
+    let scene = scene_json(solver.scene());
+    checkpoint::write(&state, solver.frame(), &scene, path).expect("the checkpoint is written");
+    std::fs::read(path).expect("the checkpoint is read")
+}
+
+/// Runs `scene` on the CPU through `frames` frames in one go, and through a
+/// checkpoint after `split`; returns both final checkpoints.
+fn uninterrupted_and_resumed(scene: Scene, split: u32, frames: u32) -> (Vec<u8>, Vec<u8>) {
+    let folder = tempfile::tempdir().expect("a temporary folder");
+    let mut whole = Solver::new(scene.clone(), &Placement::Cpu).expect("the scene starts");
+    for _ in 0..frames {
+        whole.advance_frame().expect("the scene steps");
+    }
+    let mut first = Solver::new(scene.clone(), &Placement::Cpu).expect("the scene starts");
+    for _ in 0..split {
+        first.advance_frame().expect("the scene steps");
+    }
+    let path = folder.path().join("split.firnckpt");
+    checkpoint_bytes(&first, &path);
+    let steps = first.steps();
+    drop(first);
+    let saved = checkpoint::read(&path, &scene.kind).expect("the checkpoint reads back");
+    assert_eq!(saved.frame, split);
+    assert!(same_physics(&saved.scene_json, &scene_json(&scene)));
+    let mut resumed =
+        Solver::restore(scene, saved.state, &Placement::Cpu).expect("the state continues");
+    assert_eq!((resumed.frame(), resumed.steps()), (split, steps));
+    for _ in split..frames {
+        resumed.advance_frame().expect("the scene steps");
+    }
+    assert_eq!(resumed.frame(), frames);
+    (
+        checkpoint_bytes(&whole, &folder.path().join("whole.firnckpt")),
+        checkpoint_bytes(&resumed, &folder.path().join("resumed.firnckpt")),
+    )
+}
+
+#[test]
+fn a_snow_checkpoint_resumes_to_the_same_bits_as_an_uninterrupted_run() {
+    let (whole, resumed) = uninterrupted_and_resumed(common::slab(), 2, 4);
+    assert!(whole == resumed, "the resumed run's state differs");
+}
+
+#[test]
+fn a_flow_checkpoint_resumes_to_the_same_bits_as_an_uninterrupted_run() {
+    let (whole, resumed) = uninterrupted_and_resumed(common::flow(), 3, 6);
+    assert!(whole == resumed, "the resumed flow's state differs");
+}
+
+#[test]
+fn counters_follow_the_frames() {
+    let mut solver = Solver::new(common::flow(), &Placement::Cpu).unwrap();
+    assert_eq!((solver.frame(), solver.steps(), solver.time()), (0, 0, 0.0));
+    assert!(!solver.on_gpu());
+    assert_eq!(solver.placement().name(), "cpu");
+    let taken = solver.advance_frame().unwrap();
+    assert!(taken > 0);
+    assert_eq!(solver.frame(), 1);
+    assert_eq!(solver.steps(), u64::from(taken));
+    assert!(
+        (solver.time() - 1.0 / 30.0).abs() < 1e-9,
+        "{}",
+        solver.time()
+    );
+    solver.advance_to(0.25).unwrap();
+    assert_eq!(solver.frame(), 7);
+}
+
+#[test]
+fn particles_are_read_on_the_host_with_the_colour_quantity() {
+    let mut snow = Solver::new(common::slab(), &Placement::Cpu).unwrap();
+    snow.advance_frame().unwrap();
+    let count = snow.particle_count();
+    let particles = snow.host_particles(ColorBy::Density).expect("on the CPU");
+    assert_eq!(particles.positions.len(), count);
+    assert_eq!(particles.masses.map(<[f32]>::len), Some(count));
+    assert_eq!(particles.values.map(|values| values.len()), Some(count));
+    assert!(particles.trails.is_none());
+    let host = snow.host().expect("on the CPU");
+    assert!(host.particles(ColorBy::Position).values.is_none());
+    assert_eq!(host.time(), snow.time());
+
+    let flow = Solver::new(common::flow(), &Placement::Cpu).unwrap();
+    let particles = flow.host_particles(ColorBy::Speed).expect("on the CPU");
+    assert_eq!(particles.positions.len(), flow.particle_count());
+    assert!(particles.masses.is_none());
+    assert!(particles.values.is_some());
+    let trails = particles.trails.expect("the scene draws trails");
+    assert_eq!(trails.lengths.len(), flow.particle_count());
+    assert_eq!(trails.points.len(), trails.capacity * flow.particle_count());
+    assert!(flow.device_particles().is_none());
+}
+
+#[test]
+fn parameters_change_while_it_runs_and_wrong_ones_are_refused() {
+    let mut snow = Solver::new(common::slab(), &Placement::Cpu).unwrap();
+    let mut materials = snow.scene().materials.clone();
+    materials[0].youngs_modulus /= 2.0;
+    snow.set_materials(&materials)
+        .expect("a softer snow is allowed");
+    assert_eq!(snow.scene().materials, materials);
+    materials[0].density *= 2.0;
+    let refused = snow.set_materials(&materials).unwrap_err().to_string();
+    assert!(refused.contains("density"), "{refused}");
+    let SceneKind::Flow(settings) = common::flow().kind else {
+        panic!("a flow scene")
+    };
+    let refused = snow.set_flow(&settings).unwrap_err().to_string();
+    assert_eq!(refused, "a snow scene has no flow parameters");
+
+    let mut flow = Solver::new(common::flow(), &Placement::Cpu).unwrap();
+    let mut changed = (*settings).clone();
+    changed.background_strength = 0.6;
+    flow.set_flow(&changed)
+        .expect("a stronger background is allowed");
+    assert_eq!(flow.scene().kind, SceneKind::Flow(Box::new(changed)));
+    let refused = flow.set_materials(&materials).unwrap_err().to_string();
+    assert_eq!(refused, "a flow scene has no snow materials");
+}
