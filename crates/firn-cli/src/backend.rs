@@ -1,16 +1,11 @@
-//! Choosing the compute backend of a run or a benchmark from `--backend`,
-//! the scene's `[compute] backend` and the adapters this machine has.
-//!
-//! `auto` takes a hardware GPU when one is present and runs the scene, and
-//! the CPU otherwise; a software adapter (Mesa's lavapipe) is used only when
-//! `gpu` is asked for, since the CPU backend is faster than it.
-
-use std::sync::Arc;
+//! `--backend` and the command line's view of choosing a backend: the
+//! choice itself (`firn_run::backend`) with its errors as exit code 2.
 
 use clap::ValueEnum;
 use firn_core::Scene;
-use firn_core::scene::{Backend, SceneKind};
-use firn_gpu::{AdapterPolicy, GpuContext, GpuError, GpuFlow, GpuSnow};
+use firn_core::scene::Backend;
+use firn_gpu::GpuError;
+use firn_run::Chosen;
 
 use crate::Failure;
 
@@ -36,115 +31,11 @@ impl BackendChoice {
     }
 }
 
-/// Where a simulation runs, once chosen.
-#[derive(Clone, Debug)]
-pub enum Placement {
-    /// The CPU solver on rayon's pool.
-    Cpu,
-    /// The GPU backend on this device.
-    Gpu(Arc<GpuContext>),
-}
-
-impl Placement {
-    /// The backend's name for manifests and JSON records: "cpu" or "gpu".
-    pub fn name(&self) -> &'static str {
-        match self {
-            Placement::Cpu => "cpu",
-            Placement::Gpu(_) => "gpu",
-        }
-    }
-
-    /// The GPU adapter's name, if on the GPU.
-    pub fn adapter(&self) -> Option<String> {
-        match self {
-            Placement::Cpu => None,
-            Placement::Gpu(context) => Some(context.adapter.name.clone()),
-        }
-    }
-
-    /// A few words for the start line: "the CPU (2 threads)" or
-    /// "the GPU (NAME, Vulkan)".
-    pub fn describe(&self) -> String {
-        match self {
-            Placement::Cpu => format!("the CPU ({} threads)", rayon::current_num_threads()),
-            Placement::Gpu(context) => format!(
-                "the GPU ({}, {})",
-                context.adapter.name, context.adapter.backend
-            ),
-        }
-    }
-}
-
-/// The backend chosen for a scene, and the line `auto` prints when it stays
-/// on the CPU although a GPU is present.
-pub struct Chosen {
-    /// Where the simulation runs.
-    pub placement: Placement,
-    /// Why `auto` did not take the GPU it found, in one line.
-    pub note: Option<String>,
-}
-
-/// `Ok` when the GPU backend runs `scene`; otherwise what it lacks.
-pub fn gpu_supports(scene: &Scene) -> Result<(), GpuError> {
-    match scene.kind {
-        SceneKind::Snow => GpuSnow::check_supported(scene),
-        SceneKind::Flow(_) => GpuFlow::check_supported(scene),
-    }
-}
-
 /// Chooses where `scene` runs, by its `[compute] backend` (which
-/// `--backend` overrides).
+/// `--backend` overrides); a scene the GPU cannot run, or no GPU to open,
+/// when `gpu` is asked for is the user's to fix.
 pub fn choose_backend(scene: &Scene) -> Result<Chosen, Failure> {
-    let chosen = |placement, note| Chosen { placement, note };
-    match scene.compute.backend {
-        Backend::Cpu => Ok(chosen(Placement::Cpu, None)),
-        Backend::Gpu => {
-            gpu_supports(scene).map_err(|error| gpu_failure(&error))?;
-            let context = GpuContext::new(AdapterPolicy::AllowSoftware)
-                .map_err(|error| gpu_failure(&error))?;
-            Ok(chosen(Placement::Gpu(context), None))
-        }
-        Backend::Auto => Ok(choose_auto(scene)),
-    }
-}
-
-/// `auto`: the hardware GPU if there is one that runs the scene, else the CPU.
-fn choose_auto(scene: &Scene) -> Chosen {
-    let on_cpu = |why: String| Chosen {
-        placement: Placement::Cpu,
-        note: Some(format!("firn: --backend auto stays on the CPU: {why}")),
-    };
-    if firn_gpu::choose(AdapterPolicy::HardwareOnly).is_none() {
-        return Chosen {
-            placement: Placement::Cpu,
-            note: None,
-        };
-    }
-    if let Err(error) = gpu_supports(scene) {
-        return on_cpu(first_line(&error));
-    }
-    match GpuContext::new(AdapterPolicy::HardwareOnly) {
-        Ok(context) => Chosen {
-            placement: Placement::Gpu(context),
-            note: None,
-        },
-        Err(error) => on_cpu(first_line(&error)),
-    }
-}
-
-/// The first line of a GPU error, without its fix (for `auto`'s note).
-pub fn first_line(error: &GpuError) -> String {
-    match error {
-        GpuError::Unsupported { what, .. } => {
-            format!("the GPU backend cannot run this scene: {what}")
-        }
-        other => other
-            .to_string()
-            .lines()
-            .next()
-            .unwrap_or_default()
-            .to_string(),
-    }
+    firn_run::choose_backend(scene).map_err(|error| gpu_failure(&error))
 }
 
 /// A GPU error that the user must act on (exit code 2), with a fix.
@@ -171,15 +62,11 @@ mod tests {
     }
 
     #[test]
-    fn an_unsupported_scene_is_named_in_one_line() {
+    fn an_unsupported_scene_keeps_its_fix() {
         let error = GpuError::Unsupported {
             what: "the semi-implicit integrator".into(),
             fix: "use --backend cpu".into(),
         };
-        assert_eq!(
-            first_line(&error),
-            "the GPU backend cannot run this scene: the semi-implicit integrator"
-        );
         let Failure::BadInput(message) = gpu_failure(&error) else {
             panic!("an unsupported scene is bad input");
         };

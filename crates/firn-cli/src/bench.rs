@@ -24,11 +24,12 @@ use firn_core::scene::{
 use firn_gpu::GpuContext;
 use firn_mpm::g2p::preferred_simd;
 use firn_mpm::{PhaseTimes, Simulation};
+use firn_run::Placement;
 use glam::Vec3;
 use serde::Serialize;
 
 use crate::Failure;
-use crate::backend::{BackendChoice, Placement, choose_backend};
+use crate::backend::{BackendChoice, choose_backend};
 use crate::bench_gpu::{GpuMemoryRecord, GpuTiming};
 use crate::bench_render::bench_render;
 use crate::bench_sweep::SweepArgs;

@@ -9,11 +9,11 @@ use firn_core::Scene;
 use firn_core::scene::{RenderStyle, Transfer};
 use firn_mpm::Simulation;
 use firn_render::scene_view::{FrameParticles, scene_picture};
+use firn_run::run_dir::style_name;
 use serde::Serialize;
 
 use crate::Failure;
 use crate::bench::{snowball_drop, write_json};
-use crate::pictures::style_name;
 use crate::scene_source::{DEFAULT_SCENE, DEFAULT_SCENE_NAME};
 
 /// Simulated time of the default scene at which its volume picture is taken

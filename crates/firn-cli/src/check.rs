@@ -8,9 +8,9 @@ use firn_core::scene::{Domain, FlowSettings, Shape, TimeStep};
 use firn_flow::FlowSimulation;
 use firn_gpu::snow::MemoryEstimate;
 use firn_mpm::Simulation;
+use firn_run::backend::{first_line, gpu_supports};
 
 use crate::Failure;
-use crate::backend::{first_line, gpu_supports};
 use crate::scene_source::load_scene;
 
 /// Arguments of `firn check`.

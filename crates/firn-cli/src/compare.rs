@@ -13,15 +13,15 @@ use firn_io::{ensure_writable_dir, write_atomically};
 use firn_render::legend::{draw_text, text_width};
 use firn_render::output::write_png;
 use firn_render::scene_view::{FrameParticles, scene_picture};
+use firn_run::run_dir::style_name;
+use firn_run::{Placement, Solver};
 use image::{Rgb, RgbImage};
 use serde::Serialize;
 
 use crate::Failure;
-use crate::backend::Placement;
 use crate::compare_layout::{GLYPH_PIXELS, Layout, layout_for};
-use crate::pictures::style_name;
+use crate::pictures::frame_particles;
 use crate::scene_source::load_scene;
-use crate::solver::Solver;
 
 /// The times of the thesis' figures 14-18, in seconds.
 const THESIS_TIMES: &str = "0.901,1.0,1.233,1.644,4.054";
@@ -264,11 +264,14 @@ impl Plan {
                         entry.file.display()
                     ))
                 })?);
-                let (panel, measures) = solver.with_frame_particles(|frame| {
-                    let picture =
-                        scene_picture(&entry.scene, time, entry.style, frame, Some(self.panel));
-                    (firn_render::render(&picture), Measures::of(frame))
-                });
+                let host = solver
+                    .host()
+                    .map_err(|error| Failure::Failed(format!("error: {error}")))?;
+                let particles = host.particles(host.scene().render.color_by);
+                let frame = frame_particles(&particles);
+                let picture =
+                    scene_picture(&entry.scene, time, entry.style, frame, Some(self.panel));
+                let (panel, measures) = (firn_render::render(&picture), Measures::of(frame));
                 paste(row, column, &panel);
                 let wall_seconds = still_started.elapsed().as_secs_f64();
                 if !quiet {

@@ -10,14 +10,12 @@ mod charts;
 mod check;
 mod compare;
 mod compare_layout;
-mod frames;
 mod info;
 mod pictures;
 mod presets;
 mod render;
 mod run;
 mod scene_source;
-mod solver;
 mod view;
 
 use std::process::ExitCode;

@@ -6,43 +6,35 @@
 use std::path::{Path, PathBuf};
 
 use firn_core::Scene;
-use firn_core::scene::RenderStyle;
 use firn_render::output::{find_ffmpeg, write_gif, write_mp4, write_png};
 use firn_render::scene_view::{FrameParticles, scene_picture};
+use firn_render::trails::Trails;
+use firn_run::RunDirectory;
+use firn_run::simulation::HostParticles;
 
 use crate::Failure;
 
-/// Folder of a style's images inside the run directory.
-fn style_folder(style: RenderStyle) -> String {
-    format!("images/{}", style_name(style))
-}
-
-/// The style's name as written in scene files.
-pub fn style_name(style: RenderStyle) -> &'static str {
-    match style {
-        RenderStyle::Points => "points",
-        RenderStyle::Volume => "volume",
-        RenderStyle::Billboards => "billboards",
-        RenderStyle::Trails => "trails",
-    }
-}
-
-/// Path of frame `index`'s image in `style`, relative to the run directory.
-pub fn image_name(style: RenderStyle, index: u32) -> String {
-    format!("{}/frame_{index:05}.png", style_folder(style))
-}
-
 /// Creates the image folders of the scene's styles.
-pub fn prepare_image_dirs(scene: &Scene, directory: &Path) -> Result<(), Failure> {
-    for &style in &scene.render.styles {
-        let folder = directory.join(style_folder(style));
-        firn_io::ensure_writable_dir(&folder).map_err(|error| {
-            Failure::BadInput(format!(
-                "error: {error}\n  fix: choose a writable output directory with --out DIR"
-            ))
-        })?;
+pub fn prepare_image_dirs(scene: &Scene, run: &RunDirectory) -> Result<(), Failure> {
+    run.create_image_folders(scene).map_err(|error| {
+        Failure::BadInput(format!(
+            "error: {error}\n  fix: choose a writable output directory with --out DIR"
+        ))
+    })
+}
+
+/// The renderer's view of a simulation's particles.
+pub fn frame_particles<'a>(particles: &'a HostParticles<'a>) -> FrameParticles<'a> {
+    FrameParticles {
+        positions: particles.positions,
+        masses: particles.masses,
+        values: particles.values.as_deref(),
+        trails: particles.trails.as_ref().map(|rings| Trails {
+            points: &rings.points,
+            capacity: rings.capacity,
+            lengths: &rings.lengths,
+        }),
     }
-    Ok(())
 }
 
 /// Renders frame `index` at `time` in every style of the scene and writes the
@@ -58,7 +50,7 @@ pub fn render_frame(
     for &style in &scene.render.styles {
         let picture = scene_picture(scene, time, style, particles, None);
         let image = firn_render::render(&picture);
-        let name = image_name(style, index);
+        let name = RunDirectory::image_name(style, index);
         write_png(&directory.join(&name), &image).map_err(|error| error.to_string())?;
         written.push(name);
     }
@@ -82,15 +74,15 @@ pub fn write_animations(
     for &style in &scene.render.styles {
         let images: Vec<PathBuf> = frames
             .iter()
-            .map(|&index| directory.join(image_name(style, index)))
+            .map(|&index| directory.join(RunDirectory::image_name(style, index)))
             .collect();
-        let gif = format!("images/{}.gif", style_name(style));
+        let gif = RunDirectory::animation_name(style, "gif");
         write_gif(&directory.join(&gif), &images, scene.time.fps)
             .map_err(|error| error.to_string())?;
         written.push(gif);
         if let Some(ffmpeg) = &ffmpeg {
-            let mp4 = format!("images/{}.mp4", style_name(style));
-            let pattern = directory.join(style_folder(style)).join("frame_%05d.png");
+            let mp4 = RunDirectory::animation_name(style, "mp4");
+            let pattern = directory.join(RunDirectory::image_pattern(style));
             write_mp4(
                 ffmpeg,
                 &pattern,

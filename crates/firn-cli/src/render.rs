@@ -2,19 +2,20 @@
 //! caches, in other styles, from another camera or at another size, without
 //! simulating again.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
 use firn_core::Scene;
 use firn_core::scene::{ColorBy, Orbit, RenderStyle};
-use firn_io::{FrameRecord, PlyCloud};
-use firn_render::run_dir::{frame_cache_name, open_run, read_frame_cache};
-use firn_render::scene_view::{FrameParticles, cached_color_values};
+use firn_io::FrameRecord;
+use firn_render::scene_view::FrameParticles;
+use firn_run::RunDirectory;
+use firn_run::run_dir::{CachedFrame, RecordedRun};
 use glam::Vec3;
 
 use crate::Failure;
 use crate::pictures::{prepare_image_dirs, render_frame, write_animations};
-use crate::run::{MANIFEST_FILE, progress_bar};
+use crate::run::progress_bar;
 
 /// Arguments of `firn render`.
 #[derive(Args, Debug)]
@@ -88,36 +89,39 @@ impl ColorByArg {
 
 /// Renders every frame of the run in `args.run_dir`.
 pub fn render(args: RenderArgs) -> Result<(), Failure> {
-    let directory = args.run_dir.clone();
-    let manifest_path = directory.join(MANIFEST_FILE);
-    let bad_input = |message: String| Failure::BadInput(format!("error: {message}"));
-    let (mut manifest, mut scene) = open_run(&directory).map_err(bad_input)?;
+    let run = RunDirectory::new(args.run_dir.clone());
+    let bad_input =
+        |error: firn_run::error::ReadRunError| Failure::BadInput(format!("error: {error}"));
+    let RecordedRun {
+        mut manifest,
+        mut scene,
+    } = run.read().map_err(bad_input)?;
     apply_overrides(&mut scene, &args)?;
-    prepare_image_dirs(&scene, &directory)?;
+    prepare_image_dirs(&scene, &run)?;
     let progress = progress_bar(manifest.frames.len() as u32, 0, args.quiet);
     let mut rendered = Vec::with_capacity(manifest.frames.len());
     for record in &manifest.frames {
-        let cloud = read_frame_cache(&directory, record).map_err(bad_input)?;
-        let images = render_cached_frame(&scene, &directory, record, &cloud)?;
+        let cached = run.read_frame(record).map_err(bad_input)?;
+        let images = render_cached_frame(&scene, &run, record, &cached)?;
         rendered.push(images);
         progress.inc(1);
     }
     progress.finish_and_clear();
     let frames: Vec<u32> = manifest.frames.iter().map(|record| record.index).collect();
-    let animations = write_animations(&scene, &directory, &frames, args.quiet)
+    let animations = write_animations(&scene, run.path(), &frames, args.quiet)
         .map_err(|error| Failure::Failed(format!("error: {error}")))?;
     for (record, images) in manifest.frames.iter_mut().zip(rendered) {
         record.images = images;
     }
     manifest.animations = animations;
     manifest
-        .write(&manifest_path)
+        .write(&run.manifest_path())
         .map_err(|error| Failure::Failed(format!("error: {error}")))?;
     println!(
         "firn: rendered {} frames in {} style(s); pictures in {}",
         frames.len(),
         scene.render.styles.len(),
-        directory.join("images").display()
+        run.path().join("images").display()
     );
     Ok(())
 }
@@ -212,30 +216,29 @@ pub(crate) fn parse_size(text: &str) -> Result<[u32; 2], Failure> {
 /// Renders one frame from its cache; returns the written image paths.
 fn render_cached_frame(
     scene: &Scene,
-    directory: &Path,
+    run: &RunDirectory,
     record: &FrameRecord,
-    cloud: &PlyCloud,
+    cached: &CachedFrame,
 ) -> Result<Vec<String>, Failure> {
-    let cache_name = || frame_cache_name(record).unwrap_or_default();
-    let positions = cloud.positions().ok_or_else(|| {
+    let positions = cached.positions().ok_or_else(|| {
         Failure::BadInput(format!(
             "error: {} has no x, y, z columns\n  fix: re-run the scene to rewrite its caches",
-            directory.join(cache_name()).display()
+            cached.path().display()
         ))
     })?;
-    let values = cached_color_values(cloud, scene.render.color_by).map_err(|column| {
+    let values = cached.color_values(scene.render.color_by).map_err(|column| {
         Failure::BadInput(format!(
             "error: {} has no `{column}` column to colour by\n  fix: pass --color-by with a cached quantity, or add it to [output] attributes and run again",
-            directory.join(cache_name()).display()
+            cached.path().display()
         ))
     })?;
     let frame = FrameParticles {
         positions: &positions,
-        masses: cloud.floats("mass"),
+        masses: cached.masses(),
         values: values.as_deref(),
         trails: None,
     };
-    render_frame(scene, directory, record.index, record.time, frame)
+    render_frame(scene, run.path(), record.index, record.time, frame)
         .map_err(|error| Failure::Failed(format!("error: {error}")))
 }
 

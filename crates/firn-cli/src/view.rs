@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
 use firn_core::scene::Backend;
+use firn_run::RunDirectory;
 use firn_view::draw::DrawStyle;
 use firn_view::{ViewBackend, ViewError, ViewInput, ViewOptions};
 
@@ -125,7 +126,7 @@ fn options(args: ViewArgs) -> Result<ViewOptions, Failure> {
             .map_err(|error| Failure::BadInput(format!("error: --record: {error}")))?;
     }
     let (input, scene_backend) = match &args.input {
-        Some(path) if firn_view::playback::Playback::is_run_directory(path) => {
+        Some(path) if RunDirectory::holds_run(path) => {
             (ViewInput::RunDirectory(path.clone()), Backend::Auto)
         }
         path => {
