@@ -6,9 +6,11 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
-use firn_core::scene::SceneKind;
-use firn_gpu::{GpuContext, GpuFlow, GpuSnow};
+use firn_gpu::GpuContext;
 use firn_render::scene_view::{ramp_range, scene_stage, sprite_radius};
+use firn_render::trails::Trails;
+use firn_run::backend::gpu_supports;
+use firn_run::simulation::HostParticles;
 use winit::application::ApplicationHandler;
 use winit::event::WindowEvent;
 use winit::event_loop::ActiveEventLoop;
@@ -19,7 +21,6 @@ use crate::draw::{DrawFrame, ParticleSource, SceneRenderer, capture};
 use crate::error::ViewError;
 use crate::graphics::Graphics;
 use crate::input::{Input, KeyCommand};
-use crate::live::HostParticles;
 use crate::panel::{self, PanelOutput, ViewToggles};
 use crate::playback::Playback;
 use crate::session::{Action, Content, Session};
@@ -361,12 +362,14 @@ impl Running {
         let time = self.session.time();
         let color_by = self.session.color_by();
         let host: Option<HostParticles<'_>> = match self.session.content() {
-            Content::Live(live) => live.host_particles(color_by),
-            Content::Playback(_) => None,
+            Content::Live(live) if !live.on_gpu() => live.host_particles(color_by),
+            Content::Live(_) | Content::Playback(_) => None,
         };
         let particles = match (self.session.content(), &host) {
-            (_, Some(host)) => host.source(),
-            (Content::Live(live), None) => live.device_source().unwrap_or(EMPTY),
+            (_, Some(host)) => host_source(host),
+            (Content::Live(live), None) => live
+                .device_particles()
+                .map_or(EMPTY, ParticleSource::Device),
             (Content::Playback(playback), None) => playback.source().unwrap_or(EMPTY),
         };
         let stage = scene_stage(scene, time);
@@ -507,10 +510,7 @@ fn simulation_device(
     backend: ViewBackend,
     context: &Arc<GpuContext>,
 ) -> Result<Option<Arc<GpuContext>>, ViewError> {
-    let supported = match scene.kind {
-        SceneKind::Snow => GpuSnow::check_supported(scene),
-        SceneKind::Flow(_) => GpuFlow::check_supported(scene),
-    };
+    let supported = gpu_supports(scene);
     match backend {
         ViewBackend::Cpu => Ok(None),
         ViewBackend::Gpu => supported
@@ -519,5 +519,18 @@ fn simulation_device(
         ViewBackend::Auto => {
             Ok((supported.is_ok() && !context.adapter.is_software).then(|| Arc::clone(context)))
         }
+    }
+}
+
+/// The renderer's view of a simulation's particles on the host.
+fn host_source<'a>(particles: &'a HostParticles<'a>) -> ParticleSource<'a> {
+    ParticleSource::Host {
+        positions: particles.positions,
+        values: particles.values.as_deref(),
+        trails: particles.trails.as_ref().map(|rings| Trails {
+            points: &rings.points,
+            capacity: rings.capacity,
+            lengths: &rings.lengths,
+        }),
     }
 }

@@ -5,7 +5,8 @@
 //!
 //! - [`clock`]: the fixed-timestep accumulator;
 //! - [`session`]: what is shown and how it moves on, without a window;
-//! - [`live`] and [`playback`]: a scene simulated live, or a run's caches;
+//! - [`playback`]: a run's caches along a timeline (a scene simulated live
+//!   is a `firn_run::Solver`);
 //! - [`panel`]: the egui panel, which only returns [`session::Action`]s;
 //! - [`camera`] and [`input`]: orbit, pan, zoom, frame-all, the scene camera;
 //! - [`draw`]: the wgpu drawing, straight from GPU simulation buffers;
@@ -20,7 +21,6 @@ pub mod draw;
 pub mod error;
 pub mod graphics;
 pub mod input;
-pub mod live;
 pub mod panel;
 pub mod playback;
 pub mod session;

@@ -1,21 +1,22 @@
 //! Playing back a finished (or interrupted) run from its PLY caches, read
-//! as `firn render` reads them (`firn_render::run_dir`): the scene from the run's manifest, one cloud
-//! per recorded frame, loaded when the timeline reaches it.
+//! as `firn render` reads them (`firn_run::RunDirectory`): the scene from
+//! the run's manifest, one cloud per recorded frame, loaded when the
+//! timeline reaches it.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use firn_core::Scene;
 use firn_core::scene::ColorBy;
-use firn_io::{FrameRecord, MANIFEST_FILE};
-use firn_render::run_dir::{frame_cache_name, open_run, read_frame_cache};
-use firn_render::scene_view::cached_color_values;
+use firn_io::FrameRecord;
+use firn_run::RunDirectory;
+use firn_run::run_dir::RecordedRun;
 use glam::Vec3;
 
 use crate::draw::ParticleSource;
 
 /// A run directory opened for playback.
 pub struct Playback {
-    directory: PathBuf,
+    run: RunDirectory,
     scene: Scene,
     frames: Vec<FrameRecord>,
     /// The frame loaded last, and its particles.
@@ -31,22 +32,18 @@ struct LoadedFrame {
 }
 
 impl Playback {
-    /// Whether `path` is a run directory (it holds a manifest).
-    pub fn is_run_directory(path: &Path) -> bool {
-        path.is_dir() && path.join(MANIFEST_FILE).is_file()
-    }
-
     /// Opens the run in `directory`: its manifest, scene and frame list.
     pub fn open(directory: &Path) -> Result<Playback, String> {
-        let (manifest, scene) = open_run(directory)?;
+        let run = RunDirectory::new(directory);
+        let RecordedRun { manifest, scene } = run.read().map_err(|error| error.to_string())?;
         if manifest.frames.is_empty() {
             return Err(format!(
                 "{}: the run has no frames yet\n  fix: let `firn run` write at least one frame (firn run --resume continues it)",
-                directory.join(MANIFEST_FILE).display()
+                run.manifest_path().display()
             ));
         }
         Ok(Playback {
-            directory: directory.to_path_buf(),
+            run,
             scene,
             frames: manifest.frames,
             loaded: None,
@@ -82,19 +79,17 @@ impl Playback {
         if current.is_some_and(|frame| frame.index == index && frame.color_by == color_by) {
             return Ok(());
         }
-        let record = &self.frames[index];
-        let cloud = read_frame_cache(&self.directory, record)?;
-        let path = || {
-            self.directory
-                .join(frame_cache_name(record).unwrap_or_default())
-        };
-        let positions = cloud
+        let cached = self
+            .run
+            .read_frame(&self.frames[index])
+            .map_err(|error| error.to_string())?;
+        let positions = cached
             .positions()
-            .ok_or_else(|| format!("{} has no x, y, z columns", path().display()))?;
-        let values = cached_color_values(&cloud, color_by).map_err(|column| {
+            .ok_or_else(|| format!("{} has no x, y, z columns", cached.path().display()))?;
+        let values = cached.color_values(color_by).map_err(|column| {
             format!(
                 "{} has no `{column}` column to colour by\n  fix: colour by another quantity, or add it to [output] attributes and run again",
-                path().display()
+                cached.path().display()
             )
         })?;
         self.loaded = Some(LoadedFrame {

@@ -10,10 +10,10 @@ use std::time::{Duration, Instant};
 use firn_core::Scene;
 use firn_core::scene::{ColorBy, FlowSettings, Material, SceneKind};
 use firn_gpu::GpuContext;
+use firn_run::{Placement, Solver};
 
 use crate::clock::FixedStepClock;
 use crate::draw::DrawStyle;
-use crate::live::LiveSimulation;
 use crate::playback::Playback;
 
 /// Wall-clock time one display frame may spend on physics before the rest
@@ -26,7 +26,7 @@ const FIGURE_WINDOW_SECONDS: f64 = 0.5;
 /// What is shown.
 pub enum Content {
     /// A scene simulated as it is shown.
-    Live(Box<LiveSimulation>),
+    Live(Box<Solver>),
     /// A finished run read from its caches.
     Playback(Box<Playback>),
 }
@@ -78,7 +78,8 @@ pub struct Session {
     content: Content,
     /// The scene as loaded, for restarts (with the live parameters applied).
     scene: Scene,
-    gpu: Option<Arc<GpuContext>>,
+    /// Where live simulations run (and restart).
+    placement: Placement,
     clock: FixedStepClock,
     /// Playback position in simulated seconds.
     playback_time: f64,
@@ -108,7 +109,7 @@ impl Session {
         let tick = tick_for(&scene);
         Session {
             content,
-            gpu,
+            placement: gpu.map_or(Placement::Cpu, Placement::Gpu),
             clock: FixedStepClock::new(tick, 1.0),
             playback_time: 0.0,
             playing: true,
@@ -129,7 +130,8 @@ impl Session {
 
     /// Starts `scene` live on `gpu` (or the CPU).
     pub fn live(scene: Scene, gpu: Option<Arc<GpuContext>>) -> Result<Session, String> {
-        let live = LiveSimulation::start(scene, gpu.as_ref())?;
+        let placement = gpu.clone().map_or(Placement::Cpu, Placement::Gpu);
+        let live = Solver::new(scene, &placement).map_err(|error| error.to_string())?;
         Ok(Session::new(Content::Live(Box::new(live)), gpu))
     }
 
@@ -247,10 +249,10 @@ impl Session {
                 Content::Live(live) => {
                     let result = self.clock.run_frame(real, self.physics_budget, |end| {
                         substeps += u64::from(live.advance_to(end)?);
-                        Ok::<(), String>(())
+                        Ok::<(), firn_run::RunError>(())
                     });
-                    if let Err(reason) = result {
-                        self.fail(reason);
+                    if let Err(error) = result {
+                        self.fail(error.to_string());
                     }
                 }
                 Content::Playback(_) => self.play_along(real),
@@ -288,7 +290,7 @@ impl Session {
                 let end = self.clock.next_tick_end();
                 match live.advance_to(end) {
                     Ok(_) => self.clock.count_single_tick(),
-                    Err(reason) => self.fail(reason),
+                    Err(error) => self.fail(error.to_string()),
                 }
             }
             Content::Playback(playback) => {
@@ -305,9 +307,9 @@ impl Session {
         self.clock.reset();
         self.playback_time = 0.0;
         if let Content::Live(live) = &mut self.content {
-            match LiveSimulation::start(self.scene.clone(), self.gpu.as_ref()) {
+            match Solver::new(self.scene.clone(), &self.placement) {
                 Ok(fresh) => **live = fresh,
-                Err(reason) => self.fail(reason),
+                Err(error) => self.fail(error.to_string()),
             }
         }
         self.load_playback_frame();
@@ -320,7 +322,7 @@ impl Session {
         };
         match live.set_materials(&materials) {
             Ok(()) => self.scene.materials = materials,
-            Err(reason) => self.rejected = Some(reason),
+            Err(error) => self.rejected = Some(error.to_string()),
         }
     }
 
@@ -331,7 +333,7 @@ impl Session {
         };
         match live.set_flow(&settings) {
             Ok(()) => self.scene.kind = SceneKind::Flow(Box::new(settings)),
-            Err(reason) => self.rejected = Some(reason),
+            Err(error) => self.rejected = Some(error.to_string()),
         }
     }
 
