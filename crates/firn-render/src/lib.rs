@@ -22,7 +22,6 @@ pub mod legend;
 pub mod output;
 pub mod points;
 pub mod ramp;
-pub mod run_dir;
 pub mod scene_view;
 pub mod stage;
 pub mod trails;

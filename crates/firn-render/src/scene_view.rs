@@ -5,7 +5,6 @@ use std::borrow::Cow;
 
 use firn_core::Scene;
 use firn_core::scene::{ColliderGeometry, ColorBy, RenderStyle};
-use firn_io::PlyCloud;
 use glam::Vec3;
 
 use crate::camera::{CameraView, automatic_framing};
@@ -216,24 +215,6 @@ fn reference_speed(scene: &Scene) -> f32 {
     let height = scene.domain.max.y - scene.domain.min.y;
     let fall = (2.0 * scene.solver.gravity.length() * height).sqrt();
     (thrown + fall).max(1e-3)
-}
-
-/// Values of `color_by` from a PLY cache's columns (`firn render` and the
-/// viewer's playback); `Err(column)` names the missing column.
-pub fn cached_color_values(
-    cloud: &PlyCloud,
-    color_by: ColorBy,
-) -> Result<Option<Vec<f32>>, &'static str> {
-    let column = |name: &'static str| cloud.floats(name).map(<[f32]>::to_vec).ok_or(name);
-    match color_by {
-        ColorBy::Density => column("density").map(Some),
-        ColorBy::PlasticJ => column("plastic_j").map(Some),
-        ColorBy::Speed => cloud
-            .vector("velocity")
-            .map(|velocity| Some(velocity.iter().map(|v| v.length()).collect()))
-            .ok_or("velocity"),
-        ColorBy::Position | ColorBy::Uniform => Ok(None),
-    }
 }
 
 /// The legend for a ramp colouring (none for position or uniform colours).
