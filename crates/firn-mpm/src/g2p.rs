@@ -382,35 +382,33 @@ fn update_batch<I: Interpolation>(
     // values either way.
     let transposes = matches!(simd, Simd::Avx2 | Simd::Avx512) && cfg!(target_arch = "x86_64");
     let particles = &mut block.particles;
-    let mut motion = |k: usize| {
+    let motion = |particles: &mut BlockParticles, k: usize| {
         let state = particles.state(k);
         (*state.position, *state.velocity)
     };
-    let mut results = [(Vec3::ZERO, Mat3::ZERO); BATCH];
     for first in batch.clone().step_by(2) {
-        let lane = first - batch.start;
-        if first + 1 < batch.end {
-            let pair = [motion(first), motion(first + 1)];
-            results[lane..lane + 2].copy_from_slice(&block.interpolation.interpolate_pair(
-                block.local,
-                simd,
-                pair,
-            ));
+        let pair = first + 1 < batch.end;
+        let results = if pair {
+            let motions = [motion(particles, first), motion(particles, first + 1)];
+            block
+                .interpolation
+                .interpolate_pair(block.local, simd, motions)
         } else {
-            let (position, velocity) = motion(first);
-            results[lane] = block
+            let (position, velocity) = motion(particles, first);
+            let alone = block
                 .interpolation
                 .interpolate(block.local, position, velocity);
+            [alone, alone]
+        };
+        for (k, (new_velocity, gradient)) in (first..).zip(results).take(1 + usize::from(pair)) {
+            let lane = k - batch.start;
+            interpolated.velocity.set_lane(lane, new_velocity);
+            if !transposes {
+                interpolated.velocity_gradient.set_lane(lane, gradient);
+            }
+            // Stored now, while at hand: nothing reads the old one again.
+            *particles.state(k).velocity_gradient = gradient;
         }
-    }
-    for (lane, k) in batch.clone().enumerate() {
-        let (new_velocity, gradient) = results[lane];
-        interpolated.velocity.set_lane(lane, new_velocity);
-        if !transposes {
-            interpolated.velocity_gradient.set_lane(lane, gradient);
-        }
-        // Stored now, while at hand: nothing reads the old one again.
-        *particles.state(k).velocity_gradient = gradient;
     }
     if transposes {
         #[cfg(target_arch = "x86_64")]
