@@ -13,8 +13,6 @@
 //!
 //! Every style renders 2x2 samples per pixel and averages them (anti-aliasing).
 
-#![warn(missing_docs)]
-
 pub mod billboards;
 pub mod camera;
 pub mod film;

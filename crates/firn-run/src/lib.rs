@@ -16,8 +16,6 @@
 //!   [`Observer`](recording::Observer) for what the front door shows;
 //! - [`error`]: what can go wrong, as [`RunError`].
 
-#![warn(missing_docs)]
-
 pub mod backend;
 pub mod caches;
 pub mod checkpoint;

@@ -12,8 +12,6 @@
 //! - [`draw`]: the wgpu drawing, straight from GPU simulation buffers;
 //! - [`graphics`] and `app`: the window, its device and its loop.
 
-#![warn(missing_docs)]
-
 mod app;
 pub mod camera;
 pub mod clock;
