@@ -5,7 +5,9 @@
 //! Every tolerance is relative to the largest |value| of the quantity (over
 //! the grid or the particles), about ten times the worst difference seen
 //! over the cases of a run (in brackets, measured on 2026-11-25 with 12
-//! random states per stage and scheme):
+//! random states per stage and scheme; each check prints its worst, so
+//! `cargo test -p firn-mpm --test reference -- --nocapture 2>&1 | grep worst`
+//! shows them):
 //! - P2G: every node sums up to 64 (cubic) or 27 (quadratic) terms per
 //!   particle in another order (block-local copies added colour by colour,
 //!   APIC's terms built in SIMD lanes with the affine map factored
@@ -206,7 +208,17 @@ fn assert_close<T: Copy + std::fmt::Debug>(
     size: impl Fn(T) -> f32,
 ) {
     assert_eq!(fast.len(), plain.len(), "{what}: lengths differ");
-    let tolerance = relative * largest(plain, &size).max(f32::MIN_POSITIVE);
+    let scale = largest(plain, &size).max(f32::MIN_POSITIVE);
+    let tolerance = relative * scale;
+    let worst = fast
+        .iter()
+        .zip(plain)
+        .map(|(&a, &b)| difference(a, b))
+        .fold(0.0f32, f32::max);
+    eprintln!(
+        "{what}: worst {:.1e} of the largest value (tolerance {relative:.0e})",
+        worst / scale
+    );
     for (index, (&a, &b)) in fast.iter().zip(plain).enumerate() {
         let off = difference(a, b);
         assert!(
