@@ -6,7 +6,8 @@
 //! - [`backend`]: where a scene runs ([`Placement`]), chosen from its
 //!   `[compute] backend` and the adapters present;
 //! - [`simulation`]: [`Solver`], one type for a simulation on any backend:
-//!   step it, read its particles, change its parameters, take its state;
+//!   step it, read its particles, change its parameters, take its state,
+//!   and measure it ([`SolverOptions`], phase times, memory);
 //! - [`checkpoint`]: the snow and flow checkpoint files;
 //! - [`caches`]: a frame's PLY and VTK caches and the PVD collection;
 //! - [`run_dir`]: [`RunDirectory`], the layout of a run's folder, written
@@ -28,4 +29,4 @@ pub use backend::{Chosen, Placement, choose_backend};
 pub use error::RunError;
 pub use recording::Recording;
 pub use run_dir::RunDirectory;
-pub use simulation::Solver;
+pub use simulation::{Solver, SolverOptions};

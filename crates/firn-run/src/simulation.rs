@@ -7,15 +7,24 @@
 //! the next step or parameter change. Its state is the CPU solver's, so
 //! writers, renderers and checkpoints read both backends alike, and a state
 //! taken on one backend continues on the other.
+//!
+//! [`SolverOptions`] choose how a backend computes where it offers a
+//! choice (the CPU's instruction set, the GPU's scatter); every choice
+//! gives the same results. For measuring speed, [`Solver::advance_substeps`]
+//! steps a number of substeps regardless of frames, [`Solver::wait`] lets a
+//! clock see the GPU's work finished, and [`Solver::phase_times`] and
+//! [`Solver::memory_bytes`] tell where the time and the memory go.
 
 use std::sync::Arc;
 
 use firn_core::Scene;
-use firn_core::scene::{ColorBy, FlowSettings, Material, SceneKind};
+use firn_core::math::lanes::Simd;
+use firn_core::scene::{ColorBy, FlowSettings, Material, SceneKind, TimeStep};
 use firn_flow::{FlowSimulation, FlowSnapshot};
 use firn_gpu::draw::ParticleArrays;
+use firn_gpu::snow::{MemoryEstimate, Scatter};
 use firn_gpu::{GpuError, GpuFlow, GpuSnow};
-use firn_mpm::{Simulation, Snapshot, SolverStats};
+use firn_mpm::{PhaseTimes, Simulation, Snapshot, SolverStats};
 use glam::Vec3;
 
 use crate::backend::Placement;
@@ -44,6 +53,21 @@ struct OnGpu<Device, Host> {
     device: Device,
     steps: u64,
     host: Option<Host>,
+}
+
+/// How a solver computes, where its backend offers a choice; `None` keeps
+/// the backend's own. Every choice gives the same results, bit for bit:
+/// they differ only in speed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SolverOptions {
+    /// The instruction set of the CPU solvers' batched particle updates
+    /// (by default AVX2 for snow and the widest the CPU has for a flow,
+    /// where the CPU has them). Snow runs one the CPU lacks as portable
+    /// code, a flow keeps its own; the GPU ignores it.
+    pub simd: Option<Simd>,
+    /// How GPU snow's scatter adds into the grid (by default binned, where
+    /// the adapter allows it); other backends ignore it.
+    pub gpu_scatter: Option<Scatter>,
 }
 
 /// The complete state of a solver, as the CPU solvers hold it: what a
@@ -147,6 +171,41 @@ impl Solver {
         Ok(Solver { engine })
     }
 
+    /// This solver with `options` applied (see [`SolverOptions`]).
+    pub fn with_options(mut self, options: SolverOptions) -> Solver {
+        match &mut self.engine {
+            Engine::CpuSnow(simulation) => {
+                if let Some(simd) = options.simd {
+                    simulation.set_simd(simd);
+                }
+            }
+            Engine::CpuFlow(flow) => {
+                if let Some(simd) = options.simd {
+                    flow.set_simd(simd);
+                }
+            }
+            Engine::GpuSnow(run) => {
+                if let Some(scatter) = options.gpu_scatter {
+                    run.device.set_scatter(scatter);
+                }
+            }
+            Engine::GpuFlow(_) => {}
+        }
+        self
+    }
+
+    /// The options in effect: the instruction set on the CPU, the scatter
+    /// of snow on the GPU, `None` where they do not apply.
+    pub fn options(&self) -> SolverOptions {
+        let (simd, gpu_scatter) = match &self.engine {
+            Engine::CpuSnow(simulation) => (Some(simulation.simd()), None),
+            Engine::CpuFlow(flow) => (Some(flow.simd()), None),
+            Engine::GpuSnow(run) => (None, Some(run.device.scatter())),
+            Engine::GpuFlow(_) => (None, None),
+        };
+        SolverOptions { simd, gpu_scatter }
+    }
+
     /// Where the simulation runs.
     pub fn placement(&self) -> Placement {
         match &self.engine {
@@ -224,6 +283,81 @@ impl Solver {
             Engine::GpuFlow(run) => run.advance(|device| device.advance_to(until))?,
         };
         Ok(taken)
+    }
+
+    /// Takes `count` substeps of the scene's Δt wherever they end, frames
+    /// and times aside; returns the substeps taken.
+    ///
+    /// The CPU takes exactly `count`. The GPU steps to a time, here `count`
+    /// times the scene's longest substep ahead (its fixed Δt, the adaptive
+    /// bound, or a flow's substep): a flow takes exactly `count`, snow may
+    /// take one more (a short last one) or, with adaptive steps, more.
+    pub fn advance_substeps(&mut self, count: u32) -> Result<u32, RunError> {
+        let ahead = |scene: &Scene, time: f64| time + f64::from(count) * longest_substep(scene);
+        match &mut self.engine {
+            Engine::CpuSnow(simulation) => {
+                for _ in 0..count {
+                    simulation.step(f64::INFINITY)?;
+                }
+            }
+            Engine::CpuFlow(flow) => {
+                for _ in 0..count {
+                    flow.step();
+                }
+            }
+            Engine::GpuSnow(run) => {
+                let until = ahead(run.device.scene(), run.device.time());
+                return Ok(run.advance(|device| device.advance_to(until))?);
+            }
+            Engine::GpuFlow(run) => {
+                let until = ahead(run.device.scene(), run.device.time());
+                return Ok(run.advance(|device| device.advance_to(until))?);
+            }
+        }
+        Ok(count)
+    }
+
+    /// Returns once the GPU has finished the work submitted so far (at once
+    /// on the CPU), so that a clock read next has timed all of it.
+    pub fn wait(&self) -> Result<(), RunError> {
+        match &self.engine {
+            Engine::CpuSnow(_) | Engine::CpuFlow(_) => {}
+            Engine::GpuSnow(run) => run.device.context().wait()?,
+            Engine::GpuFlow(run) => run.device.context().wait()?,
+        }
+        Ok(())
+    }
+
+    /// Wall-clock seconds spent in each phase of the substeps since the
+    /// start or [`Solver::reset_phase_times`] (snow on the CPU only).
+    pub fn phase_times(&self) -> Option<PhaseTimes> {
+        match &self.engine {
+            Engine::CpuSnow(simulation) => Some(simulation.phase_times()),
+            Engine::CpuFlow(_) | Engine::GpuSnow(_) | Engine::GpuFlow(_) => None,
+        }
+    }
+
+    /// Starts the phase profile afresh, e.g. after untimed warm-up substeps
+    /// (nothing to do where there is none).
+    pub fn reset_phase_times(&mut self) {
+        if let Engine::CpuSnow(simulation) = &mut self.engine {
+            simulation.reset_phase_times();
+        }
+    }
+
+    /// Bytes the simulation holds where it computes: on the CPU its
+    /// particles, grid and working buffers, on the GPU its device buffers
+    /// (not the host copy).
+    pub fn memory_bytes(&self) -> u64 {
+        match &self.engine {
+            Engine::CpuSnow(simulation) => simulation.memory_bytes() as u64,
+            Engine::CpuFlow(flow) => flow.memory_bytes() as u64,
+            Engine::GpuSnow(run) => {
+                let particles = run.device.particle_arrays().count;
+                MemoryEstimate::of(run.device.scene(), u64::from(particles)).total_bytes()
+            }
+            Engine::GpuFlow(run) => run.device.memory_bytes(),
+        }
     }
 
     /// Advances to the end of the next frame; returns the substeps taken.
@@ -334,6 +468,16 @@ impl Solver {
 /// How far below a whole frame the time may fall and still count as having
 /// reached it (flows step in substeps of 1/(fps·n) seconds).
 const FRAME_TOLERANCE: f64 = 1e-6;
+
+/// The longest substep of `scene`, in seconds: snow's fixed Δt or its
+/// adaptive bound, a flow's 1/(fps·substeps).
+fn longest_substep(scene: &Scene) -> f64 {
+    match (&scene.kind, &scene.time.step) {
+        (SceneKind::Flow(settings), _) => 1.0 / (scene.time.fps * f64::from(settings.substeps)),
+        (SceneKind::Snow, TimeStep::Fixed { dt }) => f64::from(*dt),
+        (SceneKind::Snow, TimeStep::Adaptive { max_dt, .. }) => f64::from(*max_dt),
+    }
+}
 
 /// A simulation on the CPU, before it is placed.
 enum HostSimulation {

@@ -1,15 +1,17 @@
 //! One solver type for every simulation: counters, particles on the host,
-//! live parameter changes, and states that continue bit for bit through a
-//! checkpoint file.
+//! live parameter changes, states that continue bit for bit through a
+//! checkpoint file, and the options and figures a benchmark needs.
 
 mod common;
 
 use std::path::Path;
 
 use firn_core::Scene;
+use firn_core::math::lanes::Simd;
 use firn_core::scene::{ColorBy, SceneKind};
+use firn_gpu::snow::Scatter;
 use firn_run::checkpoint::{self, same_physics, scene_json};
-use firn_run::{Placement, Solver};
+use firn_run::{Placement, Solver, SolverOptions};
 
 /// Writes `solver`'s state as a checkpoint after `frame` at `path` and
 /// returns the file's bytes.
@@ -133,4 +135,75 @@ fn parameters_change_while_it_runs_and_wrong_ones_are_refused() {
     assert_eq!(flow.scene().kind, SceneKind::Flow(Box::new(changed)));
     let refused = flow.set_materials(&materials).unwrap_err().to_string();
     assert_eq!(refused, "a flow scene has no snow materials");
+}
+
+/// `count` substeps of `scene` on the CPU with `options`: the solver after them.
+fn substeps_with(scene: Scene, options: SolverOptions, count: u32) -> Solver {
+    let mut solver = Solver::new(scene, &Placement::Cpu)
+        .unwrap()
+        .with_options(options);
+    assert_eq!(solver.advance_substeps(count).unwrap(), count);
+    assert_eq!(solver.steps(), u64::from(count));
+    solver
+}
+
+#[test]
+fn every_instruction_set_gives_the_same_bits() {
+    let portable = SolverOptions {
+        simd: Some(Simd::Portable),
+        ..SolverOptions::default()
+    };
+    for scene in [common::slab(), common::flow()] {
+        let own = substeps_with(scene.clone(), SolverOptions::default(), 5);
+        let chosen = substeps_with(scene, portable, 5);
+        assert_eq!(chosen.options(), portable);
+        assert_eq!(own.options().gpu_scatter, None);
+        assert!(own.state().unwrap() == chosen.state().unwrap());
+    }
+}
+
+#[test]
+fn substeps_are_profiled_and_their_memory_counted() {
+    let mut snow = substeps_with(common::slab(), SolverOptions::default(), 3);
+    snow.wait().unwrap();
+    let times = snow.phase_times().expect("snow on the CPU is profiled");
+    assert!(times.total() > 0.0);
+    snow.reset_phase_times();
+    assert_eq!(snow.phase_times().unwrap().total(), 0.0);
+    assert!(snow.memory_bytes() > 0);
+
+    let flow = substeps_with(common::flow(), SolverOptions::default(), 4);
+    assert!(flow.phase_times().is_none());
+    assert!(flow.memory_bytes() > 0);
+}
+
+#[test]
+fn the_gpu_takes_its_scatter_and_steps_at_least_the_substeps_asked_for() {
+    let Some(context) = firn_gpu::context_for_tests() else {
+        return;
+    };
+    let atomic = SolverOptions {
+        gpu_scatter: Some(Scatter::Atomic),
+        simd: Some(Simd::Portable),
+    };
+    let mut snow = Solver::new(common::slab(), &Placement::Gpu(context.clone()))
+        .unwrap()
+        .with_options(atomic);
+    assert_eq!(
+        snow.options(),
+        SolverOptions {
+            simd: None,
+            gpu_scatter: Some(Scatter::Atomic)
+        }
+    );
+    let taken = snow.advance_substeps(4).unwrap();
+    snow.wait().unwrap();
+    assert!(taken >= 4, "{taken}");
+    assert_eq!(snow.steps(), u64::from(taken));
+    assert!(snow.phase_times().is_none());
+    assert!(snow.memory_bytes() > 0);
+
+    let mut flow = Solver::new(common::flow(), &Placement::Gpu(context)).unwrap();
+    assert_eq!(flow.advance_substeps(3).unwrap(), 3);
+    assert_eq!(flow.options(), SolverOptions::default());
 }
