@@ -7,10 +7,11 @@
 //! time, and reports wall-clock seconds per simulated second: the measure that
 //! compares integrators, whose substeps differ in length and cost.
 //!
-//! Both run on the backend of `--backend` (see `bench_gpu.rs` for the GPU).
+//! Both step a `firn_run::Solver` on the backend of `--backend`, as `firn
+//! run` does (see `bench_gpu.rs` for the GPU's memory figures); so do
+//! `--flow` and `--sweep`, on the CPU.
 
 use std::path::PathBuf;
-use std::sync::Arc;
 use std::time::Instant;
 
 use clap::{Args, ValueEnum};
@@ -21,16 +22,16 @@ use firn_core::scene::{
     OutputSettings, RenderSettings, Scene, SceneKind, Shape, SolverSettings, TimeSettings,
     TimeStep, Transfer,
 };
-use firn_gpu::GpuContext;
+use firn_mpm::PhaseTimes;
 use firn_mpm::g2p::preferred_simd;
-use firn_mpm::{PhaseTimes, Simulation};
-use firn_run::Placement;
+use firn_run::simulation::HostState;
+use firn_run::{Placement, RunError, Solver, SolverOptions};
 use glam::Vec3;
 use serde::Serialize;
 
 use crate::Failure;
-use crate::backend::{BackendChoice, choose_backend};
-use crate::bench_gpu::{GpuMemoryRecord, GpuTiming};
+use crate::backend::{BackendChoice, choose_backend, gpu_failure};
+use crate::bench_gpu::GpuMemoryRecord;
 use crate::bench_render::bench_render;
 use crate::bench_sweep::SweepArgs;
 
@@ -270,24 +271,21 @@ impl BackendRecord {
         gpu_scatter: None,
     };
 
-    /// A GPU run on `context` of `particles` particles of `scene` with `scatter`.
-    fn gpu(
-        context: &GpuContext,
-        scene: &Scene,
-        particles: usize,
-        args: &BenchArgs,
-        scatter: firn_gpu::snow::Scatter,
-    ) -> Self {
+    /// Where `solver` runs, with its GPU memory against `--memory-budget-gib`.
+    fn of(solver: &Solver, args: &BenchArgs) -> Self {
+        let Placement::Gpu(context) = solver.placement() else {
+            return BackendRecord::CPU;
+        };
         BackendRecord {
-            gpu_scatter: Some(match scatter {
+            gpu_scatter: solver.options().gpu_scatter.map(|scatter| match scatter {
                 firn_gpu::snow::Scatter::Binned => "binned",
                 firn_gpu::snow::Scatter::Atomic => "atomic",
             }),
             backend: "gpu",
             adapter: Some(context.adapter.name.clone()),
             gpu_memory: Some(GpuMemoryRecord::of(
-                scene,
-                particles as u64,
+                solver.scene(),
+                solver.particle_count() as u64,
                 args.memory_budget_gib,
             )),
         }
@@ -496,42 +494,20 @@ fn bench_placement(scene: &mut Scene, args: &BenchArgs) -> Result<Placement, Fai
     Ok(chosen.placement)
 }
 
-/// A scene run to its end: its final state and what it took.
-struct SceneRun {
-    simulation: Simulation,
-    wall_seconds: f64,
-    backend: BackendRecord,
-}
-
-/// Runs `scene` to its end on `placement`.
-fn run_scene(scene: Scene, placement: &Placement, args: &BenchArgs) -> Result<SceneRun, Failure> {
+/// Runs `scene` to its end on `placement`; returns the solver at the end
+/// and the wall-clock seconds it took.
+fn run_scene(
+    scene: Scene,
+    placement: &Placement,
+    args: &BenchArgs,
+) -> Result<(Solver, f64), Failure> {
     let duration = scene.time.duration;
-    let Placement::Gpu(context) = placement else {
-        let mut simulation = bench_simulation(scene, args)?;
-        let started = Instant::now();
-        simulation
-            .advance_to(duration)
-            .map_err(|error| Failure::Failed(format!("error: {error}")))?;
-        return Ok(SceneRun {
-            simulation,
-            wall_seconds: started.elapsed().as_secs_f64(),
-            backend: BackendRecord::CPU,
-        });
-    };
-    let mut gpu = crate::bench_gpu::start(context, scene, args.gpu_scatter.scatter())?;
-    let GpuTiming { seconds, state, .. } = crate::bench_gpu::time_until(&mut gpu, 0.0, duration)?;
-    let backend = BackendRecord::gpu(
-        context,
-        state.scene(),
-        state.particles().len(),
-        args,
-        gpu.scatter(),
-    );
-    Ok(SceneRun {
-        simulation: state,
-        wall_seconds: seconds,
-        backend,
-    })
+    let mut solver = bench_solver(scene, placement, args)?;
+    solver.wait().map_err(failed)?;
+    let started = Instant::now();
+    solver.advance_to(duration).map_err(failed)?;
+    solver.wait().map_err(failed)?;
+    Ok((solver, started.elapsed().as_secs_f64()))
 }
 
 /// Runs a scene file for its duration and times it.
@@ -540,12 +516,10 @@ fn measure_scene(path: &std::path::Path, args: &BenchArgs) -> Result<SceneRecord
     let placement = bench_placement(&mut scene, args)?;
     let (duration, time_step) = (scene.time.duration, scene.time.step.clone());
     let (transfer, integrator) = (scene.solver.transfer, scene.solver.integrator);
-    let run = run_scene(scene, &placement, args)?;
-    let (simulation, wall_seconds) = (&run.simulation, run.wall_seconds);
-    let substeps = simulation.steps();
-    let particles = simulation.particles().len();
-    let solver = simulation.solver_stats();
-    let on_cpu = matches!(placement, Placement::Cpu);
+    let (solver, wall_seconds) = run_scene(scene, &placement, args)?;
+    let substeps = solver.steps();
+    let particles = solver.particle_count();
+    let stats = solver.solver_stats();
     let record = SceneRecord {
         scene: path.display().to_string(),
         integrator: match integrator {
@@ -561,13 +535,13 @@ fn measure_scene(path: &std::path::Path, args: &BenchArgs) -> Result<SceneRecord
         wall_seconds_per_simulated_second: wall_seconds / duration,
         ns_per_particle_substep: wall_seconds * 1e9 / (substeps.max(1) as f64 * particles as f64),
         mean_substep_dt: duration / substeps.max(1) as f64,
-        mean_solver_iterations: solver.map(|stats| stats.mean_iterations()),
-        max_solver_iterations: solver.map(|stats| stats.max_iterations),
-        unconverged_solves: solver.map(|stats| stats.unconverged_steps),
-        worst_solver_residual: solver.map(|stats| stats.worst_residual),
+        mean_solver_iterations: stats.map(|stats| stats.mean_iterations()),
+        max_solver_iterations: stats.map(|stats| stats.max_iterations),
+        unconverged_solves: stats.map(|stats| stats.unconverged_steps),
+        worst_solver_residual: stats.map(|stats| stats.worst_residual),
         threads: rayon::current_num_threads(),
-        simd: on_cpu.then(|| simulation.simd().name()),
-        backend: run.backend,
+        simd: solver.options().simd.map(Simd::name),
+        backend: BackendRecord::of(&solver, args),
     };
     let iterations = match (record.mean_solver_iterations, record.max_solver_iterations) {
         (Some(mean), Some(max)) => format!(
@@ -604,12 +578,41 @@ pub fn transfer_name(transfer: Transfer) -> &'static str {
     }
 }
 
-/// Times the snowball `scene` on `--backend`'s choice.
+/// Times `args.steps` substeps of the snowball `scene` after `args.warmup`,
+/// on `--backend`'s choice.
 fn measure(mut scene: Scene, grid: u32, args: &BenchArgs) -> Result<BenchRecord, Failure> {
-    match bench_placement(&mut scene, args)? {
-        Placement::Cpu => measure_cpu(scene, grid, args),
-        Placement::Gpu(context) => measure_gpu(scene, grid, &context, args),
-    }
+    let placement = bench_placement(&mut scene, args)?;
+    let (dt, transfer) = (bench_dt(&scene), scene.solver.transfer);
+    let mut solver = bench_solver(scene, &placement, args)?;
+    let (steps, seconds) = time_substeps(&mut solver, args.warmup, args.steps, None)?;
+    let particles = solver.particle_count();
+    let phases = solver
+        .phase_times()
+        .map(|times| phase_records(times, steps, particles))
+        .unwrap_or_default();
+    let backend = BackendRecord::of(&solver, args);
+    let (memory_bytes, simd) = (solver.memory_bytes(), solver.options().simd);
+    let HostState::Snow(state) = solver.host().map_err(failed)? else {
+        return Err(Failure::Failed(
+            "error: the bench scene is not a snow scene".into(),
+        ));
+    };
+    Ok(BenchRecord {
+        transfer,
+        particles,
+        grid,
+        steps,
+        dt,
+        seconds,
+        ns_per_particle_substep: seconds * 1e9 / (steps.max(1) as f64 * particles as f64),
+        substeps_per_second: steps as f64 / seconds,
+        memory_mib: memory_bytes as f64 / (1024.0 * 1024.0),
+        threads: rayon::current_num_threads(),
+        simd: simd.map(Simd::name),
+        center_of_mass_y: state.diagnostics().center_of_mass[1],
+        phases_ns_per_particle_substep: phases,
+        backend,
+    })
 }
 
 /// The fixed substep of a bench scene (or its adaptive bound).
@@ -620,106 +623,57 @@ fn bench_dt(scene: &Scene) -> f32 {
     }
 }
 
-/// Times `args.steps` substeps of the CPU solver after `args.warmup`.
-fn measure_cpu(scene: Scene, grid: u32, args: &BenchArgs) -> Result<BenchRecord, Failure> {
-    let (dt, transfer) = (bench_dt(&scene), scene.solver.transfer);
-    let mut simulation = bench_simulation(scene, args)?;
-    let (_, seconds) = time_substeps(&mut simulation, args.warmup, args.steps, None)?;
-    let particles = simulation.particles().len();
-    let phases = phase_records(simulation.phase_times(), args.steps, particles);
-    Ok(BenchRecord {
-        transfer,
-        particles,
-        grid,
-        steps: args.steps,
-        dt,
-        seconds,
-        ns_per_particle_substep: seconds * 1e9 / (args.steps.max(1) as f64 * particles as f64),
-        substeps_per_second: args.steps as f64 / seconds,
-        memory_mib: simulation.memory_bytes() as f64 / (1024.0 * 1024.0),
-        threads: rayon::current_num_threads(),
-        simd: Some(simulation.simd().name()),
-        center_of_mass_y: simulation.diagnostics().center_of_mass[1],
-        phases_ns_per_particle_substep: phases,
-        backend: BackendRecord::CPU,
-    })
-}
-
-/// Times about `args.steps` fixed substeps on the GPU after `args.warmup`
-/// (the GPU steps to a time; the substeps it took are counted).
-fn measure_gpu(
+/// The solver of `scene` on `placement`, with `--simd` and `--gpu-scatter`.
+pub fn bench_solver(
     scene: Scene,
-    grid: u32,
-    context: &Arc<GpuContext>,
+    placement: &Placement,
     args: &BenchArgs,
-) -> Result<BenchRecord, Failure> {
-    let (dt, transfer) = (bench_dt(&scene), scene.solver.transfer);
-    let mut gpu = crate::bench_gpu::start(context, scene, args.gpu_scatter.scatter())?;
-    let warmup_until = f64::from(args.warmup) * f64::from(dt);
-    let until = f64::from(args.warmup + args.steps) * f64::from(dt);
-    let timing = crate::bench_gpu::time_until(&mut gpu, warmup_until, until)?;
-    let particles = timing.state.particles().len();
-    let steps = timing.substeps.max(1) as f64;
-    let backend = BackendRecord::gpu(
-        context,
-        timing.state.scene(),
-        particles,
-        args,
-        gpu.scatter(),
-    );
-    Ok(BenchRecord {
-        transfer,
-        particles,
-        grid,
-        steps: timing.substeps as u32,
-        dt,
-        seconds: timing.seconds,
-        ns_per_particle_substep: timing.seconds * 1e9 / (steps * particles as f64),
-        substeps_per_second: steps / timing.seconds,
-        memory_mib: backend
-            .gpu_memory
-            .as_ref()
-            .map_or(0.0, |memory| memory.total_bytes as f64 / (1024.0 * 1024.0)),
-        threads: rayon::current_num_threads(),
-        simd: None,
-        center_of_mass_y: timing.state.diagnostics().center_of_mass[1],
-        phases_ns_per_particle_substep: Vec::new(),
-        backend,
-    })
+) -> Result<Solver, Failure> {
+    let options = SolverOptions {
+        simd: Some(args.simd.resolve()?),
+        gpu_scatter: Some(args.gpu_scatter.scatter()),
+    };
+    let solver = Solver::new(scene, placement).map_err(|error| match error {
+        RunError::Gpu(error) => gpu_failure(&error),
+        other => failed(other),
+    })?;
+    Ok(solver.with_options(options))
 }
 
-/// The simulation of `scene` on the instruction set of `--simd`.
-pub fn bench_simulation(scene: Scene, args: &BenchArgs) -> Result<Simulation, Failure> {
-    let simd = args.simd.resolve()?;
-    let mut simulation =
-        Simulation::new(scene).map_err(|error| Failure::Failed(format!("error: {error}")))?;
-    simulation.set_simd(simd);
-    Ok(simulation)
+/// A solver's error while it runs (exit code 1).
+pub fn failed(error: RunError) -> Failure {
+    Failure::Failed(format!("error: {error}"))
 }
 
 /// Runs `warmup` untimed substeps, then `steps` timed ones, or fewer once
 /// `budget` has passed (but at least [`MIN_TIMED_SUBSTEPS`]); returns the
-/// timed substeps and their wall-clock seconds.
+/// timed substeps and their wall-clock seconds. With a budget it steps one
+/// substep at a time; the GPU may take a substep more than asked (see
+/// [`Solver::advance_substeps`]).
 pub fn time_substeps(
-    simulation: &mut Simulation,
+    solver: &mut Solver,
     warmup: u32,
     steps: u32,
     budget: Option<std::time::Duration>,
 ) -> Result<(u32, f64), Failure> {
-    let fail = |error: firn_mpm::SimulationError| Failure::Failed(format!("error: {error}"));
-    for _ in 0..warmup {
-        simulation.step(f64::INFINITY).map_err(fail)?;
-    }
-    simulation.reset_phase_times();
+    solver.advance_substeps(warmup).map_err(failed)?;
+    solver.wait().map_err(failed)?;
+    solver.reset_phase_times();
     let started = Instant::now();
-    let mut timed = 0;
-    while timed < steps {
-        simulation.step(f64::INFINITY).map_err(fail)?;
-        timed += 1;
-        if budget.is_some_and(|budget| timed >= MIN_TIMED_SUBSTEPS && started.elapsed() >= budget) {
-            break;
+    let timed = match budget {
+        Some(budget) => {
+            let mut timed = 0;
+            while timed < steps {
+                timed += solver.advance_substeps(1).map_err(failed)?;
+                if timed >= MIN_TIMED_SUBSTEPS && started.elapsed() >= budget {
+                    break;
+                }
+            }
+            timed
         }
-    }
+        None => solver.advance_substeps(steps).map_err(failed)?,
+    };
+    solver.wait().map_err(failed)?;
     Ok((timed, started.elapsed().as_secs_f64()))
 }
 

@@ -9,11 +9,12 @@
 use std::time::Instant;
 
 use firn_core::Scene;
-use firn_flow::{FlowSimulation, Simd};
+use firn_flow::Simd;
+use firn_run::{Placement, Solver, SolverOptions};
 use serde::Serialize;
 
 use crate::Failure;
-use crate::bench::BenchArgs;
+use crate::bench::{BenchArgs, failed};
 
 /// One measured configuration.
 #[derive(Debug, Serialize)]
@@ -127,34 +128,36 @@ pub fn bench_flow(args: &BenchArgs) -> Result<(), Failure> {
     Ok(())
 }
 
+/// Times `args.steps` steps of `particles` particles with `curl` on `simd`
+/// after `args.warmup`, on the CPU.
 fn measure(
     particles: u32,
     curl: &'static str,
     simd: Simd,
     args: &BenchArgs,
 ) -> Result<FlowRecord, Failure> {
-    let mut flow = FlowSimulation::new(scene(particles, curl)?)
-        .map_err(|error| Failure::Failed(format!("error: {error}")))?;
-    flow.set_simd(simd);
-    for _ in 0..args.warmup {
-        flow.step();
-    }
+    let options = SolverOptions {
+        simd: Some(simd),
+        gpu_scatter: None,
+    };
+    let mut flow = Solver::new(scene(particles, curl)?, &Placement::Cpu)
+        .map_err(failed)?
+        .with_options(options);
+    flow.advance_substeps(args.warmup).map_err(failed)?;
     let cpu_before = process_cpu_seconds();
     let started = Instant::now();
-    for _ in 0..args.steps {
-        flow.step();
-    }
+    flow.advance_substeps(args.steps).map_err(failed)?;
     let seconds = started.elapsed().as_secs_f64();
     let cpu_seconds = cpu_before
         .zip(process_cpu_seconds())
         .map(|(before, after)| after - before);
-    let count = flow.len();
+    let count = flow.particle_count();
     let steps = args.steps.max(1);
     Ok(FlowRecord {
         mode: "flow",
         curl,
         integrator: "rk2",
-        simd: flow.simd().name(),
+        simd: flow.options().simd.unwrap_or(simd).name(),
         particles: count,
         steps,
         seconds,

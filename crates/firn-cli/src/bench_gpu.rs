@@ -1,19 +1,13 @@
-//! `firn bench --backend gpu`: the snowball and `--scene` runs on the GPU,
-//! and what the GPU's memory holds: bytes per particle and per grid node,
-//! and the most particles that fit a memory budget on the bench's grid and
-//! on a 256³ grid (the thesis ran 2^20 particles on 256³ on a 4 GiB GTX 1070).
-
-use std::sync::Arc;
-use std::time::Instant;
+//! `firn bench --backend gpu`: what the GPU's memory holds for the snowball
+//! and `--scene` runs (which step a `firn_run::Solver` on the GPU as the
+//! CPU runs do on the CPU): bytes per particle and per grid node, and the
+//! most particles that fit a memory budget on the bench's grid and on a
+//! 256³ grid (the thesis ran 2^20 particles on 256³ on a 4 GiB GTX 1070).
 
 use firn_core::Scene;
-use firn_gpu::GpuContext;
-use firn_gpu::snow::{GpuSnow, MemoryEstimate, Scatter};
-use firn_mpm::Simulation;
+use firn_gpu::snow::MemoryEstimate;
 use serde::Serialize;
 
-use crate::Failure;
-use crate::backend::gpu_failure;
 use crate::bench::snowball_drop;
 
 /// Particles of the thesis' largest GPU run (§6.2): 2^20.
@@ -94,48 +88,6 @@ impl GpuMemoryRecord {
             }
         )
     }
-}
-
-/// A timed stretch of a GPU run.
-pub struct GpuTiming {
-    /// Substeps taken in the timed stretch.
-    pub substeps: u64,
-    /// Its wall-clock seconds.
-    pub seconds: f64,
-    /// The state at its end, read back.
-    pub state: Simulation,
-}
-
-/// Starts `scene` on the GPU of `context` with `scatter` where the adapter
-/// allows it (errors are the user's to fix).
-pub fn start(
-    context: &Arc<GpuContext>,
-    scene: Scene,
-    scatter: Scatter,
-) -> Result<GpuSnow, Failure> {
-    let mut gpu = GpuSnow::new(Arc::clone(context), scene).map_err(|error| gpu_failure(&error))?;
-    gpu.set_scatter(scatter);
-    Ok(gpu)
-}
-
-/// Advances untimed to `warmup_until`, then timed to `until` (simulated
-/// seconds), and reads the state back.
-pub fn time_until(gpu: &mut GpuSnow, warmup_until: f64, until: f64) -> Result<GpuTiming, Failure> {
-    let fail = |error: firn_gpu::GpuError| Failure::Failed(format!("error: {error}"));
-    gpu.advance_to(warmup_until).map_err(fail)?;
-    gpu.context().wait().map_err(fail)?;
-    let started = Instant::now();
-    let substeps = gpu.advance_to(until).map_err(fail)?;
-    gpu.context().wait().map_err(fail)?;
-    let seconds = started.elapsed().as_secs_f64();
-    let snapshot = gpu.snapshot().map_err(fail)?;
-    let state = Simulation::from_snapshot(gpu.scene().clone(), snapshot)
-        .map_err(|error| Failure::Failed(format!("error: {error}")))?;
-    Ok(GpuTiming {
-        substeps: u64::from(substeps),
-        seconds,
-        state,
-    })
 }
 
 #[cfg(test)]

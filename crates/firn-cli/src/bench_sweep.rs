@@ -32,11 +32,12 @@ use clap::{Args, ValueEnum};
 use firn_core::scene::{Scene, Shape, Transfer};
 use firn_mpm::grid::{BLOCK_NODES, BLOCK_WIDTH, GridLayout, Node};
 use firn_mpm::{Particles, PermuteBuffers};
+use firn_run::Placement;
 use glam::{UVec3, Vec3};
 use serde::Serialize;
 
 use crate::Failure;
-use crate::bench::{BenchArgs, snowball_drop, time_substeps, transfer_name};
+use crate::bench::{BenchArgs, bench_solver, snowball_drop, time_substeps, transfer_name};
 use crate::charts::{self, ChartText, Sample, XTicks, superscript};
 
 /// Cells per metre in both sweeps: the 256³ grid of the unit box.
@@ -529,12 +530,12 @@ fn measure_size(
     let message = |failure| match failure {
         Failure::BadInput(message) | Failure::Failed(message) => message,
     };
-    let mut simulation = crate::bench::bench_simulation(scene, args).map_err(message)?;
+    let mut solver = bench_solver(scene, &Placement::Cpu, args).map_err(message)?;
     let budget = Duration::from_secs_f64(args.sweep.sweep_seconds);
-    time_substeps(&mut simulation, args.warmup, 0, None).map_err(message)?;
+    time_substeps(&mut solver, args.warmup, 0, None).map_err(message)?;
     let cpu_before = procfs::cpu_seconds();
     let (substeps, seconds) =
-        time_substeps(&mut simulation, 0, args.steps, Some(budget)).map_err(message)?;
+        time_substeps(&mut solver, 0, args.steps, Some(budget)).map_err(message)?;
     let cpu = cpu_before
         .zip(procfs::cpu_seconds())
         .map(|(before, after)| after - before);
@@ -542,7 +543,7 @@ fn measure_size(
     if record.measured_peak_bytes.is_some() && !peak_reset {
         notes.push("peak is the process' so far (clear_refs not writable)".into());
     }
-    let particles = simulation.particles().len() as u64;
+    let particles = solver.particle_count() as u64;
     record_timing(&mut record, particles, substeps, seconds, cpu);
     record.note = notes.join("; ");
     Ok(record)
@@ -860,18 +861,16 @@ mod tests {
 
     #[test]
     fn the_estimate_follows_the_ball_and_covers_the_simulation() {
-        use firn_mpm::Simulation;
+        use firn_run::Solver;
         let cells = UVec3::splat(64);
         let ball = Ball::new(1 << 12, cells);
         let scene = sweep_scene(cells, &ball, Transfer::Apic);
         let layout = GridLayout::new(scene.domain.min, scene.domain.max, scene.domain.cell_size);
-        let mut simulation = Simulation::new(scene).unwrap();
-        for _ in 0..3 {
-            simulation.step(f64::INFINITY).unwrap();
-        }
-        let particles = simulation.particles().len() as u64;
+        let mut solver = Solver::new(scene, &Placement::Cpu).unwrap();
+        solver.advance_substeps(3).unwrap();
+        let particles = solver.particle_count() as u64;
         let estimate = estimate_bytes(&layout, &ball, particles);
-        assert!(estimate >= simulation.memory_bytes() as u64);
+        assert!(estimate >= solver.memory_bytes());
 
         let big = GridLayout::new(Vec3::ZERO, Vec3::new(2.0, 2.0, 1.0), 1.0 / 256.0);
         let block_bytes = 8 * (big.block_count() - layout.block_count()) as u64;
