@@ -10,6 +10,7 @@
 use std::hint::black_box;
 use std::time::Instant;
 
+use firn_core::math::isa::{Isa, Kernel};
 use firn_core::math::lanes::{Mat3s, Simd};
 use firn_core::math::svd::svd3_lanes;
 use glam::Mat3;
@@ -60,20 +61,19 @@ fn near_identity_batches(count: usize) -> Vec<Mat3s<LANES>> {
 
 /// Decomposes every batch on `simd`; returns a checksum.
 fn decompose_all(batches: &[Mat3s<LANES>], simd: Simd) -> f32 {
-    match simd {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: only asked for where `Simd::detect` found AVX2 or AVX-512F
-        // (whose CPUs have AVX2 too).
-        Simd::Avx2 | Simd::Avx512 => unsafe { decompose_all_avx2(batches) },
-        _ => decompose_portable(batches),
-    }
+    Isa::of(simd).run(DecomposeAll(batches))
 }
 
-/// [`decompose_portable`] compiled for AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn decompose_all_avx2(batches: &[Mat3s<LANES>]) -> f32 {
-    decompose_portable(batches)
+/// [`decompose_portable`] as a kernel, compiled once per instruction set.
+struct DecomposeAll<'a>(&'a [Mat3s<LANES>]);
+
+impl Kernel for DecomposeAll<'_> {
+    type Output = f32;
+
+    #[inline(always)]
+    fn run(self, _isa: Isa) -> f32 {
+        decompose_portable(self.0)
+    }
 }
 
 /// The decompositions, each stored whole (`black_box` of a reference: the

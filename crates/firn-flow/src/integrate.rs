@@ -17,6 +17,10 @@
 use firn_core::scene::{FlowIntegrator, FlowObstacle};
 use glam::Vec3;
 
+use firn_core::math::isa::Isa;
+#[cfg(target_arch = "x86_64")]
+use firn_core::math::isa::{Avx2, Avx512};
+
 use crate::field::{FlowField, Prepared, velocity_lanes};
 use crate::lanes::{F32s, Real, V3, add3, dot3, scale3, sub3};
 #[cfg(target_arch = "x86_64")]
@@ -33,7 +37,7 @@ pub(crate) const MAX_LANES: usize = 16;
 pub use firn_core::math::lanes::Simd;
 
 /// A lane type a batch of particles is evaluated in.
-trait Batch: Real {
+pub(crate) trait Batch: Real {
     /// Particles per batch.
     const WIDTH: usize;
     /// The first `WIDTH` numbers of `lanes`.
@@ -78,8 +82,7 @@ impl Batch for Avx8 {
     }
     #[inline(always)]
     fn velocity(prepared: &Prepared<Self>, x: V3<Self>) -> V3<Self> {
-        // SAFETY: Avx8 values exist only where the CPU has AVX2.
-        unsafe { velocity_avx2(prepared, x) }
+        Avx8::velocity(prepared, x)
     }
 }
 
@@ -96,25 +99,8 @@ impl Batch for Avx16 {
     }
     #[inline(always)]
     fn velocity(prepared: &Prepared<Self>, x: V3<Self>) -> V3<Self> {
-        // SAFETY: Avx16 values exist only where the CPU has AVX-512F.
-        unsafe { velocity_avx512(prepared, x) }
+        Avx16::velocity(prepared, x)
     }
-}
-
-/// [`velocity_lanes`] compiled for AVX-512.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-#[inline(never)]
-fn velocity_avx512(prepared: &Prepared<Avx16>, x: V3<Avx16>) -> V3<Avx16> {
-    velocity_lanes(prepared, x)
-}
-
-/// [`velocity_lanes`] compiled for AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline(never)]
-fn velocity_avx2(prepared: &Prepared<Avx8>, x: V3<Avx8>) -> V3<Avx8> {
-    velocity_lanes(prepared, x)
 }
 
 /// The field prepared at the times a step samples: its start, middle and end.
@@ -151,23 +137,25 @@ pub(crate) struct Chunk<'a> {
     pub lifetimes: &'a [f32],
 }
 
-/// The stages of one step, in the lane type of the chosen instruction set.
+/// The stages of one step, in the lane type of the chosen instruction set,
+/// with the proof that the CPU has it.
 pub(crate) enum Stages {
     Portable(Box<StagesOf<F32s<LANES>>>),
     #[cfg(target_arch = "x86_64")]
-    Avx2(Box<StagesOf<Avx8>>),
+    Avx2(Avx2, Box<StagesOf<Avx8>>),
     #[cfg(target_arch = "x86_64")]
-    Avx512(Box<StagesOf<Avx16>>),
+    Avx512(Avx512, Box<StagesOf<Avx16>>),
 }
 
 impl Stages {
-    /// The field at the start, middle and end of the step from `t0` to `t1`.
+    /// The field at the start, middle and end of the step from `t0` to `t1`,
+    /// in the lanes of `simd` where the CPU has it (else portable lanes).
     pub(crate) fn new(simd: Simd, field: &FlowField, t0: f64, t1: f64) -> Stages {
-        match simd {
+        match Isa::of(simd) {
             #[cfg(target_arch = "x86_64")]
-            Simd::Avx2 => Stages::Avx2(Box::new(StagesOf::new(field, t0, t1))),
+            Isa::Avx2(avx2) => Stages::Avx2(avx2, Box::new(StagesOf::new(field, t0, t1))),
             #[cfg(target_arch = "x86_64")]
-            Simd::Avx512 => Stages::Avx512(Box::new(StagesOf::new(field, t0, t1))),
+            Isa::Avx512(avx512) => Stages::Avx512(avx512, Box::new(StagesOf::new(field, t0, t1))),
             _ => Stages::Portable(Box::new(StagesOf::new(field, t0, t1))),
         }
     }
@@ -189,44 +177,14 @@ pub(crate) fn advance(
     match stages {
         Stages::Portable(stages) => advance_batches(stages, integrator, dt, limits, chunk, flagged),
         #[cfg(target_arch = "x86_64")]
-        Stages::Avx2(stages) => {
-            // SAFETY: `Stages::Avx2` is only made where the CPU has AVX2.
-            unsafe { advance_avx2(stages, integrator, dt, limits, chunk, flagged) }
+        Stages::Avx2(avx2, stages) => {
+            Avx8::advance(*avx2, stages, integrator, dt, limits, chunk, flagged)
         }
         #[cfg(target_arch = "x86_64")]
-        Stages::Avx512(stages) => {
-            // SAFETY: `Stages::Avx512` is only made where the CPU has AVX-512F.
-            unsafe { advance_avx512(stages, integrator, dt, limits, chunk, flagged) }
+        Stages::Avx512(avx512, stages) => {
+            Avx16::advance(*avx512, stages, integrator, dt, limits, chunk, flagged)
         }
     }
-}
-
-/// [`advance_batches`] compiled for AVX-512.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn advance_avx512(
-    stages: &StagesOf<Avx16>,
-    integrator: FlowIntegrator,
-    dt: f32,
-    limits: &Limits,
-    chunk: Chunk,
-    flagged: &mut Vec<u32>,
-) {
-    advance_batches(stages, integrator, dt, limits, chunk, flagged)
-}
-
-/// [`advance_batches`] compiled for AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn advance_avx2(
-    stages: &StagesOf<Avx8>,
-    integrator: FlowIntegrator,
-    dt: f32,
-    limits: &Limits,
-    chunk: Chunk,
-    flagged: &mut Vec<u32>,
-) {
-    advance_batches(stages, integrator, dt, limits, chunk, flagged)
 }
 
 /// Evaluate the field at time `t` at `positions` into `velocities`.
@@ -237,35 +195,15 @@ pub(crate) fn evaluate(
     positions: &[Vec3],
     velocities: &mut [Vec3],
 ) {
-    match simd {
+    match Isa::of(simd) {
         #[cfg(target_arch = "x86_64")]
-        Simd::Avx2 => {
-            let prepared = field.prepare::<Avx8>(t);
-            // SAFETY: `Simd::Avx2` is only chosen where the CPU has AVX2.
-            unsafe { evaluate_avx2(&prepared, positions, velocities) }
-        }
+        Isa::Avx2(avx2) => Avx8::evaluate(avx2, &field.prepare::<Avx8>(t), positions, velocities),
         #[cfg(target_arch = "x86_64")]
-        Simd::Avx512 => {
-            let prepared = field.prepare::<Avx16>(t);
-            // SAFETY: `Simd::Avx512` is only chosen where the CPU has AVX-512F.
-            unsafe { evaluate_avx512(&prepared, positions, velocities) }
+        Isa::Avx512(avx512) => {
+            Avx16::evaluate(avx512, &field.prepare::<Avx16>(t), positions, velocities)
         }
         _ => evaluate_batches(&field.prepare::<F32s<LANES>>(t), positions, velocities),
     }
-}
-
-/// [`evaluate_batches`] compiled for AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn evaluate_avx2(prepared: &Prepared<Avx8>, positions: &[Vec3], velocities: &mut [Vec3]) {
-    evaluate_batches(prepared, positions, velocities)
-}
-
-/// [`evaluate_batches`] compiled for AVX-512.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn evaluate_avx512(prepared: &Prepared<Avx16>, positions: &[Vec3], velocities: &mut [Vec3]) {
-    evaluate_batches(prepared, positions, velocities)
 }
 
 /// Load a batch starting at `start`, padding with the last particle.
@@ -295,7 +233,11 @@ fn store<R: Batch>(out: &mut [Vec3], start: usize, count: usize, value: V3<R>) {
 }
 
 #[inline(always)]
-fn evaluate_batches<R: Batch>(prepared: &Prepared<R>, positions: &[Vec3], velocities: &mut [Vec3]) {
+pub(crate) fn evaluate_batches<R: Batch>(
+    prepared: &Prepared<R>,
+    positions: &[Vec3],
+    velocities: &mut [Vec3],
+) {
     for start in (0..positions.len()).step_by(R::WIDTH) {
         let count = (positions.len() - start).min(R::WIDTH);
         let v = R::velocity(prepared, load(positions, start));
@@ -315,7 +257,7 @@ fn load_numbers<R: Batch>(numbers: &[f32], start: usize) -> R {
 }
 
 #[inline(always)]
-fn advance_batches<R: Batch>(
+pub(crate) fn advance_batches<R: Batch>(
     stages: &StagesOf<R>,
     integrator: FlowIntegrator,
     dt: f32,

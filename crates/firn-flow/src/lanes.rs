@@ -17,7 +17,7 @@ use firn_core::math::lanes::{map1, map2, mask_bits};
 
 /// Inputs of `floor_int` are clamped to ±this (2³⁰), so the integer
 /// conversion is always defined.
-pub const FLOOR_LIMIT: f64 = 1_073_741_824.0;
+pub const FLOOR_LIMIT: f64 = firn_core::math::isa::FLOOR_LIMIT as f64;
 
 /// A real number, or a bundle of lanes of them, with the few operations the
 /// simplex noise and the curl need.
@@ -212,16 +212,8 @@ impl<const N: usize> Real for F32s<N> {
     }
     #[inline(always)]
     fn floor_int(self) -> (F32s<N>, U32s<N>) {
-        // Truncate, then step down where truncation rounded up (negative
-        // non-integers): no libm call, and it vectorises with plain SSE2.
-        let limit = FLOOR_LIMIT as f32;
-        let int: [i32; N] = map1(self.0, |x| {
-            let x = if x > -limit { x } else { -limit };
-            let x = if x < limit { x } else { limit };
-            // SAFETY: x is finite and within ±2³⁰ after the clamp.
-            let truncated: i32 = unsafe { x.to_int_unchecked() };
-            truncated - ((truncated as f32 > x) as i32)
-        });
+        // No libm call, and it vectorises with plain SSE2.
+        let int: [i32; N] = map1(self.0, firn_core::math::isa::floor_clamped);
         (F32s(map1(int, |i| i as f32)), U32s(map1(int, |i| i as u32)))
     }
     #[inline(always)]

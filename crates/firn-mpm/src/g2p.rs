@@ -14,7 +14,8 @@
 //! SVD where a particle yields) and stress of the whole batch run in SIMD
 //! lanes ([`ElasticUpdate`]), and so do the collisions, the advection and
 //! the checks. With AVX2 the matrices go in and out of the lanes by 8x8
-//! transposes ([`Mat3s::load_eight`]).
+//! transposes ([`Avx2::load_eight`]). Each block runs compiled for the
+//! chosen instruction set ([`Isa::run`]), and so does the snow model.
 //!
 //! Batches are formed from a block's particles (the last one is padded with
 //! undeformed particles), and every lane does the same IEEE operations, so
@@ -23,6 +24,9 @@
 //! portable code give the same bits.
 
 use firn_core::math::bspline::{StencilValues, cubic_weights, quadratic_values};
+#[cfg(target_arch = "x86_64")]
+use firn_core::math::isa::Vec4Pair;
+use firn_core::math::isa::{Avx2, Isa, Kernel};
 use firn_core::math::lanes::{F32s, Mat3s, Simd, U32s, Vec3s};
 use std::ops::Range;
 
@@ -130,31 +134,22 @@ impl Interpolated {
     }
 }
 
-/// Steps 7 and 9 for a batch over a substep of `dt`, compiled for the
-/// chosen instruction set.
-///
-/// Each instruction set's copy is a function of its own, shared by both
+/// Steps 7 and 9 for a batch over a substep of `dt`, as a [`Kernel`]: each
+/// instruction set's copy is a function of its own, shared by both
 /// transfer schemes and never inlined into their block loops, so the
 /// 16-lane snow model is compiled three times rather than six; one call
 /// per 16 particles costs nothing beside the SVD.
-#[inline(always)]
-fn elastic_update(simd: Simd, batch: &Interpolated, dt: f32) -> ElasticUpdate<BATCH> {
-    match simd {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: `Simd::Avx512` is only used where the CPU has AVX-512F
-        // (checked by `checked_simd`).
-        Simd::Avx512 => unsafe { elastic_update_avx512(batch, dt) },
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: as above, for AVX2.
-        Simd::Avx2 => unsafe { elastic_update_avx2(batch, dt) },
-        _ => elastic_update_portable(batch, dt),
-    }
+struct ElasticStep<'a> {
+    batch: &'a Interpolated,
+    dt: f32,
 }
 
-/// [`elastic_update_lanes`] in the baseline instruction set (SSE2 on x86-64).
-#[inline(never)]
-fn elastic_update_portable(batch: &Interpolated, dt: f32) -> ElasticUpdate<BATCH> {
-    elastic_update_lanes(batch, dt)
+impl Kernel for ElasticStep<'_> {
+    type Output = ElasticUpdate<BATCH>;
+    #[inline(always)]
+    fn run(self, _: Isa) -> ElasticUpdate<BATCH> {
+        elastic_update_lanes(self.batch, self.dt)
+    }
 }
 
 /// The trial F̂_E = (I + Δt ∇v_p) F_E is formed in the lanes too, with the
@@ -171,22 +166,6 @@ fn elastic_update_lanes(batch: &Interpolated, dt: f32) -> ElasticUpdate<BATCH> {
     )
 }
 
-/// [`elastic_update_lanes`] in 512-bit registers.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-#[inline(never)]
-fn elastic_update_avx512(batch: &Interpolated, dt: f32) -> ElasticUpdate<BATCH> {
-    elastic_update_lanes(batch, dt)
-}
-
-/// [`elastic_update_lanes`] in 256-bit registers.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline(never)]
-fn elastic_update_avx2(batch: &Interpolated, dt: f32) -> ElasticUpdate<BATCH> {
-    elastic_update_lanes(batch, dt)
-}
-
 /// The instruction set the solver uses unless told otherwise: AVX2 where the
 /// CPU has it, even beside AVX-512. The batched SVD is a chain of dependent
 /// square roots and divisions; with AVX2 a batch of 16 is two independent
@@ -197,15 +176,6 @@ pub fn preferred_simd() -> Simd {
     match Simd::detect() {
         Simd::Avx512 | Simd::Avx2 => Simd::Avx2,
         Simd::Portable => Simd::Portable,
-    }
-}
-
-/// `simd` where the running CPU has it, else portable code.
-pub(crate) fn checked_simd(simd: Simd) -> Simd {
-    if simd.is_available() {
-        simd
-    } else {
-        Simd::Portable
     }
 }
 
@@ -234,13 +204,13 @@ pub(crate) trait Interpolation: Sync {
     ) -> (Vec3, Mat3);
 
     /// [`Interpolation::interpolate`] for two particles (position, old
-    /// velocity) at once, on the gather's instruction set `simd`; the same
+    /// velocity) at once, on the gather's instruction set `isa`; the same
     /// bits as one by one.
     #[inline(always)]
     fn interpolate_pair(
         &self,
         local: &LocalNodes<Self::LocalNode>,
-        _simd: Simd,
+        _isa: Isa,
         particles: [(Vec3, Vec3); 2],
     ) -> [(Vec3, Mat3); 2] {
         particles.map(|(position, velocity)| self.interpolate(local, position, velocity))
@@ -258,29 +228,19 @@ pub(crate) fn gather_with<I: Interpolation>(
     simd: Simd,
     interpolation: &I,
 ) -> GatherStats {
-    let simd = checked_simd(simd);
+    let isa = Isa::of(simd);
     let grid = interpolation.grid();
     let table = grid.page_table();
     let gather_block = |local: &mut LocalNodes<I::LocalNode>,
                         block: &OccupiedBlock,
                         particles: BlockParticles<'_>| {
         local.copy_from(&table, &grid.nodes, block.coord, I::local_node);
-        let mut block = Block {
+        isa.run(Block {
             particles,
             context,
             interpolation,
             local,
-        };
-        match simd {
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: `Simd::Avx512` is only used where the CPU has
-            // AVX-512F (`checked_simd`).
-            Simd::Avx512 => unsafe { update_block_avx512(&mut block) },
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: as above, for AVX2.
-            Simd::Avx2 => unsafe { update_block_avx2(&mut block) },
-            _ => update_block_portable(&mut block),
-        }
+        })
     };
     update_by_block(
         particles,
@@ -300,9 +260,21 @@ struct Block<'a, I: Interpolation> {
     local: &'a LocalNodes<I::LocalNode>,
 }
 
+/// Steps 7-10 for the particles of one block, batch by batch, compiled
+/// for each instruction set throughout: with AVX-512 the interpolation and
+/// the particle bookkeeping get its 3-operand encodings too. No fused
+/// multiply-add is enabled, so the bits stay those of portable code.
+impl<I: Interpolation> Kernel for Block<'_, I> {
+    type Output = GatherStats;
+    #[inline(always)]
+    fn run(mut self, isa: Isa) -> GatherStats {
+        update_block(&mut self, isa)
+    }
+}
+
 /// Steps 7-10 for the particles of one block, batch by batch.
 #[inline(always)]
-fn update_block<I: Interpolation>(block: &mut Block<I>, simd: Simd) -> GatherStats {
+fn update_block<I: Interpolation>(block: &mut Block<I>, isa: Isa) -> GatherStats {
     let mut stats = GatherStats::default();
     // Filled once per block: each batch overwrites the lanes it uses (the
     // material lanes only where the block mixes materials; otherwise they
@@ -315,38 +287,9 @@ fn update_block<I: Interpolation>(block: &mut Block<I>, simd: Simd) -> GatherSta
     let count = block.particles.len();
     for start in (0..count).step_by(BATCH) {
         let batch = start..count.min(start + BATCH);
-        stats = stats.merge(update_batch(
-            block,
-            batch,
-            &mut interpolated,
-            per_lane,
-            simd,
-        ));
+        stats = stats.merge(update_batch(block, batch, &mut interpolated, per_lane, isa));
     }
     stats
-}
-
-/// [`update_block`] compiled for AVX-512 throughout: the interpolation and
-/// the particle bookkeeping get its 3-operand encodings too. No fused
-/// multiply-add is enabled, so the bits stay those of portable code.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn update_block_avx512<I: Interpolation>(block: &mut Block<I>) -> GatherStats {
-    update_block(block, Simd::Avx512)
-}
-
-/// [`update_block`] in the baseline instruction set, out of line like the
-/// others (see [`elastic_update`]).
-#[inline(never)]
-fn update_block_portable<I: Interpolation>(block: &mut Block<I>) -> GatherStats {
-    update_block(block, Simd::Portable)
-}
-
-/// [`update_block_avx512`] for AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn update_block_avx2<I: Interpolation>(block: &mut Block<I>) -> GatherStats {
-    update_block(block, Simd::Avx2)
 }
 
 impl<I: Interpolation> Block<'_, I> {
@@ -374,13 +317,13 @@ fn update_batch<I: Interpolation>(
     batch: Range<usize>,
     interpolated: &mut Interpolated,
     per_lane: bool,
-    simd: Simd,
+    isa: Isa,
 ) -> GatherStats {
     let context = block.context;
     // Matrices move in and out of the lanes eight at a time by AVX2
     // shuffles where the CPU has them, else one lane at a time: the same
     // values either way.
-    let transposes = matches!(simd, Simd::Avx2 | Simd::Avx512) && cfg!(target_arch = "x86_64");
+    let transposes = isa.avx2();
     let particles = &mut block.particles;
     let motion = |particles: &mut BlockParticles, k: usize| {
         let state = particles.state(k);
@@ -392,7 +335,7 @@ fn update_batch<I: Interpolation>(
             let motions = [motion(particles, first), motion(particles, first + 1)];
             block
                 .interpolation
-                .interpolate_pair(block.local, simd, motions)
+                .interpolate_pair(block.local, isa, motions)
         } else {
             let (position, velocity) = motion(particles, first);
             let alone = block
@@ -403,25 +346,22 @@ fn update_batch<I: Interpolation>(
         for (k, (new_velocity, gradient)) in (first..).zip(results).take(1 + usize::from(pair)) {
             let lane = k - batch.start;
             interpolated.velocity.set_lane(lane, new_velocity);
-            if !transposes {
+            if transposes.is_none() {
                 interpolated.velocity_gradient.set_lane(lane, gradient);
             }
             // Stored now, while at hand: nothing reads the old one again.
             *particles.state(k).velocity_gradient = gradient;
         }
     }
-    if transposes {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: `transposes` only where the CPU has AVX2.
-        unsafe {
-            load_matrices_avx2(particles, batch.clone(), interpolated)
-        };
+    #[cfg(target_arch = "x86_64")]
+    if let Some(avx2) = transposes {
+        load_matrices(avx2, particles, batch.clone(), interpolated);
     }
     for (lane, k) in batch.clone().enumerate() {
         let volume0 = particles.volume0(k);
         let material = particles.material(k);
         let state = particles.state(k);
-        if !transposes {
+        if transposes.is_none() {
             interpolated.elastic.set_lane(lane, *state.elastic);
         }
         interpolated.plastic_j.0[lane] = *state.plastic_j;
@@ -432,13 +372,13 @@ fn update_batch<I: Interpolation>(
                 .set_lane(lane, &context.materials[usize::from(material)]);
         }
     }
-    let update = elastic_update(simd, interpolated, context.dt);
-    if transposes {
+    let update = isa.run(ElasticStep {
+        batch: interpolated,
+        dt: context.dt,
+    });
+    if let Some(avx2) = transposes {
         #[cfg(target_arch = "x86_64")]
-        // SAFETY: as above.
-        unsafe {
-            store_matrices_avx2(particles, batch.clone(), &update)
-        };
+        store_matrices(avx2, particles, batch.clone(), &update);
     } else {
         for (lane, k) in batch.clone().enumerate() {
             let state = particles.state(k);
@@ -527,9 +467,9 @@ fn problem_kind(finite: U32s<BATCH>, lane: usize) -> ProblemKind {
 /// lanes, eight particles per transpose; lanes past the batch's end repeat
 /// its last particle, so they stay finite.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline]
-fn load_matrices_avx2(
+#[inline(always)]
+fn load_matrices(
+    avx2: Avx2,
     particles: &BlockParticles,
     batch: Range<usize>,
     interpolated: &mut Interpolated,
@@ -537,33 +477,38 @@ fn load_matrices_avx2(
     let last = batch.end - 1;
     for first in (0..batch.len()).step_by(8) {
         let places = std::array::from_fn(|lane| (batch.start + first + lane).min(last));
-        interpolated.velocity_gradient.load_eight(
+        avx2.load_eight(
+            &mut interpolated.velocity_gradient,
             first,
             particles.matrices(ParticleMatrix::VelocityGradient, places),
         );
-        interpolated
-            .elastic
-            .load_eight(first, particles.matrices(ParticleMatrix::Elastic, places));
+        avx2.load_eight(
+            &mut interpolated.elastic,
+            first,
+            particles.matrices(ParticleMatrix::Elastic, places),
+        );
     }
 }
 
 /// Stores the batch's new F_E and V_p^0 τ_p from the lanes, eight particles
 /// per transpose.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline]
-fn store_matrices_avx2(
+#[inline(always)]
+fn store_matrices(
+    avx2: Avx2,
     particles: &mut BlockParticles,
     batch: Range<usize>,
     update: &ElasticUpdate<BATCH>,
 ) {
     for first in (0..batch.len()).step_by(8) {
         let places = batch.start + first..batch.end.min(batch.start + first + 8);
-        update.elastic.store_eight(
+        avx2.store_eight(
+            &update.elastic,
             first,
             particles.matrices_mut(ParticleMatrix::Elastic, places.clone()),
         );
-        update.stress.store_eight(
+        avx2.store_eight(
+            &update.stress,
             first,
             particles.matrices_mut(ParticleMatrix::Stress, places),
         );
@@ -677,7 +622,7 @@ impl Interpolation for ApicInterpolation<'_> {
     fn interpolate_pair(
         &self,
         local: &LocalNodes<Vec4>,
-        simd: Simd,
+        isa: Isa,
         particles: [(Vec3, Vec3); 2],
     ) -> [(Vec3, Mat3); 2] {
         // Arrays spelled out, not `map`ped: `array::map` can be compiled as
@@ -685,13 +630,9 @@ impl Interpolation for ApicInterpolation<'_> {
         let weights_at =
             |(position, _): (Vec3, Vec3)| quadratic_values(self.grid.layout.to_grid(position));
         let weights = [weights_at(particles[0]), weights_at(particles[1])];
-        let sums = match simd {
+        let sums = match isa.avx2() {
             #[cfg(target_arch = "x86_64")]
-            // SAFETY: AVX-512F CPUs have AVX2 too, and the gather only runs
-            // an instruction set the CPU has.
-            Simd::Avx2 | Simd::Avx512 => unsafe {
-                StencilSums::of_pair(local, [&weights[0], &weights[1]])
-            },
+            Some(avx2) => StencilSums::of_pair(avx2, local, [&weights[0], &weights[1]]),
             _ => [
                 StencilSums::of(local, &weights[0]),
                 StencilSums::of(local, &weights[1]),
@@ -751,50 +692,53 @@ impl StencilSums {
     /// of each 256-bit register: lane by lane the same operations, so the
     /// same bits.
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    fn of_pair(local: &LocalNodes<Vec4>, weights: [&StencilValues<3>; 2]) -> [StencilSums; 2] {
-        use std::arch::x86_64::*;
+    #[inline(always)]
+    fn of_pair(
+        avx2: Avx2,
+        local: &LocalNodes<Vec4>,
+        weights: [&StencilValues<3>; 2],
+    ) -> [StencilSums; 2] {
         let [a, b] = weights;
-        let pair = |x: Vec4, y: Vec4| _mm256_set_m128(y.into(), x.into());
+        let splats = |x: f32, y: f32| avx2.pair(Vec4::splat(x), Vec4::splat(y));
         // No `array::map` here: it can be compiled as a function of its own,
         // without AVX2.
         let windows = [
             local.window::<3, QUADRATIC_SPAN>(a.base),
             local.window::<3, QUADRATIC_SPAN>(b.base),
         ];
-        let z_weight = |k: usize| pair(Vec4::splat(a.values[k].z), Vec4::splat(b.values[k].z));
+        let z_weight = |k: usize| splats(a.values[k].z, b.values[k].z);
         let z_weights = [z_weight(0), z_weight(1), z_weight(2)];
-        let mut slabs = [_mm256_setzero_ps(); 3];
-        let mut rows = [_mm256_setzero_ps(); 3];
-        let mut columns = [_mm256_setzero_ps(); 3];
+        let mut slabs = [avx2.zero_pair(); 3];
+        let mut rows = [avx2.zero_pair(); 3];
+        let mut columns = [avx2.zero_pair(); 3];
         for (i, slab) in slabs.iter_mut().enumerate() {
             for (j, row) in rows.iter_mut().enumerate() {
-                let wxy = pair(
-                    Vec4::splat(a.values[i].x * a.values[j].y),
-                    Vec4::splat(b.values[i].x * b.values[j].y),
-                );
+                let wxy = splats(a.values[i].x * a.values[j].y, b.values[i].x * b.values[j].y);
                 for (k, column) in columns.iter_mut().enumerate() {
-                    let nodes = pair(windows[0][at(i, j, k)], windows[1][at(i, j, k)]);
-                    let weighted = _mm256_mul_ps(nodes, _mm256_mul_ps(wxy, z_weights[k]));
-                    *slab = _mm256_add_ps(*slab, weighted);
-                    *row = _mm256_add_ps(*row, weighted);
-                    *column = _mm256_add_ps(*column, weighted);
+                    let nodes = avx2.pair(windows[0][at(i, j, k)], windows[1][at(i, j, k)]);
+                    let weighted = nodes * (wxy * z_weights[k]);
+                    *slab = *slab + weighted;
+                    *row = *row + weighted;
+                    *column = *column + weighted;
                 }
             }
         }
-        let lower = |v: __m256| Vec4::from(_mm256_castps256_ps128(v));
-        let upper = |v: __m256| Vec4::from(_mm256_extractf128_ps::<1>(v));
+        let halves = |pairs: [Vec4Pair; 3]| {
+            let [p0, p1, p2] = [pairs[0].halves(), pairs[1].halves(), pairs[2].halves()];
+            [[p0[0], p1[0], p2[0]], [p0[1], p1[1], p2[1]]]
+        };
+        let ([slabs_a, slabs_b], [rows_a, rows_b], [columns_a, columns_b]) =
+            (halves(slabs), halves(rows), halves(columns));
         [
             StencilSums {
-                slabs: [lower(slabs[0]), lower(slabs[1]), lower(slabs[2])],
-                rows: [lower(rows[0]), lower(rows[1]), lower(rows[2])],
-                columns: [lower(columns[0]), lower(columns[1]), lower(columns[2])],
+                slabs: slabs_a,
+                rows: rows_a,
+                columns: columns_a,
             },
             StencilSums {
-                slabs: [upper(slabs[0]), upper(slabs[1]), upper(slabs[2])],
-                rows: [upper(rows[0]), upper(rows[1]), upper(rows[2])],
-                columns: [upper(columns[0]), upper(columns[1]), upper(columns[2])],
+                slabs: slabs_b,
+                rows: rows_b,
+                columns: columns_b,
             },
         ]
     }

@@ -20,13 +20,11 @@ use glam::{IVec3, Mat3, Vec3, Vec4};
 use rayon::prelude::*;
 
 use firn_core::math::bspline::{QuadraticLanes, StencilWeights, cubic_weights};
-#[cfg(target_arch = "x86_64")]
-use firn_core::math::lanes::lanes_to_rows_avx2;
+use firn_core::math::isa::{Avx2, Isa, Kernel};
 use firn_core::math::lanes::{F32s, Mat3s, Simd, Vec3s, lanes_to_rows};
 
 use crate::binning::Bins;
 use crate::disjoint::{scatter_blocks_by_colour, scatter_by_colour};
-use crate::g2p::checked_simd;
 use crate::grid::{Grid, GridLayout, Node};
 use crate::local_nodes::{CUBIC_SPAN, LocalNodes, QUADRATIC_SPAN, at};
 use crate::particles::Particles;
@@ -67,6 +65,7 @@ pub fn scatter_pic_flip(grid: &mut Grid, bins: &Bins, particles: &Particles) {
 /// With AVX2 (`simd` not portable, where the CPU has it) two of a stencil
 /// row's three nodes are added in one 256-bit register; every lane does
 /// the same IEEE operations either way, so the sums have the same bits.
+/// Each block runs compiled for the instruction set ([`Isa::run`]).
 pub fn scatter_apic(grid: &mut Grid, bins: &Bins, particles: &Particles, dt: f32, simd: Simd) {
     let (table, nodes) = grid.parts_mut();
     let scatter = ApicScatter {
@@ -74,19 +73,31 @@ pub fn scatter_apic(grid: &mut Grid, bins: &Bins, particles: &Particles, dt: f32
         dt,
         particles,
     };
-    let simd = checked_simd(simd);
+    let isa = Isa::of(simd);
     scatter_blocks_by_colour(nodes, bins, |block, writer| {
         let mut local = LocalNodes::around(block.coord);
-        let block_particles = bins.particles_of(block);
-        match simd {
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: AVX-512F CPUs have AVX2 too, and `checked_simd` only
-            // keeps an instruction set the CPU has.
-            Simd::Avx2 | Simd::Avx512 => unsafe { scatter.block_avx2(&mut local, block_particles) },
-            _ => scatter.block::<false>(&mut local, block_particles),
-        }
+        isa.run(ScatterBlock {
+            scatter: &scatter,
+            local: &mut local,
+            particles: bins.particles_of(block),
+        });
         local.add_momentum_to(&table, writer);
     });
+}
+
+/// One block's APIC scatter, as a [`Kernel`] to compile per instruction set.
+struct ScatterBlock<'s, 'a> {
+    scatter: &'s ApicScatter<'a>,
+    local: &'s mut LocalNodes<Vec4>,
+    particles: &'s [u32],
+}
+
+impl Kernel for ScatterBlock<'_, '_> {
+    type Output = ();
+    #[inline(always)]
+    fn run(self, isa: Isa) {
+        self.scatter.block(isa.avx2(), self.local, self.particles);
+    }
 }
 
 /// What the APIC scatter reads.
@@ -99,13 +110,13 @@ struct ApicScatter<'a> {
 impl ApicScatter<'_> {
     /// Sums the particles `block` into `local`, eight at a time: their terms
     /// in SIMD lanes ([`ApicScatter::terms`]), then each particle's stencil,
-    /// rows added in AVX2 registers if `AVX2`.
+    /// rows added in AVX2 registers given `avx2`.
     #[inline(always)]
-    fn block<const AVX2: bool>(&self, local: &mut LocalNodes<Vec4>, block: &[u32]) {
+    fn block(&self, avx2: Option<Avx2>, local: &mut LocalNodes<Vec4>, block: &[u32]) {
         for group in block.chunks(TERM_LANES) {
-            let terms = self.terms::<AVX2>(group);
+            let terms = self.terms(avx2, group);
             for terms in &terms[..group.len()] {
-                terms.add_to::<AVX2>(local);
+                terms.add_to(avx2, local);
             }
         }
     }
@@ -115,7 +126,7 @@ impl ApicScatter<'_> {
     /// into one [`ParticleTerms`] each; lanes past the group's end repeat its
     /// last particle.
     #[inline(always)]
-    fn terms<const AVX2: bool>(&self, group: &[u32]) -> [ParticleTerms; TERM_LANES] {
+    fn terms(&self, avx2: Option<Avx2>, group: &[u32]) -> [ParticleTerms; TERM_LANES] {
         let particles = self.particles;
         let particle = |lane: usize| group[lane.min(group.len() - 1)] as usize;
         let mut position = Vec3s::splat(Vec3::ZERO);
@@ -128,19 +139,24 @@ impl ApicScatter<'_> {
             position.set_lane(lane, particles.position[p]);
             velocity.set_lane(lane, particles.velocity[p]);
             mass.0[lane] = particles.mass[p];
-            if !AVX2 {
+            if avx2.is_none() {
                 gradient.set_lane(lane, particles.velocity_gradient[p]);
                 stress.set_lane(lane, particles.stress[p]);
             }
         }
-        if AVX2 {
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: `AVX2` is only set inside `block_avx2`.
-            unsafe {
-                let (gradients, stresses) = (&particles.velocity_gradient, &particles.stress);
-                gradient.load_eight(0, std::array::from_fn(|lane| &gradients[particle(lane)]));
-                stress.load_eight(0, std::array::from_fn(|lane| &stresses[particle(lane)]));
-            };
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx2) = avx2 {
+            let (gradients, stresses) = (&particles.velocity_gradient, &particles.stress);
+            avx2.load_eight(
+                &mut gradient,
+                0,
+                std::array::from_fn(|l| &gradients[particle(l)]),
+            );
+            avx2.load_eight(
+                &mut stress,
+                0,
+                std::array::from_fn(|l| &stresses[particle(l)]),
+            );
         }
 
         let layout = self.layout;
@@ -182,34 +198,23 @@ impl ApicScatter<'_> {
         ];
         let mut terms = [ParticleTerms::default(); TERM_LANES];
         for (part, values) in values.iter().enumerate() {
-            for (terms, row) in terms.iter_mut().zip(rows_of::<AVX2>(values)) {
+            for (terms, row) in terms.iter_mut().zip(rows_of(avx2, values)) {
                 terms.rows[part] = row;
             }
         }
         terms
-    }
-
-    /// [`ApicScatter::block`] compiled for AVX2.
-    ///
-    /// # Safety
-    /// The CPU must have AVX2.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn block_avx2(&self, local: &mut LocalNodes<Vec4>, block: &[u32]) {
-        self.block::<true>(local, block);
     }
 }
 
 /// Particles whose scatter terms are computed together in SIMD lanes.
 const TERM_LANES: usize = 8;
 
-/// [`lanes_to_rows`], by AVX2 shuffles if `AVX2`.
+/// [`lanes_to_rows`], by AVX2 shuffles given `avx2`.
 #[inline(always)]
-fn rows_of<const AVX2: bool>(values: &[F32s<TERM_LANES>; 8]) -> [[f32; 8]; TERM_LANES] {
+fn rows_of(avx2: Option<Avx2>, values: &[F32s<TERM_LANES>; 8]) -> [[f32; 8]; TERM_LANES] {
     #[cfg(target_arch = "x86_64")]
-    if AVX2 {
-        // SAFETY: `AVX2` is only set inside `block_avx2`.
-        return unsafe { lanes_to_rows_avx2(values) };
+    if let Some(avx2) = avx2 {
+        return avx2.lanes_to_rows(values);
     }
     lanes_to_rows(values)
 }
@@ -227,10 +232,10 @@ struct ParticleTerms {
 impl ParticleTerms {
     /// Adds the terms to the particle's stencil in `local`: node (i, j, k)
     /// gets w_i^x w_j^y w_k^z (m v + affine ((i, j, k) − offset), m), the
-    /// affine part growing by one column per stencil step; with `AVX2`
+    /// affine part growing by one column per stencil step; given `avx2`
     /// two of a row's nodes are added in one 256-bit register.
     #[inline(always)]
-    fn add_to<const AVX2: bool>(&self, local: &mut LocalNodes<Vec4>) {
+    fn add_to(&self, avx2: Option<Avx2>, local: &mut LocalNodes<Vec4>) {
         let [moments, columns, weights, last] = &self.rows;
         let first_node = IVec3::new(last[1] as i32, last[2] as i32, last[3] as i32);
         let at_base = Vec4::from_slice(&moments[..4]);
@@ -254,11 +259,10 @@ impl ParticleTerms {
                 let sums = (&mut window[at(i, j, 0)..at(i, j, 3)])
                     .try_into()
                     .expect("a stencil row has three nodes");
-                if AVX2 {
-                    // SAFETY: `AVX2` is only set inside `block_avx2`.
-                    unsafe { row.add_avx2(sums, at_ij, wxy) };
-                } else {
-                    row.add(sums, at_ij, wxy);
+                match avx2 {
+                    #[cfg(target_arch = "x86_64")]
+                    Some(avx2) => row.add_by_pairs(avx2, sums, at_ij, wxy),
+                    _ => row.add(sums, at_ij, wxy),
                 }
             }
         }
@@ -286,21 +290,13 @@ impl StencilRow {
     /// [`StencilRow::add`] with nodes 0 and 1 in one 256-bit register: the
     /// same operations lane by lane, so the same bits.
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    fn add_avx2(&self, sums: &mut [Vec4; 3], at_ij: Vec4, wxy: f32) {
-        use std::arch::x86_64::*;
-        let first_two = |v: [Vec4; 3]| _mm256_set_m128(v[1].into(), v[0].into());
-        let steps = first_two(self.steps);
+    #[inline(always)]
+    fn add_by_pairs(&self, avx2: Avx2, sums: &mut [Vec4; 3], at_ij: Vec4, wxy: f32) {
+        let first_two = |v: [Vec4; 3]| avx2.pair(v[0], v[1]);
         let weights = first_two(self.weights.map(Vec4::splat));
-        let at = _mm256_set_m128(at_ij.into(), at_ij.into());
-        let terms = _mm256_mul_ps(
-            _mm256_add_ps(at, steps),
-            _mm256_mul_ps(_mm256_set1_ps(wxy), weights),
-        );
-        let first = sums.as_mut_ptr().cast::<f32>();
-        // SAFETY: `sums` holds 12 floats; nodes 0 and 1 are its first 8.
-        unsafe { _mm256_storeu_ps(first, _mm256_add_ps(_mm256_loadu_ps(first), terms)) };
+        let terms = (avx2.pair(at_ij, at_ij) + first_two(self.steps))
+            * (avx2.pair(Vec4::splat(wxy), Vec4::splat(wxy)) * weights);
+        [sums[0], sums[1]] = (avx2.pair(sums[0], sums[1]) + terms).halves();
         sums[2] += (at_ij + self.steps[2]) * (wxy * self.weights[2]);
     }
 }

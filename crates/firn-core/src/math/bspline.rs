@@ -120,23 +120,7 @@ pub fn floor(x: Vec3) -> (Vec3, IVec3) {
 fn floor_lanes(x: Vec3A) -> (Vec3A, IVec3) {
     #[cfg(target_arch = "x86_64")]
     {
-        use std::arch::x86_64::*;
-        let lanes: __m128 = x.into();
-        // SAFETY: SSE2, all this needs, is part of x86-64.
-        let (below, index) = unsafe {
-            let truncated = _mm_cvttps_epi32(lanes);
-            let truncated_float = _mm_cvtepi32_ps(truncated);
-            // All ones (−1) where truncation rounded up.
-            let rounded_up = _mm_cmpgt_ps(truncated_float, lanes);
-            let below = _mm_sub_ps(truncated_float, _mm_and_ps(rounded_up, _mm_set1_ps(1.0)));
-            (
-                below,
-                _mm_add_epi32(truncated, _mm_castps_si128(rounded_up)),
-            )
-        };
-        // SAFETY: an `__m128i` is four `i32`s.
-        let [ix, iy, iz, _] = unsafe { std::mem::transmute::<__m128i, [i32; 4]>(index) };
-        (Vec3A::from(below), IVec3::new(ix, iy, iz))
+        crate::math::isa::floor_sse2(x)
     }
     #[cfg(not(target_arch = "x86_64"))]
     {

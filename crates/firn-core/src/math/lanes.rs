@@ -485,76 +485,6 @@ impl<const N: usize> Mat3s<N> {
     }
 }
 
-/// Moving glam matrices in and out of [`Mat3s`] lanes eight at a time with
-/// AVX2 shuffles: the first eight floats of each matrix go by an 8x8
-/// transpose in registers, the ninth one by one. A plain copy, so the same
-/// values as [`Mat3s::set_lane`] and [`Mat3s::lane`] in a quarter of the
-/// instructions.
-#[cfg(target_arch = "x86_64")]
-impl<const N: usize> Mat3s<N> {
-    /// The nine components, `N` lanes each.
-    #[inline(always)]
-    fn components(&self) -> &[[f32; N]; 9] {
-        const { assert!(std::mem::size_of::<Mat3s<N>>() == 9 * N * 4) };
-        // SAFETY: `Mat3s` and `Vec3s` are `repr(C)` structs of `F32s<N>`,
-        // itself a transparent `[f32; N]`: nine such arrays, no padding
-        // (the size assertion above).
-        unsafe { &*(self as *const Mat3s<N>).cast::<[[f32; N]; 9]>() }
-    }
-
-    /// [`Mat3s::components`], to write.
-    #[inline(always)]
-    fn components_mut(&mut self) -> &mut [[f32; N]; 9] {
-        const { assert!(std::mem::size_of::<Mat3s<N>>() == 9 * N * 4) };
-        // SAFETY: as in `components`.
-        unsafe { &mut *(self as *mut Mat3s<N>).cast::<[[f32; N]; 9]>() }
-    }
-
-    /// Lanes `first` to `first + 7` from `matrices`.
-    ///
-    /// # Safety
-    /// The CPU must have AVX2.
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    pub fn load_eight(&mut self, first: usize, matrices: [&Mat3; 8]) {
-        use std::arch::x86_64::*;
-        assert!(first + 8 <= N, "lanes {first}.. past {N}");
-        // SAFETY: a `Mat3` is nine contiguous floats; its first eight are read.
-        let rows = matrices.map(|m| unsafe { _mm256_loadu_ps((m as *const Mat3).cast::<f32>()) });
-        let columns = transpose_eight(rows);
-        let components = self.components_mut();
-        for (component, column) in components.iter_mut().zip(columns) {
-            // SAFETY: lanes `first..first + 8` lie inside the component (asserted).
-            unsafe { _mm256_storeu_ps(component.as_mut_ptr().add(first), column) };
-        }
-        for (lane, matrix) in components[8][first..first + 8].iter_mut().zip(matrices) {
-            *lane = matrix.z_axis.z;
-        }
-    }
-
-    /// Lanes `first`, `first + 1`, … into `matrices`, as many as it yields
-    /// up to eight.
-    ///
-    /// # Safety
-    /// The CPU must have AVX2.
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    pub fn store_eight<'a>(&self, first: usize, matrices: impl IntoIterator<Item = &'a mut Mat3>) {
-        use std::arch::x86_64::*;
-        assert!(first + 8 <= N, "lanes {first}.. past {N}");
-        let components = self.components();
-        // SAFETY: lanes `first..first + 8` lie inside each component (asserted).
-        let columns: [__m256; 8] =
-            std::array::from_fn(|c| unsafe { _mm256_loadu_ps(components[c].as_ptr().add(first)) });
-        let rows = transpose_eight(columns);
-        for ((matrix, row), &last) in matrices.into_iter().zip(rows).zip(&components[8][first..]) {
-            // SAFETY: a `Mat3` is nine contiguous floats; the first eight are written.
-            unsafe { _mm256_storeu_ps((matrix as *mut Mat3).cast::<f32>(), row) };
-            matrix.z_axis.z = last;
-        }
-    }
-}
-
 /// Eight values of eight lanes turned into eight rows: row `l` holds lane
 /// `l` of each value, in order (a plain copy).
 #[inline(always)]
@@ -566,60 +496,6 @@ pub fn lanes_to_rows(values: &[F32s<8>; 8]) -> [[f32; 8]; 8] {
         }
     }
     rows
-}
-
-/// [`lanes_to_rows`] by an 8x8 transpose in AVX2 registers.
-///
-/// # Safety
-/// The CPU must have AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline]
-pub fn lanes_to_rows_avx2(values: &[F32s<8>; 8]) -> [[f32; 8]; 8] {
-    use std::arch::x86_64::*;
-    let mut columns = [_mm256_setzero_ps(); 8];
-    for (column, value) in columns.iter_mut().zip(values) {
-        // SAFETY: a value is eight contiguous floats.
-        *column = unsafe { _mm256_loadu_ps(value.0.as_ptr()) };
-    }
-    let mut rows = [[0.0; 8]; 8];
-    for (row, lanes) in rows.iter_mut().zip(transpose_eight(columns)) {
-        // SAFETY: a row is eight floats.
-        unsafe { _mm256_storeu_ps(row.as_mut_ptr(), lanes) };
-    }
-    rows
-}
-
-/// The 8x8 transpose of eight 256-bit rows: element j of row i becomes
-/// element i of row j.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline]
-fn transpose_eight(rows: [std::arch::x86_64::__m256; 8]) -> [std::arch::x86_64::__m256; 8] {
-    use std::arch::x86_64::*;
-    let [r0, r1, r2, r3, r4, r5, r6, r7] = rows;
-    let (t0, t1) = (_mm256_unpacklo_ps(r0, r1), _mm256_unpackhi_ps(r0, r1));
-    let (t2, t3) = (_mm256_unpacklo_ps(r2, r3), _mm256_unpackhi_ps(r2, r3));
-    let (t4, t5) = (_mm256_unpacklo_ps(r4, r5), _mm256_unpackhi_ps(r4, r5));
-    let (t6, t7) = (_mm256_unpacklo_ps(r6, r7), _mm256_unpackhi_ps(r6, r7));
-    let s0 = _mm256_shuffle_ps::<0x44>(t0, t2);
-    let s1 = _mm256_shuffle_ps::<0xEE>(t0, t2);
-    let s2 = _mm256_shuffle_ps::<0x44>(t1, t3);
-    let s3 = _mm256_shuffle_ps::<0xEE>(t1, t3);
-    let s4 = _mm256_shuffle_ps::<0x44>(t4, t6);
-    let s5 = _mm256_shuffle_ps::<0xEE>(t4, t6);
-    let s6 = _mm256_shuffle_ps::<0x44>(t5, t7);
-    let s7 = _mm256_shuffle_ps::<0xEE>(t5, t7);
-    [
-        _mm256_permute2f128_ps::<0x20>(s0, s4),
-        _mm256_permute2f128_ps::<0x20>(s1, s5),
-        _mm256_permute2f128_ps::<0x20>(s2, s6),
-        _mm256_permute2f128_ps::<0x20>(s3, s7),
-        _mm256_permute2f128_ps::<0x31>(s0, s4),
-        _mm256_permute2f128_ps::<0x31>(s1, s5),
-        _mm256_permute2f128_ps::<0x31>(s2, s6),
-        _mm256_permute2f128_ps::<0x31>(s3, s7),
-    ]
 }
 
 /// The instruction set batches of lanes run on, chosen at run time.
@@ -678,19 +554,6 @@ mod tests {
     use super::*;
 
     #[test]
-    fn lanes_become_rows_the_same_by_transpose() {
-        let values: [F32s<8>; 8] =
-            std::array::from_fn(|v| F32s(std::array::from_fn(|l| (10 * v + l) as f32)));
-        let rows = lanes_to_rows(&values);
-        assert_eq!(rows[3][5], 53.0);
-        #[cfg(target_arch = "x86_64")]
-        if Simd::Avx2.is_available() {
-            // SAFETY: AVX2 is available.
-            assert_eq!(unsafe { lanes_to_rows_avx2(&values) }, rows);
-        }
-    }
-
-    #[test]
     fn finite_masks_catch_infinities_and_nans_in_any_component() {
         let values = [
             1.0,
@@ -712,34 +575,6 @@ mod tests {
             let mut v = Vec3s::<2>::splat(Vec3::ONE);
             v.x.0[0] = bad;
             assert_eq!(v.finite_mask().0, [0, u32::MAX]);
-        }
-    }
-
-    /// Eight matrices in, shifted by two lanes, and out again: every float
-    /// lands where `set_lane` and `lane` put it.
-    #[cfg(target_arch = "x86_64")]
-    #[test]
-    fn eight_matrices_move_in_and_out_of_lanes_by_transpose() {
-        if !Simd::Avx2.is_available() {
-            return;
-        }
-        let matrix =
-            |l: usize| Mat3::from_cols_array(&std::array::from_fn(|c| (10 * l + c) as f32));
-        let matrices: [Mat3; 8] = std::array::from_fn(matrix);
-        let mut lanes = Mat3s::<16>::splat(Mat3::ZERO);
-        // SAFETY: AVX2 is available (checked above).
-        unsafe { lanes.load_eight(2, matrices.each_ref()) };
-        let mut expected = Mat3s::<16>::splat(Mat3::ZERO);
-        for (l, m) in matrices.iter().enumerate() {
-            expected.set_lane(l + 2, *m);
-        }
-        assert_eq!(lanes, expected);
-        let mut out = [Mat3::IDENTITY; 8];
-        // SAFETY: as above.
-        unsafe { lanes.store_eight(2, out.iter_mut().take(5)) };
-        for (l, m) in out.iter().enumerate() {
-            let want = if l < 5 { matrices[l] } else { Mat3::IDENTITY };
-            assert_eq!(*m, want, "matrix {l}");
         }
     }
 

@@ -3,6 +3,7 @@
 
 pub mod bspline;
 pub mod exp;
+pub mod isa;
 pub mod lanes;
 pub mod polar;
 pub mod svd;
