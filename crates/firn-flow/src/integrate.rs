@@ -206,6 +206,92 @@ pub(crate) fn evaluate(
     }
 }
 
+/// The integrator's entry points in one intrinsic lane type (`$lanes`),
+/// written beside that type so that its file holds all of its `unsafe`:
+/// `velocity`, `advance` and `evaluate`, each a safe method calling a copy
+/// compiled for `$feature`. `advance` and `evaluate` take the instruction
+/// set's proof; `velocity` relies on lane values existing only where the
+/// CPU has the instruction set.
+macro_rules! entry_points {
+    ($lanes:ident, $proof:ident, $feature:literal, $name:literal) => {
+        /// The integrator's entry points in these lanes.
+        impl $lanes {
+            /// The field velocity of a batch, in a function of its own (not
+            /// inlined into the integrators).
+            #[inline(always)]
+            pub(crate) fn velocity(
+                prepared: &$crate::field::Prepared<$lanes>,
+                x: $crate::lanes::V3<$lanes>,
+            ) -> $crate::lanes::V3<$lanes> {
+                #[doc = concat!("Compiled for ", $name, ".")]
+                #[target_feature(enable = $feature)]
+                #[inline(never)]
+                fn compiled(
+                    prepared: &$crate::field::Prepared<$lanes>,
+                    x: $crate::lanes::V3<$lanes>,
+                ) -> $crate::lanes::V3<$lanes> {
+                    $crate::field::velocity_lanes(prepared, x)
+                }
+                // SAFETY: lane values exist only where the CPU has the
+                // instruction set (module docs).
+                unsafe { compiled(prepared, x) }
+            }
+
+            /// The integrator's step in these lanes; `_proof` says the CPU
+            /// has them.
+            pub(crate) fn advance(
+                _proof: firn_core::math::isa::$proof,
+                stages: &$crate::integrate::StagesOf<$lanes>,
+                integrator: firn_core::scene::FlowIntegrator,
+                dt: f32,
+                limits: &$crate::integrate::Limits,
+                chunk: $crate::integrate::Chunk,
+                flagged: &mut Vec<u32>,
+            ) {
+                #[doc = concat!("Compiled for ", $name, ".")]
+                #[target_feature(enable = $feature)]
+                fn compiled(
+                    stages: &$crate::integrate::StagesOf<$lanes>,
+                    integrator: firn_core::scene::FlowIntegrator,
+                    dt: f32,
+                    limits: &$crate::integrate::Limits,
+                    chunk: $crate::integrate::Chunk,
+                    flagged: &mut Vec<u32>,
+                ) {
+                    $crate::integrate::advance_batches(
+                        stages, integrator, dt, limits, chunk, flagged,
+                    )
+                }
+                // SAFETY: the proof says the CPU has the instruction set.
+                unsafe { compiled(stages, integrator, dt, limits, chunk, flagged) }
+            }
+
+            /// The field at `positions` in these lanes; `_proof` says the CPU
+            /// has them.
+            pub(crate) fn evaluate(
+                _proof: firn_core::math::isa::$proof,
+                prepared: &$crate::field::Prepared<$lanes>,
+                positions: &[glam::Vec3],
+                velocities: &mut [glam::Vec3],
+            ) {
+                #[doc = concat!("Compiled for ", $name, ".")]
+                #[target_feature(enable = $feature)]
+                fn compiled(
+                    prepared: &$crate::field::Prepared<$lanes>,
+                    positions: &[glam::Vec3],
+                    velocities: &mut [glam::Vec3],
+                ) {
+                    $crate::integrate::evaluate_batches(prepared, positions, velocities)
+                }
+                // SAFETY: the proof says the CPU has the instruction set.
+                unsafe { compiled(prepared, positions, velocities) }
+            }
+        }
+    };
+}
+#[cfg(target_arch = "x86_64")]
+pub(crate) use entry_points;
+
 /// Load a batch starting at `start`, padding with the last particle.
 #[inline(always)]
 fn load<R: Batch>(positions: &[Vec3], start: usize) -> V3<R> {

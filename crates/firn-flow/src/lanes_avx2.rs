@@ -13,12 +13,6 @@
 use std::arch::x86_64::*;
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
-use firn_core::math::isa::Avx2;
-use firn_core::scene::FlowIntegrator;
-use glam::Vec3;
-
-use crate::field::{Prepared, velocity_lanes};
-use crate::integrate::{Chunk, Limits, StagesOf, advance_batches, evaluate_batches};
 use crate::lanes::{FLOOR_LIMIT, Real, V3};
 
 /// Eight `f32` lanes in a 256-bit register.
@@ -234,64 +228,4 @@ impl Real for Avx8 {
     }
 }
 
-/// The integrator's entry points in these lanes, compiled for AVX2.
-impl Avx8 {
-    /// The field velocity of a batch ([`velocity_lanes`]), in a function of
-    /// its own (not inlined into the integrators).
-    #[inline(always)]
-    pub(crate) fn velocity(prepared: &Prepared<Avx8>, x: V3<Avx8>) -> V3<Avx8> {
-        // SAFETY: Avx8 values exist only where the CPU has AVX2 (module docs).
-        unsafe { velocity_avx2(prepared, x) }
-    }
-
-    /// [`advance_batches`] in these lanes; `_proof` says the CPU has them.
-    pub(crate) fn advance(
-        _proof: Avx2,
-        stages: &StagesOf<Avx8>,
-        integrator: FlowIntegrator,
-        dt: f32,
-        limits: &Limits,
-        chunk: Chunk,
-        flagged: &mut Vec<u32>,
-    ) {
-        // SAFETY: the proof says the CPU has AVX2.
-        unsafe { advance_avx2(stages, integrator, dt, limits, chunk, flagged) }
-    }
-
-    /// [`evaluate_batches`] in these lanes; `_proof` says the CPU has them.
-    pub(crate) fn evaluate(
-        _proof: Avx2,
-        prepared: &Prepared<Avx8>,
-        positions: &[Vec3],
-        velocities: &mut [Vec3],
-    ) {
-        // SAFETY: the proof says the CPU has AVX2.
-        unsafe { evaluate_avx2(prepared, positions, velocities) }
-    }
-}
-
-/// [`velocity_lanes`] compiled for AVX2.
-#[target_feature(enable = "avx2")]
-#[inline(never)]
-fn velocity_avx2(prepared: &Prepared<Avx8>, x: V3<Avx8>) -> V3<Avx8> {
-    velocity_lanes(prepared, x)
-}
-
-/// [`advance_batches`] compiled for AVX2.
-#[target_feature(enable = "avx2")]
-fn advance_avx2(
-    stages: &StagesOf<Avx8>,
-    integrator: FlowIntegrator,
-    dt: f32,
-    limits: &Limits,
-    chunk: Chunk,
-    flagged: &mut Vec<u32>,
-) {
-    advance_batches(stages, integrator, dt, limits, chunk, flagged)
-}
-
-/// [`evaluate_batches`] compiled for AVX2.
-#[target_feature(enable = "avx2")]
-fn evaluate_avx2(prepared: &Prepared<Avx8>, positions: &[Vec3], velocities: &mut [Vec3]) {
-    evaluate_batches(prepared, positions, velocities)
-}
+crate::integrate::entry_points!(Avx8, Avx2, "avx2", "AVX2");

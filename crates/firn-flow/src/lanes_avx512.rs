@@ -12,12 +12,6 @@
 use std::arch::x86_64::*;
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
-use firn_core::math::isa::Avx512;
-use firn_core::scene::FlowIntegrator;
-use glam::Vec3;
-
-use crate::field::{Prepared, velocity_lanes};
-use crate::integrate::{Chunk, Limits, StagesOf, advance_batches, evaluate_batches};
 use crate::lanes::{FLOOR_LIMIT, Real, V3};
 
 /// Sixteen `f32` lanes in a 512-bit register.
@@ -221,64 +215,4 @@ impl Real for Avx16 {
     }
 }
 
-/// The integrator's entry points in these lanes, compiled for AVX-512F.
-impl Avx16 {
-    /// The field velocity of a batch ([`velocity_lanes`]), in a function of
-    /// its own (not inlined into the integrators).
-    #[inline(always)]
-    pub(crate) fn velocity(prepared: &Prepared<Avx16>, x: V3<Avx16>) -> V3<Avx16> {
-        // SAFETY: Avx16 values exist only where the CPU has AVX-512F (module docs).
-        unsafe { velocity_avx512(prepared, x) }
-    }
-
-    /// [`advance_batches`] in these lanes; `_proof` says the CPU has them.
-    pub(crate) fn advance(
-        _proof: Avx512,
-        stages: &StagesOf<Avx16>,
-        integrator: FlowIntegrator,
-        dt: f32,
-        limits: &Limits,
-        chunk: Chunk,
-        flagged: &mut Vec<u32>,
-    ) {
-        // SAFETY: the proof says the CPU has AVX-512F.
-        unsafe { advance_avx512(stages, integrator, dt, limits, chunk, flagged) }
-    }
-
-    /// [`evaluate_batches`] in these lanes; `_proof` says the CPU has them.
-    pub(crate) fn evaluate(
-        _proof: Avx512,
-        prepared: &Prepared<Avx16>,
-        positions: &[Vec3],
-        velocities: &mut [Vec3],
-    ) {
-        // SAFETY: the proof says the CPU has AVX-512F.
-        unsafe { evaluate_avx512(prepared, positions, velocities) }
-    }
-}
-
-/// [`velocity_lanes`] compiled for AVX-512F.
-#[target_feature(enable = "avx512f")]
-#[inline(never)]
-fn velocity_avx512(prepared: &Prepared<Avx16>, x: V3<Avx16>) -> V3<Avx16> {
-    velocity_lanes(prepared, x)
-}
-
-/// [`advance_batches`] compiled for AVX-512F.
-#[target_feature(enable = "avx512f")]
-fn advance_avx512(
-    stages: &StagesOf<Avx16>,
-    integrator: FlowIntegrator,
-    dt: f32,
-    limits: &Limits,
-    chunk: Chunk,
-    flagged: &mut Vec<u32>,
-) {
-    advance_batches(stages, integrator, dt, limits, chunk, flagged)
-}
-
-/// [`evaluate_batches`] compiled for AVX-512F.
-#[target_feature(enable = "avx512f")]
-fn evaluate_avx512(prepared: &Prepared<Avx16>, positions: &[Vec3], velocities: &mut [Vec3]) {
-    evaluate_batches(prepared, positions, velocities)
-}
+crate::integrate::entry_points!(Avx16, Avx512, "avx512f", "AVX-512F");
