@@ -20,8 +20,8 @@ use serde::Serialize;
 
 use crate::Failure;
 use crate::compare_layout::{GLYPH_PIXELS, Layout, layout_for};
-use crate::pictures::frame_particles;
 use crate::scene_source::load_scene;
+use firn_run::pictures::frame_particles;
 
 /// The times of the thesis' figures 14-18, in seconds.
 const THESIS_TIMES: &str = "0.901,1.0,1.233,1.644,4.054";

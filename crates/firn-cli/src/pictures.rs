@@ -1,16 +1,8 @@
-//! Pictures of a run, shared by `firn run` (after each frame) and
-//! `firn render` (from the caches): a PNG per frame and style under
-//! `images/STYLE/`, and per style an animated GIF and, when ffmpeg is on
-//! PATH, an MP4 of the whole run.
-
-use std::path::{Path, PathBuf};
+//! The image folders of `firn run` and `firn render`; the pictures
+//! themselves are drawn by [`firn_run::pictures`].
 
 use firn_core::Scene;
-use firn_render::output::{find_ffmpeg, write_gif, write_mp4, write_png};
-use firn_render::scene_view::{FrameParticles, scene_picture};
-use firn_render::trails::Trails;
 use firn_run::RunDirectory;
-use firn_run::simulation::HostParticles;
 
 use crate::Failure;
 
@@ -21,84 +13,4 @@ pub fn prepare_image_dirs(scene: &Scene, run: &RunDirectory) -> Result<(), Failu
             "error: {error}\n  fix: choose a writable output directory with --out DIR"
         ))
     })
-}
-
-/// The renderer's view of a simulation's particles.
-pub fn frame_particles<'a>(particles: &'a HostParticles<'a>) -> FrameParticles<'a> {
-    FrameParticles {
-        positions: particles.positions,
-        masses: particles.masses,
-        values: particles.values.as_deref(),
-        trails: particles.trails.as_ref().map(|rings| Trails {
-            points: &rings.points,
-            capacity: rings.capacity,
-            lengths: &rings.lengths,
-        }),
-    }
-}
-
-/// Renders frame `index` at `time` in every style of the scene and writes the
-/// PNGs; returns their paths relative to `directory`.
-pub fn render_frame(
-    scene: &Scene,
-    directory: &Path,
-    index: u32,
-    time: f64,
-    particles: FrameParticles<'_>,
-) -> Result<Vec<String>, String> {
-    let mut written = Vec::new();
-    for &style in &scene.render.styles {
-        let picture = scene_picture(scene, time, style, particles, None);
-        let image = firn_render::render(&picture);
-        let name = RunDirectory::image_name(style, index);
-        write_png(&directory.join(&name), &image).map_err(|error| error.to_string())?;
-        written.push(name);
-    }
-    Ok(written)
-}
-
-/// Writes each style's animation over `frames` (frame indices in order, all
-/// rendered); returns the written paths relative to `directory`. Says
-/// plainly on stderr when ffmpeg is missing and only GIFs are written.
-pub fn write_animations(
-    scene: &Scene,
-    directory: &Path,
-    frames: &[u32],
-    quiet: bool,
-) -> Result<Vec<String>, String> {
-    let (Some(&first), false) = (frames.first(), scene.render.styles.is_empty()) else {
-        return Ok(Vec::new());
-    };
-    let ffmpeg = find_ffmpeg();
-    let mut written = Vec::new();
-    for &style in &scene.render.styles {
-        let images: Vec<PathBuf> = frames
-            .iter()
-            .map(|&index| directory.join(RunDirectory::image_name(style, index)))
-            .collect();
-        let gif = RunDirectory::animation_name(style, "gif");
-        write_gif(&directory.join(&gif), &images, scene.time.fps)
-            .map_err(|error| error.to_string())?;
-        written.push(gif);
-        if let Some(ffmpeg) = &ffmpeg {
-            let mp4 = RunDirectory::animation_name(style, "mp4");
-            let pattern = directory.join(RunDirectory::image_pattern(style));
-            write_mp4(
-                ffmpeg,
-                &pattern,
-                first,
-                scene.time.fps,
-                &directory.join(&mp4),
-            )
-            .map_err(|error| error.to_string())?;
-            written.push(mp4);
-        }
-    }
-    if ffmpeg.is_none() && !quiet {
-        eprintln!(
-            "note: ffmpeg is not on PATH, so no MP4 was written (the GIF preview was); \
-             install ffmpeg to get MP4 videos"
-        );
-    }
-    Ok(written)
 }

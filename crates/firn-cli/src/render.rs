@@ -14,8 +14,9 @@ use firn_run::run_dir::{CachedFrame, RecordedRun};
 use glam::Vec3;
 
 use crate::Failure;
-use crate::pictures::{prepare_image_dirs, render_frame, write_animations};
+use crate::pictures::prepare_image_dirs;
 use crate::run::progress_bar;
+use firn_run::pictures::{render_frame, write_animations};
 
 /// Arguments of `firn render`.
 #[derive(Args, Debug)]

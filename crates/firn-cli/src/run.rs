@@ -16,8 +16,9 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use crate::Failure;
 use crate::backend::{BackendChoice, choose_backend};
 use crate::bench::IntegratorChoice;
-use crate::pictures::{frame_particles, prepare_image_dirs, render_frame, write_animations};
+use crate::pictures::prepare_image_dirs;
 use crate::scene_source::load_scene;
+use firn_run::pictures::{frame_particles, render_frame, write_animations};
 
 /// Arguments of `firn run`.
 #[derive(Args, Debug)]

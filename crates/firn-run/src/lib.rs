@@ -15,12 +15,14 @@
 //! - [`recording`]: [`Recording`], a run in progress: its solver, its
 //!   manifest and its checkpoints, frame by frame, with an
 //!   [`Observer`](recording::Observer) for what the front door shows;
+//! - [`pictures`]: a frame's pictures and a run's animations;
 //! - [`error`]: what can go wrong, as [`RunError`].
 
 pub mod backend;
 pub mod caches;
 pub mod checkpoint;
 pub mod error;
+pub mod pictures;
 pub mod recording;
 pub mod run_dir;
 pub mod simulation;

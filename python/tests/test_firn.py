@@ -1,0 +1,153 @@
+"""The Python module against the physics and the command line."""
+
+import os
+import pathlib
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import firn
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+
+
+def firn_binary() -> pathlib.Path:
+    """The `firn` command built by cargo (FIRN_BIN, or the workspace's)."""
+    if "FIRN_BIN" in os.environ:
+        return pathlib.Path(os.environ["FIRN_BIN"])
+    for profile in ("release", "debug"):
+        candidate = ROOT / "target" / profile / "firn"
+        if candidate.exists():
+            return candidate
+    pytest.fail("no firn binary: build it with `cargo build -p firn-cli` or set FIRN_BIN")
+
+
+def small_snowball() -> firn.Scene:
+    """The default scene, two frames long."""
+    scene = firn.Scene.default()
+    scene["time.duration"] = 2 / scene.fps
+    return scene
+
+
+def test_stepping_the_snowball_conserves_mass_and_moves_it():
+    sim = firn.Simulation(small_snowball(), backend="cpu", threads=2)
+    mass_before = sim.masses.sum(dtype=np.float64)
+    start = sim.positions.mean(axis=0)
+    assert sim.advance_frames(2) == 2
+    assert sim.frame == 2 and sim.substeps > 0
+    assert sim.masses.sum(dtype=np.float64) == mass_before
+    moved = sim.positions.mean(axis=0) - start
+    assert moved[0] > 0.05, moved  # thrown along +x at 5 m/s
+    assert np.isfinite(sim.elastic_deformation).all()
+    assert sim.elastic_deformation.shape == (len(sim), 3, 3)
+    assert (sim.density > 0).all()
+
+
+def test_run_matches_the_command_line_byte_for_byte(tmp_path):
+    scene_file = tmp_path / "snowball.toml"
+    scene_file.write_text(small_snowball().to_toml())
+    subprocess.run(
+        [str(firn_binary()), "run", str(scene_file), "--out", str(tmp_path / "cli"), "--no-render", "-q"],
+        check=True,
+        env={**os.environ, "FIRN_BACKEND": "cpu"},
+    )
+    out = firn.run(firn.Scene.load(scene_file), out=tmp_path / "py", render=False, backend="cpu")
+    cli_frames = sorted((tmp_path / "cli" / "ply").iterdir())
+    py_frames = sorted((pathlib.Path(out) / "ply").iterdir())
+    assert [p.name for p in cli_frames] == [p.name for p in py_frames]
+    assert len(py_frames) == 3
+    for cli, py in zip(cli_frames, py_frames):
+        assert cli.read_bytes() == py.read_bytes(), cli.name
+
+
+def test_a_bad_dict_raises_scene_error_with_line_and_key():
+    values = small_snowball().to_dict()
+    values["domain"]["cell_size"] = -0.02
+    with pytest.raises(firn.SceneError) as raised:
+        firn.Scene.from_dict(values)
+    error = raised.value
+    assert isinstance(error, ValueError)
+    assert error.line is not None and error.line > 0
+    assert "cell_size" in str(error) and "fix:" in str(error)
+    assert error.key is not None and "cell_size" in error.key
+
+
+def test_a_change_that_is_not_valid_is_refused_and_not_kept():
+    scene = small_snowball()
+    with pytest.raises(firn.SceneError):
+        scene["time.fps"] = -5
+    assert scene.fps == 30
+    scene["bodies[0].velocity"] = [2.0, 0.0, 0.0]
+    assert scene["bodies[0].velocity"] == [2.0, 0.0, 0.0]
+
+
+def test_wrong_arrays_are_refused():
+    sim = firn.Simulation(small_snowball(), backend="cpu")
+    with pytest.raises(ValueError, match="shape"):
+        sim.velocities = np.zeros((len(sim), 2))
+    bad = np.zeros((len(sim), 3))
+    bad[7, 1] = np.nan
+    with pytest.raises(ValueError, match="finite"):
+        sim.velocities = bad
+    sim.velocities = np.zeros((len(sim), 3))
+    assert not sim.velocities.any()
+
+
+def test_stepping_releases_the_gil():
+    sim = firn.Simulation(small_snowball(), backend="cpu", threads=1)
+    ticks = []
+    stop = threading.Event()
+
+    def count():
+        while not stop.is_set():
+            ticks.append(time.perf_counter())
+            time.sleep(0.001)
+
+    counter = threading.Thread(target=count)
+    counter.start()
+    started = time.perf_counter()
+    sim.step(200)
+    finished = time.perf_counter()
+    stop.set()
+    counter.join()
+    during = [t for t in ticks if started < t < finished]
+    print(f"{len(during)} ticks of the other thread during {finished - started:.2f} s of stepping")
+    assert len(during) > 10
+
+
+def test_progress_reports_each_frame():
+    sim = firn.Simulation(small_snowball(), backend="cpu")
+    seen = []
+    sim.advance_frames(2, progress=seen.append)
+    assert [d["frame"] for d in seen] == [1, 2]
+    assert seen[-1]["eta_seconds"] == 0.0 and seen[0]["substeps_per_second"] > 0
+
+
+def test_flow_field_is_divergence_free():
+    flow = firn.FlowSimulation(firn.Scene.load(ROOT / "scenes" / "curl-noise-demo.toml"))
+    flow.advance_frames(1)
+    assert flow.positions.shape == (len(flow), 3)
+    points = np.random.default_rng(1).uniform(-0.5, 0.5, size=(64, 3))
+    velocity = flow.velocity_at(points)
+    assert velocity.shape == (64, 3) and np.abs(velocity).max() > 0.01
+    divergence = flow.divergence_at(points)
+    assert np.abs(divergence).max() < 1e-5 * np.abs(velocity).max() / 1e-2
+
+
+def test_the_example_script_runs(tmp_path):
+    out = tmp_path / "plot.png"
+    subprocess.run(
+        [sys.executable, str(ROOT / "python" / "examples" / "snowball_plot.py"), str(out), "--seconds", "0.1"],
+        check=True,
+    )
+    assert out.stat().st_size > 10_000
+
+
+def test_reprs_say_what_things_are():
+    scene = small_snowball()
+    assert "snowball-wall" in repr(scene) and "snow" in repr(scene)
+    assert "4185 snow particles" in repr(firn.Simulation(scene))
