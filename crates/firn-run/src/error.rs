@@ -31,6 +31,9 @@ pub enum RunError {
     /// A checkpoint could not be read back.
     #[error(transparent)]
     Checkpoint(#[from] CheckpointError),
+    /// The scene needs more memory than the machine has.
+    #[error(transparent)]
+    TooLarge(#[from] crate::budget::TooLarge),
     /// A frame could not be simulated.
     #[error("the simulation stopped in frame {frame}: {source}")]
     Stopped {

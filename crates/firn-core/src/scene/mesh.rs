@@ -141,6 +141,9 @@ pub struct MeshBody {
     pub max: Vec3,
     /// What the inspection of the mesh found, one sentence each.
     pub warnings: Vec<String>,
+    /// The volume the placed mesh encloses, m³ (what its particles fill).
+    #[serde(skip)]
+    pub volume: f64,
     /// Inside test of the placed mesh.
     #[serde(skip)]
     pub solid: Derived<WindingNumber>,
@@ -154,6 +157,7 @@ impl MeshBody {
             min: Vec3::ZERO,
             max: Vec3::ZERO,
             warnings: Vec::new(),
+            volume: 0.0,
             solid: Derived::default(),
         };
         body.build()?;
@@ -165,6 +169,7 @@ impl MeshBody {
         let placed = self.placement.load()?;
         (self.min, self.max) = placed.mesh.bounds();
         self.warnings = placed.warnings;
+        self.volume = placed.mesh.enclosed_volume();
         self.solid = Derived::new(WindingNumber::new(&placed.mesh));
         Ok(())
     }
