@@ -113,7 +113,13 @@ impl Checkpoint {
             path: path.to_path_buf(),
             source,
         })?;
-        parse_checkpoint(&bytes).map_err(|problem| problem.into_error(path))
+        Checkpoint::from_bytes(&bytes, path)
+    }
+
+    /// Decodes the bytes of a checkpoint read from `path` (named in
+    /// errors), with the checks of [`Checkpoint::read`].
+    pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Self, IoError> {
+        parse_checkpoint(bytes).map_err(|problem| problem.into_error(path))
     }
 
     /// Everything but the checksum.
