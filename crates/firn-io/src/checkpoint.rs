@@ -10,6 +10,12 @@
 //! u32 array count, then per array: u32 name length, name (UTF-8), u64 byte length, bytes
 //! u32 CRC-32 of everything above
 //! ```
+//!
+//! The reader refuses, naming the file and the check that failed, a file
+//! without the magic bytes, a version it does not read (0, or newer than
+//! this build's), a truncated file and one whose checksum does not match
+//! (a flipped bit); whether the state itself is one a run can reach is the
+//! solver's to check (`firn_run::checkpoint::read`).
 
 use std::fs;
 use std::io::{self, Write};
