@@ -37,5 +37,8 @@ fn a_collapsing_step_stops_gpu_snow_with_the_speed_and_a_fix() {
     assert!(*speed > 50.0, "the snow was falling at {speed} m/s");
     let message = error.to_string();
     assert!(message.contains("the time step fell to"), "{message}");
-    assert!(message.contains("fix: find what drives the snow"), "{message}");
+    assert!(
+        message.contains("fix: find what drives the snow"),
+        "{message}"
+    );
 }

@@ -1061,8 +1061,7 @@ fn default_name(origin: &str) -> String {
     }
 }
 
-/// Largest number of signed distance samples a mesh collider may take (64 MiB).
-pub const MAX_SDF_SAMPLES: u64 = 1 << 24;
+pub use super::mesh::MAX_SDF_SAMPLES;
 
 /// The mesh file, scale, rotation and centre of a mesh body or collider,
 /// checked before the file is read. A relative `mesh` path is taken from the
@@ -1135,12 +1134,7 @@ fn check_sdf_spacing(path: &KeyPath, spacing: f32) -> Check {
 
 /// The field of a placed mesh collider must stay under [`MAX_SDF_SAMPLES`].
 fn check_sdf_size(path: &KeyPath, (low, high): (Vec3, Vec3), spacing: f32) -> Check {
-    let padding = 2.0 * MeshCollider::PADDING_SAMPLES as f32;
-    let samples = ((high - low) / spacing + padding)
-        .to_array()
-        .iter()
-        .map(|n| n.ceil().max(1.0) as u64 + 1)
-        .product::<u64>();
+    let samples = MeshCollider::sdf_samples((low, high), spacing);
     ensure(
         samples <= MAX_SDF_SAMPLES,
         path.key("sdf_spacing"),

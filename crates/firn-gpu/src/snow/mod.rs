@@ -249,24 +249,33 @@ impl GpuSnow {
         }))
     }
 
-    /// The error for a frame still running whose last Δt leaves it more
-    /// substeps than the scene's `time.max_substeps_per_frame`, as on the
-    /// CPU (the batch before it has been taken).
+    /// The error for a frame still running whose next Δt (before it is
+    /// clipped to the frame's end, from the maxima of the last gather)
+    /// leaves it more substeps than the scene's
+    /// `time.max_substeps_per_frame`, as on the CPU (the batch before it
+    /// has been taken).
     fn check_step_length(&self, state: &StepState) -> Result<(), GpuError> {
         let time = &self.scene.time;
-        if state.running == 0 || f64::from(state.dt) >= time.shortest_dt() {
+        let speed = f32::from_bits(state.max_speed_bits).max(0.0).sqrt();
+        let wave_speed = f32::from_bits(state.max_wave_bits).max(0.0).sqrt();
+        let dt = match time.step {
+            TimeStep::Fixed { dt } => dt,
+            TimeStep::Adaptive { cfl, max_dt } if speed + wave_speed > 0.0 => {
+                (cfl * self.scene.domain.cell_size / (speed + wave_speed)).min(max_dt)
+            }
+            TimeStep::Adaptive { max_dt, .. } => max_dt,
+        };
+        if state.running == 0 || f64::from(dt) >= time.shortest_dt() {
             return Ok(());
         }
-        let speed = state.speed_squared.max(0.0).sqrt();
-        let wave_speed = state.wave_speed_squared.max(0.0).sqrt();
         Err(GpuError::Snow(SimulationError::TooManySubsteps {
             time: self.time,
             step: self.steps,
-            dt: state.dt,
+            dt,
             speed,
             wave_speed,
             fps: time.fps,
-            needed: 1.0 / (time.fps * f64::from(state.dt)),
+            needed: 1.0 / (time.fps * f64::from(dt)),
             limit: time.max_substeps_per_frame,
             hint: firn_mpm::simulation::step_length_hint(
                 speed,
