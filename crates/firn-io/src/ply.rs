@@ -705,9 +705,14 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("frame.ply");
         write_ply(&path, &FrameData::new(0, 0.0, &[Vec3::ONE])).unwrap();
-        let text = fs::read(&path).unwrap();
-        let newer = String::from_utf8_lossy(&text).replace("firn cache 1 ", "firn cache 2 ");
-        fs::write(&path, newer.as_bytes()).unwrap();
+        let mut bytes = fs::read(&path).unwrap();
+        let tag = b"firn cache 1 ";
+        let at = bytes
+            .windows(tag.len())
+            .position(|window| window == tag)
+            .expect("the cache comment is in the header");
+        bytes[at + tag.len() - 2] = b'2';
+        fs::write(&path, &bytes).unwrap();
 
         let message = read_ply(&path).unwrap_err().to_string();
 
