@@ -702,6 +702,7 @@ pub fn snowball_drop(particles: u32, grid: u32, transfer: Transfer) -> Scene {
             duration: 1.0,
             fps: 30.0,
             step: TimeStep::Fixed { dt: 0.0128 * h },
+            max_substeps_per_frame: TimeSettings::DEFAULT_MAX_SUBSTEPS_PER_FRAME,
         },
         solver: SolverSettings {
             transfer,

@@ -1,14 +1,16 @@
-//! `firn check`: validate a scene and show what it resolves to.
+//! `firn check`: validate a scene and show what it resolves to and what it
+//! will cost, without sampling or allocating it.
 
 use std::path::PathBuf;
 
 use clap::Args;
 use firn_core::Scene;
-use firn_core::scene::{Domain, FlowSettings, Shape, TimeStep};
-use firn_flow::FlowSimulation;
+use firn_core::scene::{Bytes, Domain, FlowSettings, Shape, TimeStep};
 use firn_gpu::snow::MemoryEstimate;
-use firn_mpm::Simulation;
+use firn_mpm::grid::GridLayout;
+use firn_run::Budget;
 use firn_run::backend::{first_line, gpu_supports};
+use firn_run::budget::{TooLarge, machine_memory};
 
 use crate::Failure;
 use crate::scene_source::load_scene;
@@ -23,7 +25,9 @@ pub struct CheckArgs {
     pub json: bool,
 }
 
-/// Validates the scene and prints particle count, grid, memory and first Δt.
+/// Validates the scene, checks that it fits this machine, and prints what
+/// it will cost: particles, grid, memory, the first Δt and frames. Nothing
+/// is sampled or allocated, so a scene of any size answers at once.
 pub fn check(args: CheckArgs) -> Result<(), Failure> {
     let (scene, _) = load_scene(args.scene.as_deref())?;
     if args.json {
@@ -32,14 +36,17 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
         println!("{json}");
         return Ok(());
     }
-    if let Some(flow) = scene.kind.flow() {
-        return check_flow(&scene, flow);
+    let budget = Budget::of(&scene);
+    if let Some(machine) = machine_memory().map_err(too_large)? {
+        budget.check_memory(&scene, machine).map_err(too_large)?;
     }
-    let simulation = Simulation::new(scene.clone())
-        .map_err(|error| Failure::BadInput(format!("error: {error}")))?;
+    if let Some(flow) = scene.kind.flow() {
+        check_flow(&scene, flow, &budget);
+        return Ok(());
+    }
     let cells = scene.domain.cells();
-    let layout = simulation.grid_layout();
-    let nodes = layout.node_dims();
+    let domain = &scene.domain;
+    let nodes = GridLayout::new(domain.min, domain.max, domain.cell_size).node_dims();
     println!("scene       {}", scene.name);
     println!(
         "domain      {} m, h = {} m",
@@ -51,8 +58,11 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
         cells[0], cells[1], cells[2], nodes.x, nodes.y, nodes.z
     );
     println!("transfer    {:?}", scene.solver.transfer);
-    println!("particles   {}", simulation.particles().len());
-    for (index, body) in scene.bodies.iter().enumerate() {
+    println!(
+        "particles   about {} (from the bodies' volumes; {} lattice points tested)",
+        budget.work.particles, budget.work.lattice_points
+    );
+    for ((index, body), estimate) in scene.bodies.iter().enumerate().zip(&budget.work.bodies) {
         let shape = match body.shape {
             Shape::Sphere { radius, .. } => format!("sphere r = {radius}"),
             Shape::Box { size, .. } => format!("box {} x {} x {}", size.x, size.y, size.z),
@@ -72,8 +82,8 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
         };
         let material = &scene.materials[body.material];
         println!(
-            "  body {index}    {shape}, material {}, {} particles per cell",
-            material.name, body.particles_per_cell
+            "  body {index}    {shape}, material {}, {} particles per cell, about {} particles",
+            material.name, body.particles_per_cell, estimate.particles
         );
     }
     for material in &scene.materials {
@@ -93,22 +103,23 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
         scene.colliders.len()
     );
     println!(
-        "memory      {:.1} MiB (sparse grid, bins and particles)",
-        simulation.memory_bytes() as f64 / (1024.0 * 1024.0)
+        "memory      about {} at the start (sparse grid near the bodies, bins and particles){}",
+        Bytes(budget.cpu_bytes),
+        machine_text()
     );
-    println!(
-        "gpu         {}",
-        gpu_line(&scene, Some(simulation.particles().len()))
-    );
+    println!("gpu         {}", gpu_line(&scene, budget.gpu.as_ref()));
     let policy = match scene.time.step {
         TimeStep::Fixed { dt } => format!("fixed {dt:.2e} s"),
         TimeStep::Adaptive { cfl, max_dt } => {
             format!("adaptive, cfl {cfl}, at most {max_dt:.2e} s")
         }
     };
+    let first = scene.first_step();
     println!(
-        "time step   {policy}; first step {:.3e} s",
-        simulation.next_dt()
+        "time step   {policy}; first step {:.3e} s ({:.0} substeps per frame, at most {})",
+        first.dt,
+        first.substeps_per_frame.ceil(),
+        scene.time.max_substeps_per_frame
     );
     println!(
         "frames      {} at {} fps ({} s)",
@@ -120,16 +131,28 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-/// Whether the GPU backend runs the scene and, for snow with `particles`,
-/// the GPU memory it needs (no adapter is opened).
-fn gpu_line(scene: &Scene, particles: Option<usize>) -> String {
+/// A scene past the machine's memory, or an unreadable limit (exit code 2).
+fn too_large(error: TooLarge) -> Failure {
+    Failure::BadInput(format!("error: {error}"))
+}
+
+/// ` of X (source)`: the memory the machine allows, where known.
+fn machine_text() -> String {
+    match machine_memory() {
+        Ok(Some(machine)) => format!(", of {} ({})", Bytes(machine.bytes), machine.source),
+        _ => String::new(),
+    }
+}
+
+/// Whether the GPU backend runs the scene and, for snow, the GPU memory it
+/// needs (no adapter is opened).
+fn gpu_line(scene: &Scene, estimate: Option<&MemoryEstimate>) -> String {
     if let Err(error) = gpu_supports(scene) {
         return format!("CPU only: {}", first_line(&error));
     }
-    let Some(particles) = particles else {
+    let Some(estimate) = estimate else {
         return "the GPU backend runs this scene (--backend gpu)".into();
     };
-    let estimate = MemoryEstimate::of(scene, particles as u64);
     format!(
         "the GPU backend runs this scene: {:.1} MiB of GPU buffers ({} bytes per particle, {} per node, {} nodes)",
         estimate.total_bytes() as f64 / (1024.0 * 1024.0),
@@ -148,11 +171,9 @@ fn box_text(domain: &Domain) -> String {
     )
 }
 
-/// The summary of a curl-noise flow scene: particles at time 0, the field's
+/// The summary of a curl-noise flow scene: particle slots, the field's
 /// parameters, emitters and obstacles.
-fn check_flow(scene: &Scene, flow: &FlowSettings) -> Result<(), Failure> {
-    let simulation = FlowSimulation::new(scene.clone())
-        .map_err(|error| Failure::BadInput(format!("error: {error}")))?;
+fn check_flow(scene: &Scene, flow: &FlowSettings, budget: &Budget) {
     println!("scene       {} (curl-noise flow)", scene.name);
     println!("domain      {}", box_text(&scene.domain));
     println!(
@@ -170,14 +191,15 @@ fn check_flow(scene: &Scene, flow: &FlowSettings) -> Result<(), Failure> {
         "stepping    {:?}, {} substeps per frame ({:.3e} s)",
         flow.integrator,
         flow.substeps,
-        simulation.dt()
+        1.0 / (scene.time.fps * f64::from(flow.substeps))
     );
-    println!("particles   {} at t = 0", simulation.len());
+    println!("particles   {} slots", budget.work.particles);
     println!("emitters    {}", flow.emitters.len());
     println!("obstacles   {}", flow.obstacles.len());
     println!(
-        "memory      {:.1} MiB",
-        simulation.memory_bytes() as f64 / (1024.0 * 1024.0)
+        "memory      about {} with every slot alive{}",
+        Bytes(budget.cpu_bytes),
+        machine_text()
     );
     println!("gpu         {}", gpu_line(scene, None));
     println!(
@@ -187,5 +209,4 @@ fn check_flow(scene: &Scene, flow: &FlowSettings) -> Result<(), Failure> {
         scene.time.duration
     );
     println!("output      {}", scene.output.directory.display());
-    Ok(())
 }

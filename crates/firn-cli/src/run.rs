@@ -10,7 +10,7 @@ use clap::Args;
 use firn_core::Scene;
 use firn_run::error::ResumeError;
 use firn_run::recording::{FrameToPicture, Observer, Progress};
-use firn_run::{Placement, Recording, RunDirectory, RunError, Solver};
+use firn_run::{Budget, Placement, Recording, RunDirectory, RunError, Solver};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use crate::Failure;
@@ -82,6 +82,10 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
         eprintln!("{note}");
     }
     let placement = chosen.placement;
+    // Before anything is written: a scene past the machine leaves no trace.
+    Budget::of(&scene)
+        .check_placement(&scene, &placement)
+        .map_err(|error| Failure::BadInput(format!("error: {error}")))?;
     let run = RunDirectory::new(scene.output.directory.clone());
     run.create(&scene).map_err(|error| {
         Failure::BadInput(format!(

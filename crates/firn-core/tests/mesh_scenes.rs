@@ -233,3 +233,29 @@ fn bad_meshes_are_reported_at_the_key_that_names_them() {
     .unwrap_err();
     error_at(&coarse, 18, "colliders[0].sdf_spacing", "raise sdf_spacing");
 }
+
+/// A scene read back from JSON (a run's manifest) whose mesh collider asks
+/// for a field finer than an atom: loading its meshes is refused before the
+/// field is sampled (it would take about 10^29 samples), and a spacing so
+/// small that the count passes 2^64 does not overflow.
+#[test]
+fn a_json_scene_with_an_absurdly_fine_field_is_refused_before_sampling_it() {
+    let dir = cube_dir();
+    let scene = scene_with(
+        dir.path(),
+        "[[bodies]]\nshape = \"sphere\"\ncenter = [0.5, 0.5, 0.5]\nradius = 0.1\n\n\
+[[colliders]]\nshape = \"mesh\"\nmesh = \"meshes/cube.obj\"\ncenter = [0.5, 0.1, 0.5]\nscale = 0.1\n",
+    )
+    .unwrap();
+    for spacing in [1e-10, 1e-30] {
+        let mut json = serde_json::to_value(&scene).unwrap();
+        json["colliders"][0]["geometry"]["sdf_spacing"] = serde_json::json!(spacing);
+        let mut read_back: Scene = serde_json::from_value(json).unwrap();
+        let error = read_back.load_meshes().unwrap_err().to_string();
+        assert!(
+            error.contains("its signed distance field would take")
+                && error.contains("more than 16777216"),
+            "{error}"
+        );
+    }
+}

@@ -588,6 +588,21 @@ impl FlowSimulation {
             .collect()
     }
 
+    /// The bytes [`FlowSimulation::memory_bytes`] reports once every
+    /// particle slot of `scene`'s emitters is alive, known before anything
+    /// is allocated: the particles and, when the scene draws trails, their
+    /// rings of `trail_length` positions.
+    pub fn estimate_memory_bytes(scene: &Scene) -> u64 {
+        let slots = scene.estimate().particles;
+        let trails = &firn_core::scene::RenderStyle::Trails;
+        let trail_bytes = if scene.render.styles.contains(trails) {
+            u64::from(scene.render.trail_length) * size_of::<Vec3>() as u64 + 8
+        } else {
+            0
+        };
+        slots.saturating_mul(FlowParticles::bytes_per_particle() as u64 + trail_bytes)
+    }
+
     /// Bytes held by the particles and trails.
     pub fn memory_bytes(&self) -> usize {
         let trails = self.trails.as_ref().map_or(0, |trails| {

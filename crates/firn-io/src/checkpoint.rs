@@ -10,6 +10,12 @@
 //! u32 array count, then per array: u32 name length, name (UTF-8), u64 byte length, bytes
 //! u32 CRC-32 of everything above
 //! ```
+//!
+//! The reader refuses, naming the file and the check that failed, a file
+//! without the magic bytes, a version it does not read (0, or newer than
+//! this build's), a truncated file and one whose checksum does not match
+//! (a flipped bit); whether the state itself is one a run can reach is the
+//! solver's to check (`firn_run::checkpoint::read`).
 
 use std::fs;
 use std::io::{self, Write};
@@ -113,7 +119,13 @@ impl Checkpoint {
             path: path.to_path_buf(),
             source,
         })?;
-        parse_checkpoint(&bytes).map_err(|problem| problem.into_error(path))
+        Checkpoint::from_bytes(&bytes, path)
+    }
+
+    /// Decodes the bytes of a checkpoint read from `path` (named in
+    /// errors), with the checks of [`Checkpoint::read`].
+    pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Self, IoError> {
+        parse_checkpoint(bytes).map_err(|problem| problem.into_error(path))
     }
 
     /// Everything but the checksum.

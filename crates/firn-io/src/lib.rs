@@ -28,5 +28,5 @@ pub use checkpoint::Checkpoint;
 pub use error::IoError;
 pub use frame::{Attribute, AttributeValues, FrameData, FrameError};
 pub use manifest::{FrameRecord, MANIFEST_FILE, Manifest, RunStatus, SolverFrameStats};
-pub use ply::{PlyCloud, PlyColumn, PlyValues, read_ply, write_ply};
+pub use ply::{PlyCloud, PlyColumn, PlyValues, parse_ply, read_ply, write_ply};
 pub use vtk::{PvdCollection, PvdEntry, write_vtp};

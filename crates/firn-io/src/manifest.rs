@@ -122,7 +122,12 @@ impl Manifest {
             path: path.to_path_buf(),
             source,
         })?;
-        serde_json::from_slice(&bytes).map_err(|source| IoError::Json {
+        Manifest::from_bytes(&bytes, path)
+    }
+
+    /// Decodes the bytes of a manifest read from `path` (named in errors).
+    pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Self, IoError> {
+        serde_json::from_slice(bytes).map_err(|source| IoError::Json {
             path: path.to_path_buf(),
             source,
         })

@@ -5,9 +5,15 @@
 //! frame. The reader understands exactly what the writer produces (and other
 //! files restricted to `float`/`uint` vertex properties), which is enough to
 //! re-render a cache or to check it in tests.
+//!
+//! firn's caches carry one more header comment, `firn cache 1 crc32 XXXXXXXX`:
+//! the cache layout's version and the CRC-32 of the vertex data. The reader
+//! refuses a cache of a newer version and one whose data does not match its
+//! checksum (a flipped bit, a torn copy); other tools ignore the comment.
+//! Files without it (from other tools) are read unchecked.
 
 use std::fs;
-use std::io::{self, Write};
+use std::io;
 use std::path::Path;
 
 use glam::Vec3;
@@ -25,6 +31,12 @@ const PROPERTY_BYTES: usize = 4;
 /// The line that closes a PLY header.
 const END_HEADER: &[u8] = b"end_header\n";
 
+/// The first words of the comment that carries the cache version and checksum.
+const CACHE_COMMENT: &str = "firn cache";
+
+/// The cache layout this build writes and the newest it reads.
+const CACHE_VERSION: u32 = 1;
+
 /// Writes `frame` as a binary little-endian PLY point cloud, atomically.
 ///
 /// Scalars become `float <name>`, integers `uint <name>`, and vectors three
@@ -38,10 +50,20 @@ pub fn write_ply(path: &Path, frame: &FrameData) -> Result<(), IoError> {
     frame.validate().map_err(invalid)?;
     let properties = vertex_properties(frame);
     ensure_unique_property_names(&properties).map_err(invalid)?;
-    let header = header_text(frame, &properties);
+    let record_bytes = properties.len() * PROPERTY_BYTES;
+    let mut hasher = crc32fast::Hasher::new();
+    for_each_chunk(frame, record_bytes, |chunk| {
+        hasher.update(chunk);
+        Ok(())
+    })
+    .map_err(|source| IoError::Write {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let header = header_text(frame, &properties, hasher.finalize());
     write_atomically(path, |out| {
         out.write_all(header.as_bytes())?;
-        write_vertices(out, frame, properties.len() * PROPERTY_BYTES)
+        for_each_chunk(frame, record_bytes, |chunk| out.write_all(chunk))
     })
 }
 
@@ -51,7 +73,13 @@ pub fn read_ply(path: &Path) -> Result<PlyCloud, IoError> {
         path: path.to_path_buf(),
         source,
     })?;
-    parse_ply(&bytes).map_err(|reason| IoError::InvalidPly {
+    parse_ply(&bytes, path)
+}
+
+/// Decodes the bytes of a PLY point cloud read from `path` (named in
+/// errors), with the checks of [`read_ply`].
+pub fn parse_ply(bytes: &[u8], path: &Path) -> Result<PlyCloud, IoError> {
+    decode_ply(bytes).map_err(|reason| IoError::InvalidPly {
         path: path.to_path_buf(),
         reason,
     })
@@ -217,12 +245,14 @@ fn ensure_unique_property_names(properties: &[Property]) -> Result<(), FrameErro
     Ok(())
 }
 
-/// The complete ASCII header, `end_header` line included.
-fn header_text(frame: &FrameData, properties: &[Property]) -> String {
+/// The complete ASCII header, `end_header` line included; `checksum` is
+/// the CRC-32 of the vertex data.
+fn header_text(frame: &FrameData, properties: &[Property], checksum: u32) -> String {
     let mut lines = vec![
         "ply".to_string(),
         "format binary_little_endian 1.0".to_string(),
         format!("comment firn frame {} time {}", frame.index, frame.time),
+        format!("comment {CACHE_COMMENT} {CACHE_VERSION} crc32 {checksum:08x}"),
         format!("element vertex {}", frame.particle_count()),
     ];
     lines.extend(
@@ -234,8 +264,13 @@ fn header_text(frame: &FrameData, properties: &[Property]) -> String {
     lines.join("\n")
 }
 
-/// Writes the interleaved vertex records, encoding a chunk of vertices per write call.
-fn write_vertices(out: &mut dyn Write, frame: &FrameData, record_bytes: usize) -> io::Result<()> {
+/// Encodes the interleaved vertex records a chunk of vertices at a time and
+/// hands each chunk to `take` (to hash it, then to write it).
+fn for_each_chunk(
+    frame: &FrameData,
+    record_bytes: usize,
+    mut take: impl FnMut(&[u8]) -> io::Result<()>,
+) -> io::Result<()> {
     let mut chunk = Vec::with_capacity(CHUNK_VERTICES.min(frame.particle_count()) * record_bytes);
     for start in (0..frame.particle_count()).step_by(CHUNK_VERTICES) {
         let end = (start + CHUNK_VERTICES).min(frame.particle_count());
@@ -243,7 +278,7 @@ fn write_vertices(out: &mut dyn Write, frame: &FrameData, record_bytes: usize) -
         for vertex in start..end {
             append_vertex(&mut chunk, frame, vertex);
         }
-        out.write_all(&chunk)?;
+        take(&chunk)?;
     }
     Ok(())
 }
@@ -277,9 +312,10 @@ struct Header {
     properties: Vec<Property>,
 }
 
-fn parse_ply(bytes: &[u8]) -> Result<PlyCloud, String> {
+fn decode_ply(bytes: &[u8]) -> Result<PlyCloud, String> {
     let (header_text, body) = split_header(bytes)?;
     let header = parse_header(header_text)?;
+    check_cache_comment(&header.comments, body)?;
     let columns = decode_columns(&header, body)?;
     Ok(PlyCloud {
         comments: header.comments,
@@ -337,6 +373,48 @@ fn parse_header(text: &str) -> Result<Header, String> {
         return Err("the header has no `format` line".into());
     }
     Ok(header)
+}
+
+/// Checks firn's cache comment, if the file has one: a version this build
+/// reads and the checksum of `body`.
+fn check_cache_comment(comments: &[String], body: &[u8]) -> Result<(), String> {
+    let Some(comment) = comments
+        .iter()
+        .find(|comment| comment.starts_with(CACHE_COMMENT))
+    else {
+        return Ok(());
+    };
+    let words: Vec<&str> = comment.split_whitespace().collect();
+    let (version, stored) = match words.as_slice() {
+        ["firn", "cache", version, "crc32", checksum] => (
+            version.parse::<u32>().ok(),
+            u32::from_str_radix(checksum, 16)
+                .ok()
+                .filter(|_| checksum.len() == 8),
+        ),
+        _ => (None, None),
+    };
+    let damaged = || format!("its header comment `{comment}` is damaged");
+    match version {
+        Some(CACHE_VERSION) => {}
+        Some(newer) if newer > CACHE_VERSION => {
+            return Err(format!(
+                "it was written by a newer firn (cache version {newer}; this build reads \
+                 {CACHE_VERSION})"
+            ));
+        }
+        _ => return Err(damaged()),
+    }
+    let stored = stored.ok_or_else(damaged)?;
+    let actual = crc32fast::hash(body);
+    if actual == stored {
+        Ok(())
+    } else {
+        Err(format!(
+            "checksum mismatch: the vertex data has CRC-32 {actual:08x} but the header says \
+             {stored:08x}, so the file is damaged or truncated"
+        ))
+    }
 }
 
 fn comment_text(line: &str) -> String {
@@ -480,7 +558,8 @@ mod tests {
         );
         assert_eq!(bits(cloud.floats("jp").unwrap()), bits(&jp));
         assert_eq!(cloud.uints("phase").unwrap(), phase.as_slice());
-        assert_eq!(cloud.comments, ["firn frame 12 time 0.5"]);
+        assert_eq!(cloud.comments[0], "firn frame 12 time 0.5");
+        assert!(cloud.comments[1].starts_with("firn cache 1 crc32 "));
     }
 
     #[test]
@@ -500,12 +579,16 @@ mod tests {
 
         write_ply(&path, &frame).unwrap();
 
+        let bytes = fs::read(&path).unwrap();
+        let body = &bytes[bytes.len() - 11 * PROPERTY_BYTES..];
+        let checksum = format!("comment firn cache 1 crc32 {:08x}", crc32fast::hash(body));
         assert_eq!(
             header_lines(&path),
             [
                 "ply",
                 "format binary_little_endian 1.0",
                 "comment firn frame 3 time 0.125",
+                checksum.as_str(),
                 "element vertex 1",
                 "property float x",
                 "property float y",
@@ -591,10 +674,62 @@ mod tests {
 
         let message = read_ply(&path).unwrap_err().to_string();
 
+        assert!(message.contains("checksum mismatch"), "{message}");
+    }
+
+    #[test]
+    fn a_flipped_bit_in_the_vertex_data_fails_the_checksum() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("frame.ply");
+        let positions = [Vec3::ZERO, Vec3::ONE];
+        write_ply(&path, &FrameData::new(0, 0.0, &positions)).unwrap();
+        let mut bytes = fs::read(&path).unwrap();
+        let last = bytes.len() - 1;
+        bytes[last] ^= 0x01;
+        fs::write(&path, &bytes).unwrap();
+
+        let message = read_ply(&path).unwrap_err().to_string();
+
         assert!(
-            message.contains("expected 24 bytes of vertex data, found 23"),
+            message.starts_with(&path.display().to_string()),
             "{message}"
         );
+        assert!(
+            message.contains("checksum mismatch: the vertex data has CRC-32"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn a_cache_of_a_newer_layout_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("frame.ply");
+        write_ply(&path, &FrameData::new(0, 0.0, &[Vec3::ONE])).unwrap();
+        let mut bytes = fs::read(&path).unwrap();
+        let tag = b"firn cache 1 ";
+        let at = bytes
+            .windows(tag.len())
+            .position(|window| window == tag)
+            .expect("the cache comment is in the header");
+        bytes[at + tag.len() - 2] = b'2';
+        fs::write(&path, &bytes).unwrap();
+
+        let message = read_ply(&path).unwrap_err().to_string();
+
+        assert!(
+            message.contains("written by a newer firn (cache version 2; this build reads 1)"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn a_file_without_the_cache_comment_is_read_unchecked() {
+        let mut bytes = b"ply\nformat binary_little_endian 1.0\nelement vertex 1\n\
+                          property float x\nend_header\n"
+            .to_vec();
+        bytes.extend_from_slice(&2.5f32.to_le_bytes());
+        let cloud = parse_ply(&bytes, Path::new("other.ply")).unwrap();
+        assert_eq!(cloud.floats("x").unwrap(), [2.5]);
     }
 
     #[test]

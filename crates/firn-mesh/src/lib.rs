@@ -36,7 +36,7 @@ mod winding;
 
 pub use diagnostics::MeshDiagnostics;
 pub use error::MeshError;
-pub use load::{LoadedMesh, load_mesh};
+pub use load::{LoadedMesh, MAX_MESH_FILE_BYTES, load_mesh, load_mesh_bytes};
 pub use mesh::{MeshTransform, TriangleMesh};
 pub use sdf::SignedDistanceField;
 pub use winding::WindingNumber;

@@ -15,6 +15,20 @@ pub struct TriangleMesh {
 }
 
 impl TriangleMesh {
+    /// The volume the triangles enclose, by the divergence theorem (the sum
+    /// of the signed tetrahedra each triangle spans with the origin), as a
+    /// magnitude: exact for a closed mesh of either orientation, close for
+    /// one with small holes.
+    pub fn enclosed_volume(&self) -> f64 {
+        let corner = |index: u32| self.vertices[index as usize].as_dvec3();
+        let signed: f64 = self
+            .triangles
+            .iter()
+            .map(|&[a, b, c]| corner(a).dot(corner(b).cross(corner(c))) / 6.0)
+            .sum();
+        signed.abs()
+    }
+
     /// The axis-aligned bounding box `(min, max)` of all vertices; both are
     /// zero for a mesh without vertices.
     pub fn bounds(&self) -> (Vec3, Vec3) {

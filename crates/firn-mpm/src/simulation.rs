@@ -14,7 +14,7 @@ use crate::g2p::{
     GatherStats, ParticleProblem, ProblemKind, UpdateContext, gather_apic, gather_pic_flip,
     preferred_simd,
 };
-use crate::grid::{Grid, GridLayout};
+use crate::grid::{BLOCK_NODES, BLOCK_WIDTH, Grid, GridLayout, Node};
 use crate::grid_update::{GridForces, clear_grid, update_grid};
 use crate::implicit::{ImplicitSolver, ImplicitStep, SolverStats};
 use crate::p2g;
@@ -52,6 +52,32 @@ pub enum SimulationError {
         what: &'static str,
         /// Where it was.
         position: Vec3,
+        /// What to change in the scene.
+        hint: String,
+    },
+    /// The time step fell so low that a frame would take more substeps
+    /// than the scene allows (`time.max_substeps_per_frame`); the substep
+    /// was not taken, so the state is that of the last one.
+    #[error(
+        "at t = {time:.4} s (substep {step}) the time step fell to Δt = {dt:.3e} s: the fastest particle moves at {speed:.4e} m/s and elastic waves at {wave_speed:.4e} m/s, so a frame (1/{fps} s) would take {needed:.3e} substeps, more than time.max_substeps_per_frame = {limit}.\n  fix: {hint}"
+    )]
+    TooManySubsteps {
+        /// Simulated time when the step fell too low.
+        time: f64,
+        /// Substeps taken so far.
+        step: u64,
+        /// The Δt the next substep would take.
+        dt: f32,
+        /// The fastest particle's speed, m/s.
+        speed: f32,
+        /// The fastest elastic wave, m/s (0 when it does not limit Δt).
+        wave_speed: f32,
+        /// Output frames per simulated second.
+        fps: f64,
+        /// Substeps a frame would take at this Δt.
+        needed: f64,
+        /// The scene's limit.
+        limit: u32,
         /// What to change in the scene.
         hint: String,
     },
@@ -292,8 +318,12 @@ impl Simulation {
     }
 
     /// Advances one substep, never past time `until`; returns the Δt taken.
+    /// Refuses, with nothing changed, when the Δt would be so short that a
+    /// frame took more than `time.max_substeps_per_frame` substeps.
     pub fn step(&mut self, until: f64) -> Result<f32, SimulationError> {
-        let dt = (self.next_dt() as f64).min(until - self.time).max(0.0) as f32;
+        let next = self.next_dt();
+        self.check_step_length(next)?;
+        let dt = (next as f64).min(until - self.time).max(0.0) as f32;
         let layout = self.grid.layout;
         let mut clock = PhaseClock::start();
         if self.steps.is_multiple_of(REORDER_INTERVAL) {
@@ -415,6 +445,31 @@ impl Simulation {
             substeps += 1;
         }
         Ok(substeps)
+    }
+
+    /// The error for a next Δt that leaves a frame more substeps than the
+    /// scene's `time.max_substeps_per_frame`, if it does.
+    fn check_step_length(&self, dt: f32) -> Result<(), SimulationError> {
+        let time = &self.scene.time;
+        if f64::from(dt) >= time.shortest_dt() {
+            return Ok(());
+        }
+        let wave_speed = match self.scene.solver.integrator {
+            Integrator::Explicit => self.stats.max_wave_speed_squared.sqrt(),
+            Integrator::SemiImplicit(_) => 0.0,
+        };
+        let speed = self.stats.max_speed_squared.sqrt();
+        Err(SimulationError::TooManySubsteps {
+            time: self.time,
+            step: self.steps,
+            dt,
+            speed,
+            wave_speed,
+            fps: time.fps,
+            needed: 1.0 / (time.fps * f64::from(dt)),
+            limit: time.max_substeps_per_frame,
+            hint: step_length_hint(speed, wave_speed, time.max_substeps_per_frame),
+        })
     }
 
     /// An explanation of a failed substep with a concrete fix.
@@ -563,6 +618,38 @@ impl Simulation {
             + self.particles.len() * Particles::bytes_per_particle()
     }
 
+    /// The bytes [`Simulation::memory_bytes`] will report at the start for
+    /// `scene` filled with `particles` particles, known before anything is
+    /// sampled or allocated: the particles with their reorder and binning
+    /// space, the grid's and the bins' tables of every block of the box,
+    /// and the node blocks around each body's bounding box (a block of
+    /// padding on every side). An upper bound at the start; it grows as the
+    /// snow spreads over more blocks.
+    pub fn estimate_memory_bytes(scene: &Scene, particles: u64) -> u64 {
+        const WORD: u64 = std::mem::size_of::<u32>() as u64;
+        let domain = &scene.domain;
+        let layout = GridLayout::new(domain.min, domain.max, domain.cell_size);
+        let box_blocks = layout.block_count() as u64;
+        let near_bodies: u64 = scene
+            .bodies
+            .iter()
+            .map(|body| blocks_around(&layout, body.shape.bounds()))
+            .fold(0, u64::saturating_add);
+        let active = near_bodies.min(box_blocks);
+        // Per block: its nodes, its eight neighbours' slots, its place in
+        // the resident list and in the bins' active list.
+        let block_bytes = (BLOCK_NODES * std::mem::size_of::<Node>()) as u64 + 10 * WORD;
+        // Per particle: its attributes (with the bin order), the reorder
+        // space, and the bins' key and sorted slot.
+        let particle_bytes = (Particles::bytes_per_particle() + PermuteBuffers::BYTES_PER_PARTICLE)
+            as u64
+            + 2 * WORD;
+        particles
+            .saturating_mul(particle_bytes)
+            .saturating_add(box_blocks.saturating_mul(2 * WORD))
+            .saturating_add(active.saturating_mul(block_bytes))
+    }
+
     /// Current density of every particle (kg/m³).
     pub fn densities(&self) -> Vec<f32> {
         (0..self.particles.len())
@@ -587,6 +674,35 @@ impl Simulation {
             self.scene.solver.transfer,
         )
     }
+}
+
+/// Grid blocks covering the box `low .. high` and one block around it.
+fn blocks_around(layout: &GridLayout, (low, high): (Vec3, Vec3)) -> u64 {
+    let width = f64::from(BLOCK_WIDTH);
+    let first = (layout.to_grid(low).as_dvec3() / width).floor() - 1.0;
+    let last = (layout.to_grid(high).as_dvec3() / width).ceil() + 1.0;
+    let blocks = (last - first).max(glam::DVec3::ONE).element_product();
+    if blocks.is_finite() {
+        blocks.min(u64::MAX as f64) as u64
+    } else {
+        u64::MAX
+    }
+}
+
+/// What to change when the step fell too low: whatever made the snow fast
+/// or stiff, or the limit.
+pub fn step_length_hint(speed: f32, wave_speed: f32, limit: u32) -> String {
+    let cause = if speed >= wave_speed {
+        "find what drives the snow this fast (gravity, an initial velocity, a collider that \
+         moves or jumps quickly)"
+    } else {
+        "the snow has hardened into stiff ice (lower hardening or youngs_modulus, or use \
+         integrator = \"semi-implicit\", whose step elastic waves do not limit)"
+    };
+    format!(
+        "{cause}, use a larger cell_size, or raise [time] max_substeps_per_frame (now {limit}) \
+         if the frames really need that many substeps"
+    )
 }
 
 /// Totals over particles; with APIC the angular momentum includes the affine

@@ -40,13 +40,107 @@ pub fn write(
     checkpoint.write(path)
 }
 
-/// Reads the checkpoint at `path` of a simulation of `kind`.
-pub fn read(path: &Path, kind: &SceneKind) -> Result<SavedCheckpoint, CheckpointError> {
+/// Reads the checkpoint at `path` of a simulation of `scene`, and refuses
+/// one whose state no run of the scene reaches (a particle that is not
+/// finite or far outside the domain, a time that is not the frame's), even
+/// when its checksum holds: it is never resumed into.
+pub fn read(path: &Path, scene: &Scene) -> Result<SavedCheckpoint, CheckpointError> {
     let checkpoint = Checkpoint::read(path)?;
-    match kind {
+    let saved = match scene.kind {
         SceneKind::Snow => read_snow(&checkpoint, path),
         SceneKind::Flow(_) => read_flow(&checkpoint, path),
+    }?;
+    check_plausible(&saved, scene).map_err(|reason| CheckpointError::Implausible {
+        path: path.to_path_buf(),
+        reason,
+    })?;
+    Ok(saved)
+}
+
+/// How far (in cells) a saved particle may lie outside the domain: the
+/// solver stops a run whose snow strays one cell out.
+const OUTSIDE_TOLERANCE_CELLS: f32 = 1.0;
+
+/// Why `saved` cannot be a state of `scene` after its frame, if it cannot.
+fn check_plausible(saved: &SavedCheckpoint, scene: &Scene) -> Result<(), String> {
+    let time = &scene.time;
+    let frames = time.frame_count();
+    if saved.frame > frames {
+        return Err(format!(
+            "it was taken after frame {}, but the scene has {frames} frames",
+            saved.frame
+        ));
     }
+    let (state_time, positions) = match &saved.state {
+        SolverState::Snow(snapshot) => {
+            check_snow_particles(snapshot)?;
+            (snapshot.time, &snapshot.particles.position)
+        }
+        SolverState::Flow(snapshot) => {
+            let frame_steps = u64::from(scene.kind.flow().map_or(1, |flow| flow.substeps));
+            let time_of_steps = snapshot.substeps as f64 / (time.fps * frame_steps as f64);
+            (time_of_steps, &snapshot.positions)
+        }
+    };
+    let frame_time = f64::from(saved.frame) / time.fps;
+    if !state_time.is_finite() || (state_time - frame_time).abs() > 1e-6 * frame_time.max(1.0) {
+        return Err(format!(
+            "its state is at t = {state_time} s, but frame {} ends at t = {frame_time} s",
+            saved.frame
+        ));
+    }
+    let domain = &scene.domain;
+    let margin = glam::Vec3::splat(OUTSIDE_TOLERANCE_CELLS * domain.cell_size);
+    let (low, high) = (domain.min - margin, domain.max + margin);
+    if let Some((index, position)) = positions
+        .iter()
+        .enumerate()
+        .find(|(_, p)| !(p.is_finite() && p.cmpge(low).all() && p.cmple(high).all()))
+    {
+        return Err(format!(
+            "particle {index} is at {position}, outside the domain {} .. {}",
+            domain.min, domain.max
+        ));
+    }
+    Ok(())
+}
+
+/// Every snow particle's attributes are finite, and its mass, volume and
+/// plastic volume change positive.
+fn check_snow_particles(snapshot: &Snapshot) -> Result<(), String> {
+    let p = &snapshot.particles;
+    let finite_vectors = |v: &[glam::Vec3]| v.iter().position(|v| !v.is_finite());
+    let finite_matrices = |m: &[glam::Mat3]| m.iter().position(|m| !m.is_finite());
+    let positive = |s: &[f32]| s.iter().position(|s| !(s.is_finite() && *s > 0.0));
+    let problems = [
+        ("velocity is not finite", finite_vectors(&p.velocity)),
+        ("mass is not a positive number", positive(&p.mass)),
+        (
+            "initial volume is not a positive number",
+            positive(&p.volume0),
+        ),
+        ("plastic J is not a positive number", positive(&p.plastic_j)),
+        (
+            "elastic deformation is not finite",
+            finite_matrices(&p.elastic),
+        ),
+        ("stress is not finite", finite_matrices(&p.stress)),
+        (
+            "velocity gradient is not finite",
+            finite_matrices(&p.velocity_gradient),
+        ),
+    ];
+    if let Some((what, Some(index))) = problems.iter().find(|(_, index)| index.is_some()) {
+        return Err(format!("particle {index}'s {what}"));
+    }
+    let maxima = [snapshot.max_speed_squared, snapshot.max_wave_speed_squared];
+    if maxima.iter().any(|m| !(m.is_finite() && *m >= 0.0)) {
+        return Err(format!(
+            "its speed maxima ({}, {}) are not finite",
+            maxima[0], maxima[1]
+        ));
+    }
+    Ok(())
 }
 
 /// The resolved scene as JSON, for manifests and checkpoints.
@@ -136,6 +230,15 @@ fn counter(
         })
 }
 
+/// The frame a checkpoint was taken after, which must fit a `u32`.
+fn frame(checkpoint: &Checkpoint, path: &Path) -> Result<u32, CheckpointError> {
+    let frame = counter(checkpoint, path, "frame")?;
+    u32::try_from(frame).map_err(|_| CheckpointError::Implausible {
+        path: path.to_path_buf(),
+        reason: format!("its frame {frame} is past any scene's last"),
+    })
+}
+
 /// The scene a checkpoint was written for.
 fn saved_scene(checkpoint: &Checkpoint) -> serde_json::Value {
     checkpoint.meta.get("scene").cloned().unwrap_or_default()
@@ -156,7 +259,7 @@ fn read_snow(checkpoint: &Checkpoint, path: &Path) -> Result<SavedCheckpoint, Ch
     };
     let counter = |name| counter(checkpoint, path, name);
     Ok(SavedCheckpoint {
-        frame: counter("frame")? as u32,
+        frame: frame(checkpoint, path)?,
         scene_json: saved_scene(checkpoint),
         state: SolverState::Snow(Snapshot {
             time: f64::from_bits(counter("time_bits")?),
@@ -187,7 +290,7 @@ fn read_flow(checkpoint: &Checkpoint, path: &Path) -> Result<SavedCheckpoint, Ch
         trail_generations: checkpoint.array("trail_generations")?,
     };
     Ok(SavedCheckpoint {
-        frame: counter("frame")? as u32,
+        frame: frame(checkpoint, path)?,
         scene_json: saved_scene(checkpoint),
         state: SolverState::Flow(snapshot),
     })

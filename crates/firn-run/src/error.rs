@@ -31,6 +31,9 @@ pub enum RunError {
     /// A checkpoint could not be read back.
     #[error(transparent)]
     Checkpoint(#[from] CheckpointError),
+    /// The scene needs more memory than the machine has.
+    #[error(transparent)]
+    TooLarge(#[from] crate::budget::TooLarge),
     /// A frame could not be simulated.
     #[error("the simulation stopped in frame {frame}: {source}")]
     Stopped {
@@ -53,6 +56,15 @@ pub enum CheckpointError {
     /// The file is missing, damaged or lacks an array.
     #[error(transparent)]
     File(#[from] IoError),
+    /// The checkpoint's checksum holds, but its state is not one a run of
+    /// the scene reaches.
+    #[error("checkpoint {} holds a state no run of this scene reaches: {reason}", path.display())]
+    Implausible {
+        /// The checkpoint file.
+        path: PathBuf,
+        /// What is wrong with the state.
+        reason: String,
+    },
     /// The header lacks a counter the solver needs.
     #[error("checkpoint {} lacks `{field}`", path.display())]
     MissingField {
@@ -108,6 +120,17 @@ pub enum ReadRunError {
         path: PathBuf,
         /// Why the scene could not be read.
         source: serde_json::Error,
+    },
+    /// The manifest's scene breaks a rule of the scene format.
+    #[error(
+        "{}: the scene in the manifest is not valid: {source}\n  fix: re-run the scene with this version of firn",
+        path.display()
+    )]
+    InvalidScene {
+        /// The manifest.
+        path: PathBuf,
+        /// The broken rule.
+        source: Box<firn_core::scene::SceneError>,
     },
     /// A mesh the scene refers to cannot be loaded again.
     #[error("{}: a mesh of the scene cannot be loaded again: {reason}", path.display())]

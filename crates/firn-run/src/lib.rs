@@ -5,6 +5,8 @@
 //!
 //! - [`backend`]: where a scene runs ([`Placement`]), chosen from its
 //!   `[compute] backend` and the adapters present;
+//! - [`budget`]: whether a scene fits this machine, known before anything
+//!   is sampled or allocated;
 //! - [`simulation`]: [`Solver`], one type for a simulation on any backend:
 //!   step it, read its particles, change its parameters, take its state,
 //!   and measure it ([`SolverOptions`], phase times, memory);
@@ -19,6 +21,7 @@
 //! - [`error`]: what can go wrong, as [`RunError`].
 
 pub mod backend;
+pub mod budget;
 pub mod caches;
 pub mod checkpoint;
 pub mod error;
@@ -28,6 +31,7 @@ pub mod run_dir;
 pub mod simulation;
 
 pub use backend::{Chosen, Placement, choose_backend};
+pub use budget::Budget;
 pub use error::RunError;
 pub use recording::Recording;
 pub use run_dir::RunDirectory;

@@ -155,7 +155,7 @@ impl Recording {
             });
         }
         let scene_json = scene_json(&scene);
-        let saved = checkpoint::read(&checkpoint_path, &scene.kind).map_err(RunError::from)?;
+        let saved = checkpoint::read(&checkpoint_path, &scene).map_err(RunError::from)?;
         let solver = Solver::restore(scene, saved.state, placement)?;
         if !same_physics(&saved.scene_json, &scene_json) {
             return Err(ResumeError::SceneDiffers {

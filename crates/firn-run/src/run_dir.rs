@@ -133,9 +133,15 @@ impl RunDirectory {
                 }
             })?;
         scene.load_meshes().map_err(|error| ReadRunError::Mesh {
-            path: manifest_path,
+            path: manifest_path.clone(),
             reason: error.to_string(),
         })?;
+        scene
+            .validate()
+            .map_err(|error| ReadRunError::InvalidScene {
+                path: manifest_path,
+                source: Box::new(error),
+            })?;
         Ok(RecordedRun { manifest, scene })
     }
 

@@ -28,6 +28,7 @@ use firn_mpm::{PhaseTimes, Simulation, Snapshot, SolverStats};
 use glam::Vec3;
 
 use crate::backend::Placement;
+use crate::budget::Budget;
 use crate::error::RunError;
 
 /// A running simulation of a scene, snow or flow, on the CPU or the GPU.
@@ -115,8 +116,10 @@ pub struct TrailRings {
 }
 
 impl Solver {
-    /// Starts `scene` at time 0 where `placement` says.
+    /// Starts `scene` at time 0 where `placement` says, once its
+    /// [`Budget`] fits the machine (checked before a particle is sampled).
     pub fn new(scene: Scene, placement: &Placement) -> Result<Solver, RunError> {
+        Budget::of(&scene).check_placement(&scene, placement)?;
         let state = match scene.kind {
             SceneKind::Snow => HostSimulation::Snow(Box::new(Simulation::new(scene)?)),
             SceneKind::Flow(_) => HostSimulation::Flow(Box::new(FlowSimulation::new(scene)?)),

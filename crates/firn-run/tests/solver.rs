@@ -38,7 +38,7 @@ fn uninterrupted_and_resumed(scene: Scene, split: u32, frames: u32) -> (Vec<u8>,
     checkpoint_bytes(&first, &path);
     let steps = first.steps();
     drop(first);
-    let saved = checkpoint::read(&path, &scene.kind).expect("the checkpoint reads back");
+    let saved = checkpoint::read(&path, &scene).expect("the checkpoint reads back");
     assert_eq!(saved.frame, split);
     assert!(same_physics(&saved.scene_json, &scene_json(&scene)));
     let mut resumed =

@@ -5,14 +5,44 @@
 
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+/// The `firn` binary under test: this build's, or the one `FIRN_BIN` names
+/// (to hold another build to the same tests).
+pub fn firn_binary() -> PathBuf {
+    std::env::var_os("FIRN_BIN")
+        .map_or_else(|| PathBuf::from(env!("CARGO_BIN_EXE_firn")), PathBuf::from)
+}
 
 /// Runs the `firn` binary of this build with `args` and waits for it.
 pub fn firn(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_firn"))
+    Command::new(firn_binary())
         .args(args)
         .output()
         .expect("firn runs")
+}
+
+/// Runs `firn` with `args` and the environment `envs`, and fails the test
+/// if it has not finished within `limit` (it is killed then).
+pub fn firn_within(args: &[&str], envs: &[(&str, &str)], limit: Duration) -> Output {
+    let mut child = Command::new(firn_binary())
+        .args(args)
+        .envs(envs.iter().copied())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("firn starts");
+    let started = Instant::now();
+    while child.try_wait().expect("firn can be waited for").is_none() {
+        if started.elapsed() > limit {
+            child.kill().expect("firn can be stopped");
+            child.wait().expect("firn stops");
+            panic!("firn {} did not answer within {limit:?}", args.join(" "));
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    child.wait_with_output().expect("firn's output")
 }
 
 /// Bytes a command printed, as text.

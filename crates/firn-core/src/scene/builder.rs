@@ -63,6 +63,7 @@ pub struct SceneBuilder {
     duration: f64,
     fps: f64,
     step: StepChoice,
+    max_substeps_per_frame: u32,
     solver: SolverSettings,
     materials: Vec<Material>,
     bodies: Vec<Body>,
@@ -147,6 +148,7 @@ impl SceneBuilder {
             duration: time.duration,
             fps: time.fps,
             step: StepChoice::Default,
+            max_substeps_per_frame: time.max_substeps_per_frame,
             solver: defaults.solver,
             materials: Vec::new(),
             bodies: Vec::new(),
@@ -222,11 +224,18 @@ impl SceneBuilder {
         self
     }
 
-    /// Duration, frame rate and step at once.
+    /// Most substeps a frame may take (`time.max_substeps_per_frame`).
+    pub fn max_substeps_per_frame(mut self, limit: u32) -> SceneBuilder {
+        self.max_substeps_per_frame = limit;
+        self
+    }
+
+    /// Duration, frame rate, step and substep limit at once.
     pub fn time(mut self, time: TimeSettings) -> SceneBuilder {
         self.duration = time.duration;
         self.fps = time.fps;
         self.step = StepChoice::Exact(time.step);
+        self.max_substeps_per_frame = time.max_substeps_per_frame;
         self
     }
 
@@ -433,6 +442,7 @@ impl SceneBuilder {
                 duration: self.duration,
                 fps: self.fps,
                 step,
+                max_substeps_per_frame: self.max_substeps_per_frame,
             },
             solver: self.solver,
             materials,

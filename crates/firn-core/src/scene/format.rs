@@ -28,6 +28,7 @@ use toml::Spanned;
 use toml::de::{DeTable, DeValue};
 
 use super::compute::{Backend, ComputeSettings};
+use super::estimate::{Bytes, CPU_BYTES_PER_PARTICLE, body_estimate};
 use super::flow::SceneKind;
 use super::material::{Material, PRESET_NAMES};
 use super::mesh::{MeshBody, MeshCollider, MeshPlacement};
@@ -56,6 +57,15 @@ pub const MAX_CELLS: u64 = 1 << 30;
 
 /// Largest `particles_per_cell` a body may ask for.
 pub const MAX_PARTICLES_PER_CELL: u32 = 64;
+
+/// Largest number of lattice points all bodies together may be filled from
+/// (2^30). Each point is a candidate particle, tested once at the start, so
+/// this bounds both the particles and the work of making them.
+pub const MAX_LATTICE_POINTS: u64 = 1 << 30;
+
+/// Most output frames a scene may have: frame numbers keep their five
+/// digits in the cache and picture names, so the files sort.
+pub const MAX_FRAMES: u32 = 99_999;
 
 /// A problem with a scene: where it is, what is wrong, and how to fix it.
 ///
@@ -601,6 +611,7 @@ fn example(leaf: &str) -> Option<&'static str> {
         "step" => "step = \"adaptive\"",
         "dt" => "dt = 0.001",
         "cfl" => "cfl = 0.4",
+        "max_substeps_per_frame" => "max_substeps_per_frame = 100000",
         "transfer" => "transfer = \"pic-flip\"",
         "flip" => "flip = 0.95",
         "gravity" => "gravity = [0.0, -9.81, 0.0]",
@@ -764,6 +775,7 @@ struct RawTime {
     step: Option<RawStep>,
     dt: Option<f32>,
     cfl: Option<f32>,
+    max_substeps_per_frame: Option<u32>,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, Deserialize)]
@@ -1049,8 +1061,7 @@ fn default_name(origin: &str) -> String {
     }
 }
 
-/// Largest number of signed distance samples a mesh collider may take (64 MiB).
-pub const MAX_SDF_SAMPLES: u64 = 1 << 24;
+pub use super::mesh::MAX_SDF_SAMPLES;
 
 /// The mesh file, scale, rotation and centre of a mesh body or collider,
 /// checked before the file is read. A relative `mesh` path is taken from the
@@ -1123,12 +1134,7 @@ fn check_sdf_spacing(path: &KeyPath, spacing: f32) -> Check {
 
 /// The field of a placed mesh collider must stay under [`MAX_SDF_SAMPLES`].
 fn check_sdf_size(path: &KeyPath, (low, high): (Vec3, Vec3), spacing: f32) -> Check {
-    let padding = 2.0 * MeshCollider::PADDING_SAMPLES as f32;
-    let samples = ((high - low) / spacing + padding)
-        .to_array()
-        .iter()
-        .map(|n| n.ceil().max(1.0) as u64 + 1)
-        .product::<u64>();
+    let samples = MeshCollider::sdf_samples((low, high), spacing);
     ensure(
         samples <= MAX_SDF_SAMPLES,
         path.key("sdf_spacing"),
@@ -1293,6 +1299,9 @@ fn resolve_time(raw: Option<RawTime>) -> Result<TimeSettings, Issue> {
         duration,
         fps,
         step,
+        max_substeps_per_frame: raw
+            .max_substeps_per_frame
+            .unwrap_or(TimeSettings::DEFAULT_MAX_SUBSTEPS_PER_FRAME),
     })
 }
 
@@ -1737,9 +1746,15 @@ fn check_scene(scene: &Scene) -> Check {
              radius = 0.1",
         ));
     }
+    let mut lattice_points = 0u64;
     for (index, body) in scene.bodies.iter().enumerate() {
         check_body(scene, index, body)?;
+        lattice_points =
+            lattice_points.saturating_add(sampling::lattice_points(body, scene.domain.cell_size));
+        check_lattice_points(scene, index, lattice_points)?;
+        check_body_has_particles(scene, index, body)?;
     }
+    check_first_step(scene)?;
     for (index, collider) in scene.colliders.iter().enumerate() {
         check_collider(&KeyPath::of("colliders").index(index), collider)?;
     }
@@ -1911,10 +1926,7 @@ fn check_domain(domain: &Domain) -> Check {
     let cells = [extent.x, extent.y, extent.z].map(|e| (e / h - 1e-4).ceil().max(1.0));
     for (axis, name) in AXES.iter().enumerate() {
         if cells[axis] > MAX_CELLS_PER_AXIS as f64 {
-            // Round up to three significant digits.
-            let smallest = extent[axis] / MAX_CELLS_PER_AXIS as f64;
-            let unit = 10f64.powf(smallest.log10().floor() - 2.0);
-            let smallest = Num((smallest / unit).ceil() * unit);
+            let smallest = round_up_3_digits(extent[axis] / MAX_CELLS_PER_AXIS as f64);
             return Err(Issue::new(
                 path.key("cell_size"),
                 format!(
@@ -1960,6 +1972,17 @@ fn check_time(time: &TimeSettings) -> Check {
         Num(time.fps),
         "set the output frames per simulated second, e.g. fps = 30".to_string(),
     )?;
+    check_frame_count(time)?;
+    ensure(
+        time.max_substeps_per_frame >= 1,
+        path.key("max_substeps_per_frame"),
+        "at least 1",
+        time.max_substeps_per_frame,
+        format!(
+            "allow the frames some substeps, e.g. max_substeps_per_frame = {}",
+            TimeSettings::DEFAULT_MAX_SUBSTEPS_PER_FRAME
+        ),
+    )?;
     let frame = 1.0 / time.fps;
     let (dt, what) = match time.step {
         TimeStep::Fixed { dt } => (dt, "the fixed step"),
@@ -1993,6 +2016,28 @@ fn check_time(time: &TimeSettings) -> Check {
         ));
     }
     Ok(())
+}
+
+/// The duration and frame rate must make at most [`MAX_FRAMES`] frames.
+fn check_frame_count(time: &TimeSettings) -> Check {
+    let frames = (time.duration * time.fps - 1e-9).ceil();
+    if frames <= f64::from(MAX_FRAMES) {
+        return Ok(());
+    }
+    Err(Issue::new(
+        KeyPath::of("time").key("duration"),
+        format!(
+            "time.duration = {} s at {} fps makes {} frames; the limit is {MAX_FRAMES} (frame \
+             numbers keep five digits in file names)",
+            Num(time.duration),
+            Num(time.fps),
+            Num(frames)
+        ),
+        format!(
+            "simulate at most {} s at this frame rate, or lower fps",
+            Num(f64::from(MAX_FRAMES) / time.fps)
+        ),
+    ))
 }
 
 fn check_solver(solver: &SolverSettings) -> Check {
@@ -2184,17 +2229,22 @@ fn check_body(scene: &Scene, index: usize, body: &Body) -> Check {
         Shape::Mesh(ref mesh) => check_mesh_placement(&path, &mesh.placement)?,
     }
 
-    let domain = &scene.domain;
-    let (low, high) = body.shape.bounds();
     check_inside_domain(
         &path,
         shape_name(&body.shape),
-        (low, high),
-        domain,
+        body.shape.bounds(),
+        &scene.domain,
         "move or shrink the body so that it lies inside domain.min .. domain.max, or \
          enlarge the domain",
-    )?;
+    )
+}
 
+/// A body must catch at least one particle; its lattice has been checked
+/// against [`MAX_LATTICE_POINTS`], so looking is bounded.
+fn check_body_has_particles(scene: &Scene, index: usize, body: &Body) -> Check {
+    let path = KeyPath::of("bodies").index(index);
+    let domain = &scene.domain;
+    let ppc = body.particles_per_cell;
     if !sampling::body_has_particles(scene, index) {
         let spacing = sampling::particle_spacing(domain.cell_size, ppc);
         let (cause, hint) = match body.shape {
@@ -2221,6 +2271,182 @@ fn check_body(scene: &Scene, index: usize, body: &Body) -> Check {
         ));
     }
     Ok(())
+}
+
+/// The bodies up to `index` must be filled from at most
+/// [`MAX_LATTICE_POINTS`] lattice points (`total`), checked before any is
+/// visited.
+fn check_lattice_points(scene: &Scene, index: usize, total: u64) -> Check {
+    if total <= MAX_LATTICE_POINTS {
+        return Ok(());
+    }
+    let body = &scene.bodies[index];
+    let path = KeyPath::of("bodies").index(index);
+    let h = scene.domain.cell_size;
+    let ppc = body.particles_per_cell;
+    let estimate = body_estimate(body, h);
+    let earlier = total.saturating_sub(estimate.lattice_points);
+    let room = MAX_LATTICE_POINTS.saturating_sub(earlier).max(1);
+    // The lattice must get this much sparser (points scale with ppc / h³).
+    let factor = room as f64 / estimate.lattice_points as f64;
+    let coarser_cell = round_up_3_digits(f64::from(h) / factor.cbrt());
+    let fewer_per_cell = (f64::from(ppc) * factor).floor() as u32;
+    let mut hint = if fewer_per_cell >= 1 {
+        format!(
+            "lower particles_per_cell to {fewer_per_cell} (now {ppc}), use cell_size = \
+             {coarser_cell} or more (now {}), or make the body smaller",
+            Num::from(h)
+        )
+    } else {
+        format!(
+            "use cell_size = {coarser_cell} or more (now {}), or make the body smaller",
+            Num::from(h)
+        )
+    };
+    if estimate.lattice_points / 4 > estimate.particles {
+        hint.push_str(
+            "; a thin or slanted body is filled through its whole bounding box, so turning it \
+             along the axes helps too",
+        );
+    }
+    let before = if earlier > 0 {
+        format!(" (with the {earlier} of the bodies before it)")
+    } else {
+        String::new()
+    };
+    Err(Issue::new(
+        path.key("particles_per_cell"),
+        format!(
+            "{path} ({}) is filled from {} lattice points, about {} particles needing {} of \
+             memory{before}; all bodies together may be filled from at most 2^30 = \
+             {MAX_LATTICE_POINTS}",
+            shape_name(&body.shape),
+            estimate.lattice_points,
+            estimate.particles,
+            Bytes(estimate.particles.saturating_mul(CPU_BYTES_PER_PARTICLE)),
+        ),
+        hint,
+    ))
+}
+
+/// The first substep must leave a frame at most
+/// `time.max_substeps_per_frame` substeps; the error names what makes the
+/// step short: the fixed or capped step, the fastest body, or the stiffest
+/// material.
+fn check_first_step(scene: &Scene) -> Check {
+    let time = &scene.time;
+    let first = scene.first_step();
+    let limit = time.max_substeps_per_frame;
+    if first.substeps_per_frame <= f64::from(limit) {
+        return Ok(());
+    }
+    let too_many = format!(
+        "a frame (1/fps = {} s) would take {} substeps, more than time.max_substeps_per_frame \
+         = {limit}",
+        Num(1.0 / time.fps),
+        Num(first.substeps_per_frame)
+    );
+    let raise = "or raise [time] max_substeps_per_frame if the frames really need that many \
+                 substeps";
+    let shortest = Num(time.shortest_dt());
+    let dt_path = KeyPath::of("time").key("dt");
+    let (cfl, max_dt) = match time.step {
+        TimeStep::Fixed { dt } => {
+            return Err(Issue::new(
+                dt_path,
+                format!("time.dt = {} s is too short: {too_many}", Num::from(dt)),
+                format!("use dt = {shortest} or more, lower fps, {raise}"),
+            ));
+        }
+        TimeStep::Adaptive { cfl, max_dt } => (cfl, max_dt),
+    };
+    if first.dt >= max_dt {
+        return Err(Issue::new(
+            dt_path,
+            format!(
+                "time.dt = {} s caps the adaptive step so low that {too_many}",
+                Num::from(max_dt)
+            ),
+            format!("use dt = {shortest} or more, lower fps, {raise}"),
+        ));
+    }
+    let h = scene.domain.cell_size;
+    let step = format!(
+        "the adaptive step starts at Δt = {} s (cfl {} × cell_size {} m / ({} m/s of the \
+         fastest body + {} m/s of elastic waves)), so {too_many}",
+        Num::from(first.dt),
+        Num::from(cfl),
+        Num::from(h),
+        Num::from(first.speed),
+        Num::from(first.wave_speed)
+    );
+    // Speeds at which a frame takes `limit` substeps, all told.
+    let speed_budget = f64::from(cfl) * f64::from(h) / time.shortest_dt();
+    if first.speed >= first.wave_speed {
+        let (index, body) = scene
+            .bodies
+            .iter()
+            .enumerate()
+            .max_by(|a, b| {
+                a.1.velocity
+                    .length_squared()
+                    .total_cmp(&b.1.velocity.length_squared())
+            })
+            .expect("a body is the fastest");
+        let path = KeyPath::of("bodies").index(index).key("velocity");
+        let slower = speed_budget - f64::from(first.wave_speed);
+        let hint = if slower > 0.0 {
+            format!(
+                "give it at most {} m/s, use a larger cell_size, {raise}",
+                Num(slower)
+            )
+        } else {
+            format!("give it a lower speed and use a larger cell_size, {raise}")
+        };
+        return Err(Issue::new(
+            path.clone(),
+            format!(
+                "{path} is {} m/s: {step}",
+                Num(body.velocity.as_dvec3().length())
+            ),
+            hint,
+        ));
+    }
+    let stiffest = scene
+        .bodies
+        .iter()
+        .filter_map(|body| scene.materials.get(body.material))
+        .max_by(|a, b| {
+            let speed = |m: &Material| {
+                let (mu, lambda) = m.lame();
+                (lambda + 2.0 * mu) / m.density
+            };
+            speed(a).total_cmp(&speed(b))
+        })
+        .expect("a body's material is the stiffest");
+    let path = KeyPath::of("materials").key(&stiffest.name);
+    Err(Issue::new(
+        path.key("youngs_modulus"),
+        format!(
+            "{path} carries elastic waves at {} m/s (E = {} Pa, density {} kg/m³): {step}",
+            Num::from(first.wave_speed),
+            Num::from(stiffest.youngs_modulus),
+            Num::from(stiffest.density)
+        ),
+        format!(
+            "use a softer material (lower youngs_modulus), integrator = \"semi-implicit\" in \
+             [solver] (elastic waves do not limit its step), a larger cell_size, {raise}"
+        ),
+    ))
+}
+
+/// `value` rounded up to three significant digits, for limits in hints.
+fn round_up_3_digits(value: f64) -> Num {
+    if !(value.is_finite() && value > 0.0) {
+        return Num(value);
+    }
+    let unit = 10f64.powf(value.log10().floor() - 2.0);
+    Num((value / unit).ceil() * unit)
 }
 
 /// Centre and radius of a ball-shaped body or collider.

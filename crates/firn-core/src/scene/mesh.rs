@@ -141,6 +141,9 @@ pub struct MeshBody {
     pub max: Vec3,
     /// What the inspection of the mesh found, one sentence each.
     pub warnings: Vec<String>,
+    /// The volume the placed mesh encloses, m³ (what its particles fill).
+    #[serde(skip)]
+    pub volume: f64,
     /// Inside test of the placed mesh.
     #[serde(skip)]
     pub solid: Derived<WindingNumber>,
@@ -154,6 +157,7 @@ impl MeshBody {
             min: Vec3::ZERO,
             max: Vec3::ZERO,
             warnings: Vec::new(),
+            volume: 0.0,
             solid: Derived::default(),
         };
         body.build()?;
@@ -165,6 +169,7 @@ impl MeshBody {
         let placed = self.placement.load()?;
         (self.min, self.max) = placed.mesh.bounds();
         self.warnings = placed.warnings;
+        self.volume = placed.mesh.enclosed_volume();
         self.solid = Derived::new(WindingNumber::new(&placed.mesh));
         Ok(())
     }
@@ -174,6 +179,9 @@ impl MeshBody {
         self.solid.get().contains(point)
     }
 }
+
+/// Largest number of signed distance samples a mesh collider may take (64 MiB).
+pub const MAX_SDF_SAMPLES: u64 = 1 << 24;
 
 /// A rigid collider shaped by a triangle mesh; snow is kept outside of it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -196,10 +204,34 @@ impl MeshCollider {
     /// Samples of padding around the mesh on every side of the field.
     pub const PADDING_SAMPLES: u32 = 3;
 
-    /// Loads and places the mesh and samples its signed distance field.
+    /// Loads and places the mesh and samples its signed distance field,
+    /// unless the field would take more than [`MAX_SDF_SAMPLES`] samples.
     pub fn load(placement: MeshPlacement, sdf_spacing: f32) -> Result<MeshCollider, MeshError> {
         let placed = placement.load()?;
+        let samples = MeshCollider::sdf_samples(placed.mesh.bounds(), sdf_spacing);
+        if samples > MAX_SDF_SAMPLES {
+            return Err(MeshError {
+                path: placement.file.clone(),
+                line: None,
+                message: format!(
+                    "at sdf_spacing = {sdf_spacing} m its signed distance field would take \
+                     {samples} samples, more than {MAX_SDF_SAMPLES}"
+                ),
+                hint: "raise sdf_spacing, or scale the mesh down".into(),
+            });
+        }
         Ok(MeshCollider::from_placed(placement, placed, sdf_spacing))
+    }
+
+    /// Samples of the field of a mesh with bounds `(low, high)` at
+    /// `spacing`, padding included (saturating at `u64::MAX`).
+    pub fn sdf_samples((low, high): (Vec3, Vec3), spacing: f32) -> u64 {
+        let padding = 2.0 * MeshCollider::PADDING_SAMPLES as f32;
+        ((high - low) / spacing + padding)
+            .to_array()
+            .iter()
+            .map(|n| (n.ceil().max(1.0) as u64).saturating_add(1))
+            .fold(1u64, u64::saturating_mul)
     }
 
     /// Samples the signed distance field of an already placed mesh.

@@ -7,10 +7,12 @@
 //! into particles; [`render`] holds the camera and the picture settings;
 //! [`flow`] holds the settings of curl-noise particle flows (`kind = "flow"`);
 //! [`mesh`] places triangle meshes as bodies and colliders; [`compute`] says
-//! which backend (CPU or GPU) computes the scene.
+//! which backend (CPU or GPU) computes the scene; [`estimate`] says what it
+//! will cost before anything runs.
 
 pub mod builder;
 pub mod compute;
+pub mod estimate;
 pub mod flow;
 pub mod format;
 pub mod material;
@@ -21,6 +23,7 @@ pub mod sampling;
 
 pub use builder::SceneBuilder;
 pub use compute::*;
+pub use estimate::{BodyEstimate, Bytes, CPU_BYTES_PER_PARTICLE, FirstStep, WorkEstimate};
 pub use flow::*;
 pub use format::SceneError;
 pub use material::Material;

@@ -111,6 +111,31 @@ pub(crate) fn body_has_particles(scene: &Scene, body_index: usize) -> bool {
     found
 }
 
+/// How many lattice points (candidate particles) fill `body` of a scene
+/// with grid spacing `cell_size`: the cells of the lattice that covers its
+/// bounding box, counted without visiting them (saturating at `u64::MAX`).
+pub fn lattice_points(body: &Body, cell_size: f32) -> u64 {
+    let spacing = particle_spacing(cell_size, body.particles_per_cell);
+    let (low, high) = body.shape.bounds();
+    lattice_counts(low, high, spacing).map_or(0, |counts| {
+        counts
+            .iter()
+            .fold(1u64, |product, &count| product.saturating_mul(count))
+    })
+}
+
+/// Lattice cells per axis covering the box `low .. high` at `spacing` (at
+/// least one per axis), or `None` for a box or spacing that is not finite.
+fn lattice_counts(low: Vec3, high: Vec3, spacing: f32) -> Option<[u64; 3]> {
+    if !(spacing > 0.0 && spacing.is_finite() && low.is_finite() && high.is_finite()) {
+        return None;
+    }
+    Some(((high - low) / spacing).to_array().map(|n| {
+        let n = (n - 1e-4).ceil().max(1.0);
+        n as u64
+    }))
+}
+
 /// Call `keep` with every jittered lattice point of `body` that lies inside
 /// the body and the domain, in z, y, x order, until it breaks.
 fn visit_lattice(
@@ -121,14 +146,9 @@ fn visit_lattice(
     mut keep: impl FnMut(Vec3) -> ControlFlow<()>,
 ) {
     let (low, high) = body.shape.bounds();
-    if !(spacing > 0.0 && spacing.is_finite() && low.is_finite() && high.is_finite()) {
+    let Some(counts) = lattice_counts(low, high, spacing) else {
         return;
-    }
-    // Lattice cells per axis covering the bounding box (at least one).
-    let counts = ((high - low) / spacing).to_array().map(|n| {
-        let n = (n - 1e-4).ceil().max(1.0);
-        n as u64
-    });
+    };
     let mut rng = Pcg64Mcg::seed_from_u64(seed);
     let mut candidates = Vec::with_capacity((counts[0] * counts[1]) as usize);
     for k in 0..counts[2] {

@@ -107,7 +107,7 @@ impl GpuSnow {
     ) -> Result<GpuSnow, GpuError> {
         GpuSnow::check_supported(&scene)?;
         let estimate = MemoryEstimate::of(&scene, snapshot.particles.len() as u64);
-        check_fits(&context, &estimate)?;
+        estimate.check_fits(&context)?;
         let constants = MaterialConstants::of_each(&scene.materials);
         let materials = storage_buffer(&context, "materials", &gpu_materials(&constants));
         let scales = Scales::of(&scene);
@@ -187,6 +187,7 @@ impl GpuSnow {
             self.steps += u64::from(batch_steps);
             self.check_trouble(&state)?;
             self.time = f64::from(self.params.lower[3]) + f64::from(state.elapsed);
+            self.check_step_length(&state)?;
             if state.running == 0 {
                 self.time = until;
                 return Ok(taken);
@@ -245,6 +246,42 @@ impl GpuSnow {
             what,
             position,
             hint: self.instability_hint(state.dt),
+        }))
+    }
+
+    /// The error for a frame still running whose next Δt (before it is
+    /// clipped to the frame's end, from the maxima of the last gather)
+    /// leaves it more substeps than the scene's
+    /// `time.max_substeps_per_frame`, as on the CPU (the batch before it
+    /// has been taken).
+    fn check_step_length(&self, state: &StepState) -> Result<(), GpuError> {
+        let time = &self.scene.time;
+        let speed = f32::from_bits(state.max_speed_bits).max(0.0).sqrt();
+        let wave_speed = f32::from_bits(state.max_wave_bits).max(0.0).sqrt();
+        let dt = match time.step {
+            TimeStep::Fixed { dt } => dt,
+            TimeStep::Adaptive { cfl, max_dt } if speed + wave_speed > 0.0 => {
+                (cfl * self.scene.domain.cell_size / (speed + wave_speed)).min(max_dt)
+            }
+            TimeStep::Adaptive { max_dt, .. } => max_dt,
+        };
+        if state.running == 0 || f64::from(dt) >= time.shortest_dt() {
+            return Ok(());
+        }
+        Err(GpuError::Snow(SimulationError::TooManySubsteps {
+            time: self.time,
+            step: self.steps,
+            dt,
+            speed,
+            wave_speed,
+            fps: time.fps,
+            needed: 1.0 / (time.fps * f64::from(dt)),
+            limit: time.max_substeps_per_frame,
+            hint: firn_mpm::simulation::step_length_hint(
+                speed,
+                wave_speed,
+                time.max_substeps_per_frame,
+            ),
         }))
     }
 
@@ -438,6 +475,14 @@ fn run_params(scene: &Scene, layout: &GridLayout, scales: &Scales, particles: us
             0,
             0,
         ],
+    }
+}
+
+impl MemoryEstimate {
+    /// Fails before anything is allocated when a buffer of this estimate
+    /// would pass `context`'s adapter limits.
+    pub fn check_fits(&self, context: &GpuContext) -> Result<(), GpuError> {
+        check_fits(context, self)
     }
 }
 

@@ -27,23 +27,64 @@ pub struct LoadedMesh {
 /// the format) and diagnoses it. Errors name the file, the line for text
 /// formats, the problem and a fix; no input makes it panic.
 pub fn load_mesh(path: &Path) -> Result<LoadedMesh, MeshError> {
-    let fail = |e: ParseError| MeshError {
-        path: path.to_path_buf(),
-        line: e.line,
-        message: e.message,
-        hint: e.hint,
-    };
+    let fail = |e: ParseError| located(path, e);
+    Format::of(path).map_err(fail)?;
+    let bytes = read_bounded(path).map_err(fail)?;
+    load_mesh_bytes(&bytes, path)
+}
+
+/// Parses and diagnoses the bytes of a mesh file named `path` (its
+/// extension picks the format; it is named in errors), as [`load_mesh`]
+/// does once it has read them.
+pub fn load_mesh_bytes(bytes: &[u8], path: &Path) -> Result<LoadedMesh, MeshError> {
+    let fail = |e: ParseError| located(path, e);
     let format = Format::of(path).map_err(fail)?;
-    let bytes = std::fs::read(path).map_err(|e| {
-        fail(ParseError::new(
+    let mesh = parse(bytes, format).map_err(fail)?;
+    let diagnostics = MeshDiagnostics::of(&mesh);
+    Ok(LoadedMesh { mesh, diagnostics })
+}
+
+/// Largest mesh file firn reads (1 GiB): some 20 million triangles of
+/// binary STL. The file is read no further, so a device or a pipe that
+/// never ends cannot hold a scene check up.
+pub const MAX_MESH_FILE_BYTES: u64 = 1 << 30;
+
+/// The whole file, unless it passes [`MAX_MESH_FILE_BYTES`].
+fn read_bounded(path: &Path) -> Result<Vec<u8>, ParseError> {
+    use std::io::Read;
+    let cannot_read = |e: std::io::Error| {
+        ParseError::new(
             None,
             format!("cannot read the file: {e}"),
             "check that the path is right and the file is readable",
-        ))
-    })?;
-    let mesh = parse(&bytes, format).map_err(fail)?;
-    let diagnostics = MeshDiagnostics::of(&mesh);
-    Ok(LoadedMesh { mesh, diagnostics })
+        )
+    };
+    let file = std::fs::File::open(path).map_err(cannot_read)?;
+    let mut bytes = Vec::new();
+    file.take(MAX_MESH_FILE_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(cannot_read)?;
+    if bytes.len() as u64 > MAX_MESH_FILE_BYTES {
+        return Err(ParseError::new(
+            None,
+            format!(
+                "the file is larger than {MAX_MESH_FILE_BYTES} bytes (1 GiB), the most firn reads"
+            ),
+            "decimate the mesh (e.g. MeshLab's quadric edge collapse or Blender's Decimate \
+             modifier); snow needs no more detail than a grid cell",
+        ));
+    }
+    Ok(bytes)
+}
+
+/// A parse error with the file attached.
+fn located(path: &Path, error: ParseError) -> MeshError {
+    MeshError {
+        path: path.to_path_buf(),
+        line: error.line,
+        message: error.message,
+        hint: error.hint,
+    }
 }
 
 /// The supported file formats.

@@ -28,6 +28,7 @@ pub fn scene_with(body: Shape, velocity: Vec3, transfer: Transfer, cell_size: f3
             duration: 1.0,
             fps: 30.0,
             step: TimeStep::Fixed { dt: 5e-4 },
+            max_substeps_per_frame: TimeSettings::DEFAULT_MAX_SUBSTEPS_PER_FRAME,
         },
         solver: SolverSettings {
             transfer,

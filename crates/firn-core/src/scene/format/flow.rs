@@ -183,6 +183,10 @@ fn reject_snow_keys(raw: &RawScene) -> Check {
             ("step", time.step.is_some()),
             ("dt", time.dt.is_some()),
             ("cfl", time.cfl.is_some()),
+            (
+                "max_substeps_per_frame",
+                time.max_substeps_per_frame.is_some(),
+            ),
         ];
         if let Some((key, _)) = keys.iter().find(|(_, given)| *given) {
             return Err(snow_only(
