@@ -233,6 +233,17 @@ fn snow_only_keys_in_a_flow_scene_are_named() {
     let err = error(&HEAD.replace("duration = 2.0", "duration = 2.0\ndt = 0.01"));
     check(&err, 9, 6, Some("time.dt"), "flow.substeps");
     let err = error(&HEAD.replace(
+        "duration = 2.0",
+        "duration = 2.0\nmax_substeps_per_frame = 10",
+    ));
+    check(
+        &err,
+        9,
+        26,
+        Some("time.max_substeps_per_frame"),
+        "flow.substeps",
+    );
+    let err = error(&HEAD.replace(
         "max = [100.0, 100.0, 100.0]",
         "max = [100.0, 100.0, 100.0]\nwalls = { mode = \"slip\" }",
     ));

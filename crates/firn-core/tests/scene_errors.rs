@@ -675,3 +675,61 @@ fn a_misplaced_compute_table_name_is_explained() {
     let err = error(&format!("{HEAD}{SPHERE}\n[compte]\nbackend = \"gpu\"\n"));
     check(&err, 14, 2, Some("compte"), "did you mean `compute`?");
 }
+
+/// Work past the limits is refused where the scene asks for it: the body
+/// whose lattice passes 2^30 points (at its particles_per_cell, or at the
+/// body when the key is not written), the body too fast for the first step,
+/// the duration that makes too many frames.
+#[test]
+fn work_past_the_limits_is_located() {
+    let dense = HEAD.replace("cell_size = 0.05", "cell_size = 0.002")
+        + "[[bodies]]\nshape = \"box\"\ncenter = [1.0, 1.0, 1.0]\nsize = [1.9, 1.9, 1.9]\n\
+           particles_per_cell = 27\n";
+    let err = error(&dense);
+    check(
+        &err,
+        13,
+        22,
+        Some("bodies[0].particles_per_cell"),
+        "lower particles_per_cell to 1 (now 27), use cell_size = 0.00",
+    );
+    assert!(
+        err.message
+            .contains("is filled from 23149125000 lattice points"),
+        "{err}"
+    );
+
+    let unwritten = dense.replace("particles_per_cell = 27\n", "");
+    let err = error(&unwritten);
+    check(
+        &err,
+        9,
+        1,
+        Some("bodies[0].particles_per_cell"),
+        "lower particles_per_cell to 1 (now 8)",
+    );
+
+    let fast = format!("{HEAD}{SPHERE}velocity = [0.0, 0.0, 3.0e8]\n");
+    let err = error(&fast);
+    check(
+        &err,
+        13,
+        12,
+        Some("bodies[0].velocity"),
+        "give it at most 59980.3 m/s",
+    );
+    assert!(
+        err.message.starts_with("bodies[0].velocity is 3e8 m/s"),
+        "{err}"
+    );
+
+    let long = HEAD.replace("duration = 1.0", "duration = 1.0e6") + SPHERE;
+    let err = error(&long);
+    check(
+        &err,
+        8,
+        12,
+        Some("time.duration"),
+        "simulate at most 3333.3 s",
+    );
+}
