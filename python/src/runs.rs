@@ -3,19 +3,17 @@
 //! `Recording` and `RunDirectory`.
 
 use std::path::PathBuf;
-use std::time::Instant;
 
 use firn_core::Scene;
-use firn_core::scene::Backend;
-use firn_run::pictures::{frame_particles, render_frame, write_animations};
+use firn_run::pictures::{frame_pictures, write_animations};
 use firn_run::recording::{FrameToPicture, Observer, Progress};
 use firn_run::{Recording, RunDirectory, choose_backend};
-use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::errors::simulation_error;
 use crate::scene::PyScene;
+use crate::simulation::backend_named;
 
 /// Runs `scene` to its last frame (or `frames`), writing what `firn run`
 /// writes into `out` (default: the scene's `[output] directory`); `render`
@@ -41,16 +39,7 @@ pub fn run(
     }
     scene.render.enabled &= render;
     if let Some(backend) = backend {
-        scene.compute.backend = match backend {
-            "cpu" => Backend::Cpu,
-            "gpu" => Backend::Gpu,
-            "auto" => Backend::Auto,
-            other => {
-                return Err(PyValueError::new_err(format!(
-                    "backend must be \"cpu\", \"gpu\" or \"auto\", not {other:?}"
-                )));
-            }
-        };
+        scene.compute.backend = backend_named(backend)?;
     }
     let placement = choose_backend(&scene).map_err(simulation_error)?.placement;
     let directory = RunDirectory::new(scene.output.directory.clone());
@@ -65,7 +54,6 @@ pub fn run(
     let mut observer = Pictures {
         directory: path.clone(),
         progress,
-        started: Instant::now(),
         failure: None,
     };
     let mut recording = if resume {
@@ -86,28 +74,19 @@ pub fn run(
 struct Pictures {
     directory: PathBuf,
     progress: Option<Py<PyAny>>,
-    started: Instant,
     /// The callback's exception (or Ctrl-C), raised once the run returns.
     failure: Option<PyErr>,
 }
 
 impl Observer for Pictures {
     fn pictures(&mut self, frame: &FrameToPicture<'_>) -> Result<Vec<String>, String> {
-        let particles = frame_particles(&frame.particles);
-        render_frame(
-            frame.scene,
-            &self.directory,
-            frame.index,
-            frame.time,
-            particles,
-        )
+        frame_pictures(frame, &self.directory)
     }
 
     fn frame_recorded(&mut self, progress: &Progress) {
         if self.failure.is_some() {
             return;
         }
-        let _ = self.started;
         Python::attach(|py| {
             let outcome = py.check_signals().and_then(|()| {
                 let Some(callback) = &self.progress else {

@@ -54,16 +54,7 @@ impl Solver {
                 SceneKindName::Flow => "this scene is snow: use firn.Simulation",
             }));
         }
-        scene.compute.backend = match backend {
-            "cpu" => Backend::Cpu,
-            "gpu" => Backend::Gpu,
-            "auto" => Backend::Auto,
-            other => {
-                return Err(PyValueError::new_err(format!(
-                    "backend must be \"cpu\", \"gpu\" or \"auto\", not {other:?}"
-                )));
-            }
-        };
+        scene.compute.backend = backend_named(backend)?;
         let pool = match threads {
             Some(0) => return Err(PyValueError::new_err("threads must be at least 1")),
             Some(count) => Some(Arc::new(
@@ -137,6 +128,18 @@ impl Solver {
         info.set_item("eta_seconds", elapsed * (1.0 - done) / done.max(1e-9))?;
         callback.call1(py, (info,))?;
         Ok(())
+    }
+}
+
+/// The backend named `name`: "cpu", "gpu" or "auto".
+pub fn backend_named(name: &str) -> PyResult<Backend> {
+    match name {
+        "cpu" => Ok(Backend::Cpu),
+        "gpu" => Ok(Backend::Gpu),
+        "auto" => Ok(Backend::Auto),
+        other => Err(PyValueError::new_err(format!(
+            "backend must be \"cpu\", \"gpu\" or \"auto\", not {other:?}"
+        ))),
     }
 }
 

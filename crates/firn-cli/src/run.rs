@@ -18,7 +18,7 @@ use crate::backend::{BackendChoice, choose_backend};
 use crate::bench::IntegratorChoice;
 use crate::pictures::prepare_image_dirs;
 use crate::scene_source::load_scene;
-use firn_run::pictures::{frame_particles, render_frame, write_animations};
+use firn_run::pictures::{frame_pictures, write_animations};
 
 /// Arguments of `firn run`.
 #[derive(Args, Debug)]
@@ -215,14 +215,7 @@ impl Terminal {
 
 impl Observer for Terminal {
     fn pictures(&mut self, frame: &FrameToPicture<'_>) -> Result<Vec<String>, String> {
-        let particles = frame_particles(&frame.particles);
-        render_frame(
-            frame.scene,
-            &self.directory,
-            frame.index,
-            frame.time,
-            particles,
-        )
+        frame_pictures(frame, &self.directory)
     }
 
     fn frame_recorded(&mut self, progress: &Progress) {

@@ -4,7 +4,7 @@
 use firn_core::math::bspline::{cubic_weights, quadratic_weights};
 use firn_core::math::lanes::Simd;
 use firn_core::scene::sampling::sample_bodies;
-use firn_core::scene::{Integrator, Material, Scene, SceneError, TimeStep, Transfer};
+use firn_core::scene::{Integrator, Material, Scene, SceneError, TimeSettings, TimeStep, Transfer};
 use glam::{Mat3, Vec3};
 
 use crate::binning::Bins;
@@ -459,17 +459,9 @@ impl Simulation {
             Integrator::SemiImplicit(_) => 0.0,
         };
         let speed = self.stats.max_speed_squared.sqrt();
-        Err(SimulationError::TooManySubsteps {
-            time: self.time,
-            step: self.steps,
-            dt,
-            speed,
-            wave_speed,
-            fps: time.fps,
-            needed: 1.0 / (time.fps * f64::from(dt)),
-            limit: time.max_substeps_per_frame,
-            hint: step_length_hint(speed, wave_speed, time.max_substeps_per_frame),
-        })
+        Err(SimulationError::too_many_substeps(
+            time, self.time, self.steps, dt, speed, wave_speed,
+        ))
     }
 
     /// An explanation of a failed substep with a concrete fix.
@@ -686,6 +678,34 @@ fn blocks_around(layout: &GridLayout, (low, high): (Vec3, Vec3)) -> u64 {
         blocks.min(u64::MAX as f64) as u64
     } else {
         u64::MAX
+    }
+}
+
+/// The same "frame would take too many substeps" error on every backend.
+impl SimulationError {
+    /// [`SimulationError::TooManySubsteps`] at simulated time `now` after
+    /// `steps` substeps, for a next step `dt` set by the fastest particle
+    /// (`speed`) or elastic wave (`wave_speed`), under `settings`' limit.
+    pub fn too_many_substeps(
+        settings: &TimeSettings,
+        now: f64,
+        steps: u64,
+        dt: f32,
+        speed: f32,
+        wave_speed: f32,
+    ) -> SimulationError {
+        let limit = settings.max_substeps_per_frame;
+        SimulationError::TooManySubsteps {
+            time: now,
+            step: steps,
+            dt,
+            speed,
+            wave_speed,
+            fps: settings.fps,
+            needed: 1.0 / (settings.fps * f64::from(dt)),
+            limit,
+            hint: step_length_hint(speed, wave_speed, limit),
+        }
     }
 }
 

@@ -11,6 +11,7 @@ use firn_render::scene_view::{FrameParticles, scene_picture};
 use firn_render::trails::Trails;
 
 use crate::RunDirectory;
+use crate::recording::FrameToPicture;
 use crate::simulation::HostParticles;
 
 /// The renderer's view of a simulation's particles.
@@ -91,4 +92,12 @@ pub fn write_animations(
         );
     }
     Ok(written)
+}
+
+/// The pictures of a frame a [`crate::Recording`] hands its observer, in
+/// every style of its scene, under `directory`; returns their paths
+/// relative to it.
+pub fn frame_pictures(frame: &FrameToPicture<'_>, directory: &Path) -> Result<Vec<String>, String> {
+    let particles = frame_particles(&frame.particles);
+    render_frame(frame.scene, directory, frame.index, frame.time, particles)
 }

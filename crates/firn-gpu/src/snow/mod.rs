@@ -268,21 +268,9 @@ impl GpuSnow {
         if state.running == 0 || f64::from(dt) >= time.shortest_dt() {
             return Ok(());
         }
-        Err(GpuError::Snow(SimulationError::TooManySubsteps {
-            time: self.time,
-            step: self.steps,
-            dt,
-            speed,
-            wave_speed,
-            fps: time.fps,
-            needed: 1.0 / (time.fps * f64::from(dt)),
-            limit: time.max_substeps_per_frame,
-            hint: firn_mpm::simulation::step_length_hint(
-                speed,
-                wave_speed,
-                time.max_substeps_per_frame,
-            ),
-        }))
+        Err(GpuError::Snow(SimulationError::too_many_substeps(
+            time, self.time, self.steps, dt, speed, wave_speed,
+        )))
     }
 
     fn time_of(&self, state: &StepState) -> f64 {
