@@ -161,4 +161,8 @@ def run(
     backend: Optional[Backend] = None,
     progress: Optional[Progress] = None,
 ) -> str:
-    """A whole run as ``firn run`` makes it; returns the run directory."""
+    """A whole run as ``firn run`` makes it; returns the run directory.
+
+    An exception raised by ``progress``, or Ctrl-C, surfaces only once the
+    run has reached its last frame (the recording loop cannot stop early
+    yet); to stop early, step a :class:`Simulation` instead."""

@@ -20,6 +20,8 @@ use crate::simulation::backend_named;
 /// off writes caches only. `resume` continues from the run's checkpoint.
 /// `progress` is called after each frame with a dict (frame, last_frame,
 /// time, substeps_per_second, eta_seconds). Returns the run directory.
+/// An exception from `progress`, or Ctrl-C, is raised when the run has
+/// reached its last frame: the recording loop has no way to stop early yet.
 #[pyfunction]
 #[pyo3(signature = (scene, out = None, frames = None, render = true, resume = false, backend = None, progress = None))]
 #[allow(clippy::too_many_arguments)]
