@@ -26,6 +26,8 @@ stills=(
   "tower 27 points"
   "dry-vs-wet 15 points"
   "curl-noise-demo 60 trails"
+  "snowball-crosswind 15 points"
+  "smoke-pot 150 billboards"
 )
 
 wanted=("$@")

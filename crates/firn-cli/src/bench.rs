@@ -732,5 +732,6 @@ pub fn snowball_drop(particles: u32, grid: u32, transfer: Transfer) -> Scene {
         render: RenderSettings::default(),
         kind: SceneKind::Snow,
         compute: Default::default(),
+        wind: None,
     }
 }

@@ -102,6 +102,21 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
         "colliders   {} (plus the 6 domain walls)",
         scene.colliders.len()
     );
+    if let Some(wind) = &scene.wind {
+        let field = &wind.field;
+        let direction = field.background_direction;
+        println!(
+            "wind        {:.3} m/s along [{}, {}, {}] with turbulence of about {:.3} m/s rms (L = {} m); drag {} kg/(m2 s), packed at {} kg/m3",
+            field.background_speed(),
+            direction.x,
+            direction.y,
+            direction.z,
+            field.turbulence_speed(),
+            field.length_scale,
+            wind.drag,
+            wind.packed_density
+        );
+    }
     println!(
         "memory      about {} at the start (sparse grid near the bodies, bins and particles){}",
         Bytes(budget.cpu_bytes),

@@ -30,6 +30,7 @@
 use firn_core::scene::{FlowCurl, FlowObstacle, FlowSettings};
 use glam::{DVec3, Vec3};
 
+use crate::integrate::Simd;
 use crate::lanes::{F32s, Real, V3, add3, cross3, scale3, sub3};
 use crate::obstacles::{self, Sphere};
 use crate::random;
@@ -135,6 +136,18 @@ impl FlowField {
         let prepared = self.prepare::<F32s<1>>(t);
         let v = velocity_lanes(&prepared, [F32s([x.x]), F32s([x.y]), F32s([x.z])]);
         Vec3::new(v[0].0[0], v[1].0[0], v[2].0[0])
+    }
+
+    /// The velocities at `positions` at time `t`, into `velocities` (of the
+    /// same length), in batches of the lanes of `simd` where the CPU has it:
+    /// bit for bit [`FlowField::velocity`] at each point.
+    pub fn velocities(&self, simd: Simd, t: f64, positions: &[Vec3], velocities: &mut [Vec3]) {
+        assert_eq!(
+            positions.len(),
+            velocities.len(),
+            "one velocity per position"
+        );
+        crate::integrate::evaluate(simd, self, t, positions, velocities);
     }
 
     /// The modulated potential ψ'(x, t), in `f32`.

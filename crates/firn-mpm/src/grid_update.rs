@@ -1,20 +1,25 @@
 //! The grid update (thesis §3.4 steps 3 to 5): grid velocities from the
 //! scattered momentum, v_i = p_i / m_i, the forces and gravity,
-//! v_i* = v_i + Δt (f_i / m_i + g), and the grid-based collisions with the
+//! v_i* = v_i + Δt (f_i / m_i + g), the wind's drag where the scene has one
+//! ([`crate::wind`], equation W3), and the grid-based collisions with the
 //! colliders (Quellcode 12). [`crate::reference::update_grid_velocities`]
 //! is the plain form of this stage.
 
-use glam::{IVec3, Vec3};
+use glam::{DVec3, IVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::contact::Colliders;
-use crate::grid::{Grid, GridLayout, Node};
+use crate::grid::{BLOCK_NODES, Grid, GridLayout, Node};
+use crate::wind::{AirDrag, relax};
+
+/// Smallest number of blocks a worker thread takes at once.
+const MIN_BLOCKS_PER_TASK: usize = 16;
 
 /// Runs `visit` on the 64 nodes of every block with storage (the active
 /// blocks of the last [`Grid::allocate`]), blocks in parallel.
 pub(crate) fn for_each_active_block(grid: &mut Grid, visit: impl Fn(IVec3, &mut [Node]) + Sync) {
     grid.par_blocks_mut()
-        .with_min_len(16)
+        .with_min_len(MIN_BLOCKS_PER_TASK)
         .for_each(|(block, nodes)| visit(block, nodes));
 }
 
@@ -27,33 +32,151 @@ pub enum GridForces {
     InMomentum,
 }
 
-/// Steps 4 and 5: v_i = p_i / m_i, v_i* = v_i + Δt (f_i / m_i + g), then grid
-/// collisions, on every node with mass.
+/// The wind of one substep: its drag and the time at which the air's
+/// velocity is taken (the end of the substep, as for the colliders).
+#[derive(Clone, Copy, Debug)]
+pub struct WindStep<'a> {
+    /// The drag law and the air's field.
+    pub drag: &'a AirDrag,
+    /// Simulated time of the air's velocity.
+    pub time: f64,
+}
+
+/// Steps 4 and 5: v_i = p_i / m_i, v_i* = v_i + Δt (f_i / m_i + g), the
+/// wind's drag, then grid collisions, on every node with mass. Returns the
+/// impulse the wind gave the snow, Σ m_i Δv_i of its drag (zero without
+/// wind), summed block by block in a fixed order so that it is the same for
+/// any thread count.
 pub fn update_grid(
     grid: &mut Grid,
     forces: GridForces,
     dt: f32,
     gravity: Vec3,
     colliders: &Colliders,
-) {
-    let layout = grid.layout;
-    for_each_active_block(grid, |block, nodes| {
+    wind: Option<WindStep>,
+) -> DVec3 {
+    let step = NodeStep {
+        layout: grid.layout,
+        forces,
+        dt,
+        gravity,
+        colliders,
+    };
+    match wind {
+        None => {
+            for_each_active_block(grid, |block, nodes| {
+                step.update_block(block, nodes, None);
+            });
+            DVec3::ZERO
+        }
+        Some(wind) => {
+            let air = air_at_nodes(grid, &step, wind);
+            let impulses: Vec<DVec3> = grid
+                .par_blocks_mut()
+                .zip(air.par_chunks(BLOCK_NODES))
+                .with_min_len(MIN_BLOCKS_PER_TASK)
+                .map(|((block, nodes), air)| step.update_block(block, nodes, Some(air)))
+                .collect();
+            impulses.iter().sum()
+        }
+    }
+}
+
+/// The air at a node: its velocity and the rate of its drag on the node's
+/// snow (equation W3).
+#[derive(Clone, Copy, Debug, Default)]
+struct NodeAir {
+    wind: Vec3,
+    rate: f32,
+}
+
+/// The air at every node with storage, in pool order: a read-only pass, as
+/// the drag's exposure depends on the neighbours' masses.
+fn air_at_nodes(grid: &Grid, step: &NodeStep, wind: WindStep) -> Vec<NodeAir> {
+    let table = grid.page_table();
+    let nodes = &grid.nodes;
+    let blocks = table.layout.blocks.as_ivec3();
+    let mass_at = |node: IVec3| -> f32 {
+        let block: IVec3 = node >> 2;
+        if block.cmplt(IVec3::ZERO).any() || block.cmpge(blocks).any() {
+            return 0.0;
+        }
+        match table.slot(table.layout.block_index(block)) {
+            Some(slot) => nodes[slot * BLOCK_NODES + GridLayout::local_index(node)].mass(),
+            None => 0.0,
+        }
+    };
+    let mut air = vec![NodeAir::default(); nodes.len()];
+    air.par_chunks_mut(BLOCK_NODES)
+        .zip(nodes.par_chunks(BLOCK_NODES))
+        .zip(grid.resident_blocks().par_iter())
+        .with_min_len(MIN_BLOCKS_PER_TASK)
+        .for_each(|((air, block_nodes), &block)| {
+            let block = table.layout.block_coord(block as usize);
+            let winds = wind.drag.block_wind(&table.layout, block, wind.time);
+            for (local, node) in block_nodes.iter().enumerate() {
+                let mass = node.mass();
+                if mass <= 0.0 {
+                    continue;
+                }
+                let velocity = step.velocity_star(node);
+                let position = GridLayout::node_in_block(block, local);
+                air[local] = NodeAir {
+                    wind: winds[local],
+                    rate: wind
+                        .drag
+                        .rate(position, mass, velocity, winds[local], mass_at),
+                };
+            }
+        });
+    air
+}
+
+/// What the grid update does to each node.
+struct NodeStep<'a> {
+    layout: GridLayout,
+    forces: GridForces,
+    dt: f32,
+    gravity: Vec3,
+    colliders: &'a Colliders<'a>,
+}
+
+impl NodeStep<'_> {
+    /// v_i* = v_i + Δt (f_i / m_i + g) of a node with mass, before the wind
+    /// and the collisions.
+    fn velocity_star(&self, node: &Node) -> Vec3 {
+        let inverse_mass = 1.0 / node.mass();
+        let velocity = node.velocity() * inverse_mass;
+        let acceleration = match self.forces {
+            GridForces::Separate => node.velocity_new() * inverse_mass + self.gravity,
+            GridForces::InMomentum => self.gravity,
+        };
+        velocity + acceleration * self.dt
+    }
+
+    /// Updates the nodes of one block, blown by `air` where there is wind;
+    /// returns the wind's impulse on them.
+    fn update_block(&self, block: IVec3, nodes: &mut [Node], air: Option<&[NodeAir]>) -> DVec3 {
+        let mut impulse = DVec3::ZERO;
         for (local, node) in nodes.iter_mut().enumerate() {
             let mass = node.mass();
             if mass <= 0.0 {
                 continue;
             }
-            let inverse_mass = 1.0 / mass;
-            let velocity = node.velocity() * inverse_mass;
-            let acceleration = match forces {
-                GridForces::Separate => node.velocity_new() * inverse_mass + gravity,
-                GridForces::InMomentum => gravity,
-            };
-            let position = layout.node_position(GridLayout::node_in_block(block, local));
-            node.velocity_mass = velocity.extend(mass);
-            node.set_velocity_new(colliders.collide(position, velocity + acceleration * dt));
+            let mut velocity_new = self.velocity_star(node);
+            if let Some(air) = air {
+                let blown = relax(velocity_new, air[local].wind, air[local].rate, self.dt);
+                impulse += f64::from(mass) * (blown - velocity_new).as_dvec3();
+                velocity_new = blown;
+            }
+            let position = self
+                .layout
+                .node_position(GridLayout::node_in_block(block, local));
+            node.velocity_mass = (node.velocity() * (1.0 / mass)).extend(mass);
+            node.set_velocity_new(self.colliders.collide(position, velocity_new));
         }
-    });
+        impulse
+    }
 }
 
 /// Zeroes every node with storage, which includes every node the last

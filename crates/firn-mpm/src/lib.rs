@@ -33,6 +33,7 @@ pub mod particles;
 pub mod profile;
 pub mod reference;
 pub mod simulation;
+pub mod wind;
 
 pub use implicit::SolverStats;
 pub use particles::{Particles, PermuteBuffers};

@@ -23,7 +23,9 @@ use glam::{IVec3, Mat3, UVec3, Vec3};
 use crate::constitutive::MaterialConstants;
 use crate::contact::{PlacedCollider, collide_all};
 use crate::grid::GridLayout;
+use crate::grid_update::WindStep;
 use crate::particles::Particles;
+use crate::wind::relax;
 
 /// What one explicit substep needs besides the particles and the grid.
 #[derive(Clone, Copy, Debug)]
@@ -40,6 +42,8 @@ pub struct ReferenceStep<'a> {
     pub materials: &'a [MaterialConstants],
     /// The colliders at the end of the substep, the domain walls included.
     pub colliders: &'a [PlacedCollider],
+    /// The wind's drag and the time of the air's velocity, if any.
+    pub wind: Option<WindStep<'a>>,
 }
 
 /// A dense grid over the same nodes as the fast solver's sparse one.
@@ -76,6 +80,16 @@ impl ReferenceGrid {
         let n = node.as_uvec3();
         assert!(n.cmplt(self.dims).all(), "node {node} outside the grid");
         (n.x + self.dims.x * (n.y + self.dims.y * n.z)) as usize
+    }
+
+    /// m_i of node `node`, 0 outside the grid.
+    pub fn mass_at(&self, node: IVec3) -> f32 {
+        let inside = node.cmpge(IVec3::ZERO).all() && node.as_uvec3().cmplt(self.dims).all();
+        if inside {
+            self.mass[self.index(node)]
+        } else {
+            0.0
+        }
     }
 
     /// The grid coordinate of node `index`.
@@ -143,7 +157,8 @@ pub fn particles_to_grid(particles: &Particles, grid: &mut ReferenceGrid, step: 
 }
 
 /// Steps 4 and 5: v_i = p_i / m_i, v_i* = v_i + Δt (f_i / m_i + g) (for
-/// APIC the force is already in the momentum), then the grid collisions.
+/// APIC the force is already in the momentum), the wind's drag (equation W3
+/// of [`firn_core::scene::wind`]), then the grid collisions.
 pub fn update_grid_velocities(grid: &mut ReferenceGrid, step: &ReferenceStep) {
     for node in 0..grid.mass.len() {
         let m = grid.mass[node];
@@ -156,8 +171,16 @@ pub fn update_grid_velocities(grid: &mut ReferenceGrid, step: &ReferenceStep) {
             Transfer::Apic => step.gravity,
         };
         let position = grid.layout.node_position(grid.node(node));
+        let mut v_star = v + step.dt * acceleration;
+        if let Some(wind) = step.wind {
+            let air = wind.drag.wind_at(position, wind.time);
+            let rate = wind
+                .drag
+                .rate(grid.node(node), m, v_star, air, |n| grid.mass_at(n));
+            v_star = relax(v_star, air, rate, step.dt);
+        }
         grid.velocity[node] = v;
-        grid.velocity_new[node] = collide_all(step.colliders, position, v + step.dt * acceleration);
+        grid.velocity_new[node] = collide_all(step.colliders, position, v_star);
     }
 }
 

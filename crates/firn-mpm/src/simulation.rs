@@ -5,7 +5,7 @@ use firn_core::math::bspline::{cubic_weights, quadratic_weights};
 use firn_core::math::lanes::Simd;
 use firn_core::scene::sampling::sample_bodies;
 use firn_core::scene::{Integrator, Material, Scene, SceneError, TimeSettings, TimeStep, Transfer};
-use glam::{Mat3, Vec3};
+use glam::{DVec3, Mat3, Vec3};
 
 use crate::binning::Bins;
 use crate::constitutive::{MaterialConstants, max_wave_speed_squared};
@@ -15,11 +15,12 @@ use crate::g2p::{
     preferred_simd,
 };
 use crate::grid::{BLOCK_NODES, BLOCK_WIDTH, Grid, GridLayout, Node};
-use crate::grid_update::{GridForces, clear_grid, update_grid};
+use crate::grid_update::{GridForces, WindStep, clear_grid, update_grid};
 use crate::implicit::{ImplicitSolver, ImplicitStep, SolverStats};
 use crate::p2g;
 use crate::particles::{Particles, PermuteBuffers};
 use crate::profile::{PhaseClock, PhaseTimes};
+use crate::wind::AirDrag;
 
 /// Particles are physically reordered by block every this many substeps, so
 /// that the scatter and gather stream through memory.
@@ -202,6 +203,10 @@ pub struct Simulation {
     profile: PhaseTimes,
     /// The instruction set of the batched particle update.
     simd: Simd,
+    /// The drag of the scene's wind on the grid, if it has one.
+    wind: Option<AirDrag>,
+    /// Σ of the wind's impulse on the snow since this simulation was made.
+    wind_impulse: DVec3,
 }
 
 impl Simulation {
@@ -270,6 +275,11 @@ impl Simulation {
             },
             profile: PhaseTimes::default(),
             simd: preferred_simd(),
+            wind: scene
+                .wind
+                .as_ref()
+                .map(|wind| AirDrag::new(wind, domain.cell_size)),
+            wind_impulse: DVec3::ZERO,
             scene,
         }
     }
@@ -355,12 +365,17 @@ impl Simulation {
             Some(_) => &no_colliders,
             None => &particle_colliders,
         };
-        update_grid(
+        let wind = self.wind.as_ref().map(|drag| WindStep {
+            drag,
+            time: self.time + dt as f64,
+        });
+        let wind_impulse = update_grid(
             &mut self.grid,
             forces,
             dt,
             self.scene.solver.gravity,
             grid_colliders,
+            wind,
         );
         clock.lap(&mut self.profile.grid_update);
         if let (Integrator::SemiImplicit(settings), Some(solver)) =
@@ -410,6 +425,7 @@ impl Simulation {
         self.time += dt as f64;
         self.steps += 1;
         self.stats = stats;
+        self.wind_impulse += wind_impulse;
         Ok(dt)
     }
 
@@ -419,6 +435,7 @@ impl Simulation {
     /// Every choice gives the same bits; this exists to show that.
     pub fn set_simd(&mut self, simd: Simd) {
         self.simd = simd;
+        self.wind = self.wind.take().map(|drag| drag.with_simd(simd));
     }
 
     /// The instruction set of the batched particle update.
@@ -594,6 +611,13 @@ impl Simulation {
     /// Substeps taken.
     pub fn steps(&self) -> u64 {
         self.steps
+    }
+
+    /// The impulse the wind's drag gave the snow since this simulation was
+    /// made (from [`Simulation::new`] or a snapshot), N s: Σ over substeps and
+    /// nodes of m_i Δv_i (equation W3 of [`firn_core::scene::wind`]).
+    pub fn wind_impulse(&self) -> DVec3 {
+        self.wind_impulse
     }
 
     /// Grid geometry.

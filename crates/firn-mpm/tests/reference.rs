@@ -30,15 +30,16 @@
 
 use firn_core::Material;
 use firn_core::math::lanes::Simd;
-use firn_core::scene::{Scene, Shape, Transfer};
+use firn_core::scene::{Scene, Shape, Transfer, Wind};
 use firn_mpm::binning::Bins;
 use firn_mpm::constitutive::MaterialConstants;
 use firn_mpm::contact::{ColliderSet, Colliders, PlacedCollider};
 use firn_mpm::g2p::{self, UpdateContext};
 use firn_mpm::grid::{Grid, GridLayout};
-use firn_mpm::grid_update::{self, GridForces};
+use firn_mpm::grid_update::{self, GridForces, WindStep};
 use firn_mpm::p2g;
 use firn_mpm::reference::{self, ReferenceGrid, ReferenceStep};
+use firn_mpm::wind::AirDrag;
 use firn_mpm::{Particles, Simulation, Snapshot};
 use glam::{Mat3, Vec3};
 use proptest::prelude::*;
@@ -124,7 +125,11 @@ struct Setup {
     layout: GridLayout,
     constants: Vec<MaterialConstants>,
     colliders: Vec<PlacedCollider>,
+    wind: Option<AirDrag>,
 }
+
+/// Simulated time at which the wind of [`Setup::windy`] is taken.
+const WIND_TIME: f64 = 0.3;
 
 impl Setup {
     fn new(transfer: Transfer) -> Setup {
@@ -134,8 +139,32 @@ impl Setup {
             layout: GridLayout::new(domain.min, domain.max, domain.cell_size),
             constants: MaterialConstants::of_each(&scene.materials),
             colliders: ColliderSet::new(domain, &scene.colliders).placed_at(0.0),
+            wind: None,
             scene,
         }
+    }
+
+    /// The same setup in a turbulent, drifting wind of a few m/s whose drag
+    /// relaxes loose snow within a few substeps, and with gravity.
+    fn windy(transfer: Transfer) -> Setup {
+        let mut wind = Wind::uniform(Vec3::new(0.6, 0.0, 0.8), 3.0);
+        wind.field.noise_share = 0.5;
+        wind.field.length_scale = 0.3;
+        wind.field.noise_strength = 0.2;
+        wind.field.evolution_rate = 0.5;
+        wind.drag = 2e4;
+        let mut setup = Setup::new(transfer);
+        setup.scene.solver.gravity = Vec3::new(0.0, -9.81, 0.0);
+        setup.wind = Some(AirDrag::new(&wind, setup.layout.cell_size));
+        setup
+    }
+
+    /// The wind of one substep, if the setup has one.
+    fn wind_step(&self) -> Option<WindStep<'_>> {
+        self.wind.as_ref().map(|drag| WindStep {
+            drag,
+            time: WIND_TIME,
+        })
     }
 
     fn transfer(&self) -> Transfer {
@@ -150,6 +179,7 @@ impl Setup {
             gravity: self.scene.solver.gravity,
             materials: &self.constants,
             colliders: &self.colliders,
+            wind: self.wind_step(),
         }
     }
 
@@ -174,7 +204,14 @@ impl Setup {
             Transfer::Apic => GridForces::InMomentum,
         };
         let colliders = Colliders::new(&self.colliders);
-        grid_update::update_grid(grid, forces, DT, self.scene.solver.gravity, &colliders);
+        grid_update::update_grid(
+            grid,
+            forces,
+            DT,
+            self.scene.solver.gravity,
+            &colliders,
+            self.wind_step(),
+        );
     }
 }
 
@@ -263,7 +300,11 @@ fn check_p2g(transfer: Transfer, seed: u64) {
 
 /// Steps 4 and 5 on both sides from the same scattered grid.
 fn check_grid_update(transfer: Transfer, seed: u64) {
-    let setup = Setup::new(transfer);
+    check_grid_update_of(&Setup::new(transfer), seed);
+}
+
+/// Steps 4 and 5 of `setup` on both sides from the same scattered grid.
+fn check_grid_update_of(setup: &Setup, seed: u64) {
     let particles = random_particles(seed, &setup.scene.materials[0]);
     let (mut grid, _) = setup.fast_p2g(&particles);
     let mut plain = dense_copy(&grid);
@@ -339,6 +380,13 @@ proptest! {
     fn grid_update_matches_the_reference(seed in any::<u64>()) {
         for transfer in common::TRANSFERS {
             check_grid_update(transfer, seed);
+        }
+    }
+
+    #[test]
+    fn grid_update_in_a_wind_matches_the_reference(seed in any::<u64>()) {
+        for transfer in common::TRANSFERS {
+            check_grid_update_of(&Setup::windy(transfer), seed);
         }
     }
 

@@ -91,7 +91,14 @@ fn round_trip(transfer_scheme: Transfer) {
     } else {
         GridForces::Separate
     };
-    grid_update::update_grid(&mut grid, forces, 0.0, Vec3::ZERO, &Colliders::new(&[]));
+    grid_update::update_grid(
+        &mut grid,
+        forces,
+        0.0,
+        Vec3::ZERO,
+        &Colliders::new(&[]),
+        None,
+    );
     let (grid_mass, grid_momentum, grid_angular) = grid_totals(&grid);
     let momentum = DVec3::from_array(before.momentum);
     let angular = DVec3::from_array(before.angular_momentum);

@@ -241,17 +241,20 @@ impl Recording {
     }
 
     /// Mean wall-clock nanoseconds per particle-substep over the frames
-    /// recorded that took substeps.
+    /// recorded that took substeps, each frame's particle-substeps counted
+    /// with its own particle count (a flow's emitters fill it over time).
     pub fn mean_cost(&self) -> f64 {
-        let (seconds, work) =
-            self.manifest
-                .frames
-                .iter()
-                .fold((0.0, 0.0), |(seconds, work), record| {
-                    (seconds + record.wall_seconds, work + record.substeps as f64)
-                });
+        let (seconds, work) = self
+            .manifest
+            .frames
+            .iter()
+            .filter(|record| record.ns_per_particle_substep > 0.0)
+            .fold((0.0, 0.0), |(seconds, work), record| {
+                let particle_substeps = record.wall_seconds * 1e9 / record.ns_per_particle_substep;
+                (seconds + record.wall_seconds, work + particle_substeps)
+            });
         if work > 0.0 {
-            seconds * 1e9 / (work * self.manifest.particle_count.max(1) as f64)
+            seconds * 1e9 / work
         } else {
             0.0
         }

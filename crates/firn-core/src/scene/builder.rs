@@ -39,6 +39,7 @@ use super::model::{
     SolverSettings, TimeSettings, TimeStep, Transfer,
 };
 use super::render::{Camera, RenderSettings};
+use super::wind::Wind;
 
 /// Builds a [`Scene`] from its defaults; see the [module docs](self).
 ///
@@ -75,6 +76,7 @@ pub struct SceneBuilder {
     render: RenderSettings,
     compute: ComputeSettings,
     flow: FlowChoice,
+    wind: Option<Wind>,
 }
 
 /// The time step as far as it has been chosen.
@@ -158,6 +160,7 @@ impl SceneBuilder {
             render: defaults.render,
             compute: defaults.compute,
             flow: FlowChoice::Snow,
+            wind: None,
         }
     }
 
@@ -391,6 +394,12 @@ impl SceneBuilder {
         self
     }
 
+    /// Air blowing over the snow (`[wind]`).
+    pub fn wind(mut self, wind: Wind) -> SceneBuilder {
+        self.wind = Some(wind);
+        self
+    }
+
     // -- the scene ---------------------------------------------------------
 
     /// The scene, checked by [`Scene::validate`]: the rules and messages of
@@ -453,6 +462,7 @@ impl SceneBuilder {
             render: self.render,
             kind,
             compute: self.compute,
+            wind: self.wind,
         }
     }
 }

@@ -125,6 +125,17 @@ impl FlowSettings {
         FlowSettings::for_extent((domain.max - domain.min).max_element())
     }
 
+    /// The speed of the background flow, (1 − γ) M_f s, m/s.
+    pub fn background_speed(&self) -> f32 {
+        (1.0 - self.noise_share) * self.background_strength * self.speed_scale
+    }
+
+    /// About the root-mean-square speed of the turbulence, 4.2 γ M s / L,
+    /// m/s (simplex noise's gradient has an rms of about 4.2 per noise cell).
+    pub fn turbulence_speed(&self) -> f32 {
+        4.2 * self.noise_share * self.noise_strength * self.speed_scale / self.length_scale
+    }
+
     /// The default noise length scale L for a domain whose longest edge is
     /// `extent`: a fifth of it.
     pub fn default_length_scale(extent: f32) -> f32 {

@@ -734,6 +734,7 @@ struct RawScene {
     render: Option<RawRender>,
     kind: Option<flow::RawKind>,
     flow: Option<flow::RawFlow>,
+    wind: Option<flow::RawFlow>,
     compute: Option<RawCompute>,
 }
 
@@ -1229,6 +1230,7 @@ fn resolve(raw: RawScene, origin: &str) -> Result<Scene, Issue> {
         colliders.push(resolve_collider(&path, raw_collider, origin, &domain)?);
     }
 
+    let wind = flow::resolve_wind(raw.wind, &domain)?;
     let output = resolve_output(raw.output, &name, &SceneKind::Snow);
     let camera = resolve_camera(raw.camera)?;
     let render = resolve_render(raw.render);
@@ -1245,6 +1247,7 @@ fn resolve(raw: RawScene, origin: &str) -> Result<Scene, Issue> {
         render,
         kind: SceneKind::Snow,
         compute: resolve_compute(raw.compute),
+        wind,
     })
 }
 
@@ -1755,6 +1758,9 @@ fn check_scene(scene: &Scene) -> Check {
         check_body_has_particles(scene, index, body)?;
     }
     check_first_step(scene)?;
+    if let Some(wind) = &scene.wind {
+        flow::check_wind(wind)?;
+    }
     for (index, collider) in scene.colliders.iter().enumerate() {
         check_collider(&KeyPath::of("colliders").index(index), collider)?;
     }

@@ -8,7 +8,8 @@
 //! [`flow`] holds the settings of curl-noise particle flows (`kind = "flow"`);
 //! [`mesh`] places triangle meshes as bodies and colliders; [`compute`] says
 //! which backend (CPU or GPU) computes the scene; [`estimate`] says what it
-//! will cost before anything runs.
+//! will cost before anything runs; [`wind`] blows a curl-noise field over
+//! the snow (`[wind]`).
 
 pub mod builder;
 pub mod compute;
@@ -20,6 +21,7 @@ pub mod mesh;
 pub mod model;
 pub mod render;
 pub mod sampling;
+pub mod wind;
 
 pub use builder::SceneBuilder;
 pub use compute::*;
@@ -30,3 +32,4 @@ pub use material::Material;
 pub use mesh::{MeshBody, MeshCollider, MeshPlacement};
 pub use model::*;
 pub use render::*;
+pub use wind::Wind;

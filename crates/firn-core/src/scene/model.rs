@@ -19,6 +19,7 @@ use super::flow::SceneKind;
 use super::material::Material;
 use super::mesh::{MeshBody, MeshCollider};
 use super::render::{Camera, RenderSettings};
+use super::wind::Wind;
 
 /// A complete snow scene, resolved: presets expanded, defaults filled in.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -49,6 +50,10 @@ pub struct Scene {
     /// and checkpoints written before it existed).
     #[serde(default)]
     pub compute: ComputeSettings,
+    /// Air blowing over the snow (`[wind]`; snow scenes only; absent from
+    /// manifests and checkpoints written before it existed).
+    #[serde(default)]
+    pub wind: Option<Wind>,
 }
 
 impl Scene {
@@ -64,8 +69,8 @@ impl Default for Scene {
     /// axis) and separate walls with friction 0.2, one simulated second at
     /// 30 fps with the adaptive step (CFL 0.4, Δt at most 1 ms), PIC/FLIP
     /// (α = 0.95) with the explicit integrator, gravity (0, −9.81, 0) and
-    /// seed 1, no materials, bodies or colliders, output to `out/scene`, and
-    /// the default camera, render and compute settings.
+    /// seed 1, no materials, bodies or colliders, no wind, output to
+    /// `out/scene`, and the default camera, render and compute settings.
     ///
     /// It does not [`validate`](Scene::validate): a snow scene needs at least
     /// one body. Build scenes with [`Scene::builder`] instead, or fill in
@@ -84,6 +89,7 @@ impl Default for Scene {
             render: RenderSettings::default(),
             kind: SceneKind::Snow,
             compute: ComputeSettings::default(),
+            wind: None,
         }
     }
 }

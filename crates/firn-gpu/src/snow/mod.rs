@@ -165,6 +165,12 @@ impl GpuSnow {
                 fix: "run with --backend cpu, or set integrator = \"explicit\" in [solver]".into(),
             });
         }
+        if scene.wind.is_some() {
+            return Err(GpuError::Unsupported {
+                what: "the wind's drag ([wind]) is not yet on the GPU".into(),
+                fix: "run with --backend cpu, or remove [wind]".into(),
+            });
+        }
         Ok(())
     }
 

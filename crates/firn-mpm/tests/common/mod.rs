@@ -55,6 +55,7 @@ pub fn scene_with(body: Shape, velocity: Vec3, transfer: Transfer, cell_size: f3
         render: RenderSettings::default(),
         kind: SceneKind::Snow,
         compute: Default::default(),
+        wind: None,
     }
 }
 

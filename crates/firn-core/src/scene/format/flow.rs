@@ -20,6 +20,7 @@ use crate::scene::flow::{
     FlowSettings, SceneKind,
 };
 use crate::scene::model::{Attribute, Domain, Scene};
+use crate::scene::wind::Wind;
 
 /// Largest number of particle slots a flow scene may ask for (2^26).
 pub const MAX_FLOW_PARTICLES: u64 = 1 << 26;
@@ -35,6 +36,9 @@ pub(super) enum RawKind {
     Flow,
 }
 
+/// The `[flow]` table of a flow scene, and the `[wind]` table of a snow
+/// scene: both give a curl-noise field with the same keys; each table
+/// refuses, with a located error, the keys that belong only to the other.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawFlow {
@@ -53,6 +57,8 @@ pub(super) struct RawFlow {
     substeps: Option<u32>,
     obstacles: Option<Vec<RawObstacle>>,
     emitters: Option<Vec<RawEmitter>>,
+    drag: Option<f32>,
+    packed_density: Option<f32>,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, Deserialize)]
@@ -162,6 +168,13 @@ fn reject_snow_keys(raw: &RawScene) -> Check {
             "remove the [materials] tables: flow particles have no material",
         ));
     }
+    if raw.wind.is_some() {
+        return Err(snow_only(
+            KeyPath::of("wind"),
+            "[wind]",
+            "remove [wind]: the particles of a flow scene follow the [flow] field itself",
+        ));
+    }
     if raw.solver.is_some() {
         return Err(snow_only(
             KeyPath::of("solver"),
@@ -248,12 +261,13 @@ pub(super) fn resolve_flow_scene(raw: RawScene, origin: &str) -> Result<Scene, I
         render,
         kind,
         compute: super::resolve_compute(raw.compute),
+        wind: None,
     })
 }
 
 fn resolve_flow(raw: Option<RawFlow>, domain: &Domain) -> Result<FlowSettings, Issue> {
     let path = KeyPath::of("flow");
-    let raw = raw.ok_or_else(|| {
+    let mut raw = raw.ok_or_else(|| {
         Issue::new(
             path.clone(),
             "a flow scene needs a [flow] table with at least one [[flow.emitters]]",
@@ -261,6 +275,84 @@ fn resolve_flow(raw: Option<RawFlow>, domain: &Domain) -> Result<FlowSettings, I
         )
         .pointing_at(KeyPath::of("kind"))
     })?;
+    for (key, given) in [
+        ("drag", raw.drag.is_some()),
+        ("packed_density", raw.packed_density.is_some()),
+    ] {
+        if given {
+            return Err(Issue::new(
+                path.key(key),
+                format!("flow.{key} is a key of [wind], the wind over snow"),
+                format!("remove {key}: flow particles follow the field without drag"),
+            ));
+        }
+    }
+    let emitters = raw.emitters.take().unwrap_or_default();
+    let integration = raw.integration.take();
+    let substeps = raw.substeps.take();
+    let mut settings = resolve_field(raw, &path, domain)?;
+    for (index, emitter) in emitters.into_iter().enumerate() {
+        settings.emitters.push(resolve_emitter(
+            &path.key("emitters").index(index),
+            emitter,
+        )?);
+    }
+    settings.integrator = match integration {
+        Some(RawIntegration::Rk4) => FlowIntegrator::Rk4,
+        Some(RawIntegration::Rk2) => FlowIntegrator::Rk2,
+        None => settings.integrator,
+    };
+    settings.substeps = substeps.unwrap_or(settings.substeps);
+    Ok(settings)
+}
+
+/// The `[wind]` table of a snow scene: the field keys of `[flow]` plus the
+/// drag and the packed density.
+pub(super) fn resolve_wind(raw: Option<RawFlow>, domain: &Domain) -> Result<Option<Wind>, Issue> {
+    let Some(mut raw) = raw else {
+        return Ok(None);
+    };
+    let path = KeyPath::of("wind");
+    for (key, given, what) in [
+        (
+            "emitters",
+            raw.emitters.is_some(),
+            "the wind carries the snow's own particles",
+        ),
+        (
+            "integration",
+            raw.integration.is_some(),
+            "the snow solver integrates the drag",
+        ),
+        (
+            "substeps",
+            raw.substeps.is_some(),
+            "the snow solver chooses its substeps",
+        ),
+    ] {
+        if given {
+            return Err(Issue::new(
+                path.key(key),
+                format!("wind.{key} is a key of flow scenes only: {what}"),
+                format!("remove {key} from [wind]"),
+            ));
+        }
+    }
+    let drag = raw.drag.take().unwrap_or(Wind::DEFAULT_DRAG);
+    let packed_density = raw
+        .packed_density
+        .take()
+        .unwrap_or(Wind::DEFAULT_PACKED_DENSITY);
+    Ok(Some(Wind {
+        field: resolve_field(raw, &path, domain)?,
+        drag,
+        packed_density,
+    }))
+}
+
+/// The field keys shared by `[flow]` and `[wind]` (at `path`), with the
+/// defaults for `domain`; no emitters.
+fn resolve_field(raw: RawFlow, path: &KeyPath, domain: &Domain) -> Result<FlowSettings, Issue> {
     // L defaults to a fifth of the domain, as in the seed's scene (L ≈ 20 in
     // 100 units), and M to L / 4 (see `FlowSettings::for_extent`).
     let defaults = FlowSettings::for_domain(domain);
@@ -274,7 +366,7 @@ fn resolve_flow(raw: Option<RawFlow>, domain: &Domain) -> Result<FlowSettings, I
             if raw.curl_step.is_some() {
                 return Err(Issue::new(
                     path.key("curl_step"),
-                    "flow.curl_step only applies when curl = \"finite-difference\"",
+                    format!("{path}.curl_step only applies when curl = \"finite-difference\""),
                     "remove curl_step, or set curl = \"finite-difference\"",
                 ));
             }
@@ -299,14 +391,6 @@ fn resolve_flow(raw: Option<RawFlow>, domain: &Domain) -> Result<FlowSettings, I
         obstacles.push(resolved);
     }
 
-    let mut emitters = Vec::new();
-    for (index, emitter) in raw.emitters.unwrap_or_default().into_iter().enumerate() {
-        emitters.push(resolve_emitter(
-            &path.key("emitters").index(index),
-            emitter,
-        )?);
-    }
-
     Ok(FlowSettings {
         noise_share: raw.noise_share.unwrap_or(defaults.noise_share),
         noise_strength,
@@ -322,14 +406,8 @@ fn resolve_flow(raw: Option<RawFlow>, domain: &Domain) -> Result<FlowSettings, I
         offsets: raw.offsets.map(|offsets| offsets.map(vec3)),
         evolution_rate: raw.evolution_rate.unwrap_or(defaults.evolution_rate),
         curl,
-        integrator: match raw.integration {
-            Some(RawIntegration::Rk4) => FlowIntegrator::Rk4,
-            Some(RawIntegration::Rk2) => FlowIntegrator::Rk2,
-            None => defaults.integrator,
-        },
-        substeps: raw.substeps.unwrap_or(defaults.substeps),
         obstacles,
-        emitters,
+        ..defaults
     })
 }
 
@@ -429,6 +507,7 @@ pub(super) fn check_flow_scene(scene: &Scene, flow: &FlowSettings) -> Check {
         ("bodies", "[[bodies]]", scene.bodies.is_empty()),
         ("colliders", "[[colliders]]", scene.colliders.is_empty()),
         ("materials", "[materials]", scene.materials.is_empty()),
+        ("wind", "[wind]", scene.wind.is_none()),
     ];
     if let Some((key, what, _)) = snow_parts.iter().find(|(_, _, empty)| !empty) {
         return Err(snow_only(
@@ -459,6 +538,50 @@ pub(super) fn check_flow_scene(scene: &Scene, flow: &FlowSettings) -> Check {
 
 fn check_flow(scene: &Scene, flow: &FlowSettings) -> Check {
     let path = KeyPath::of("flow");
+    check_field(&path, flow)?;
+    ensure(
+        (1..=MAX_SUBSTEPS).contains(&flow.substeps),
+        path.key("substeps"),
+        "between 1 and 1000",
+        flow.substeps,
+        "set the integration steps per frame, e.g. substeps = 2".to_string(),
+    )?;
+    check_emitters(scene, &path, flow)
+}
+
+/// The rules of `[wind]` in a snow scene.
+pub(super) fn check_wind(wind: &Wind) -> Check {
+    let path = KeyPath::of("wind");
+    check_field(&path, &wind.field)?;
+    if !wind.field.emitters.is_empty() {
+        return Err(Issue::new(
+            path.key("emitters"),
+            "a wind has no emitters: it carries the snow's own particles",
+            "leave Wind::field.emitters empty",
+        ));
+    }
+    not_negative(
+        wind.drag,
+        path.key("drag"),
+        format!(
+            "set the drag per exposed area per m/s, e.g. drag = {} kg/(m² s) (air on a rough \
+             body at about 10 m/s; 0: no drag)",
+            Wind::DEFAULT_DRAG
+        ),
+    )?;
+    positive(
+        wind.packed_density,
+        path.key("packed_density"),
+        format!(
+            "set the density in kg/m³ above which snow is sheltered inside, e.g. \
+             packed_density = {}",
+            Wind::DEFAULT_PACKED_DENSITY
+        ),
+    )
+}
+
+/// The field keys shared by `[flow]` and `[wind]`, at `path`.
+fn check_field(path: &KeyPath, flow: &FlowSettings) -> Check {
     ensure(
         (0.0..=1.0).contains(&flow.noise_share),
         path.key("noise_share"),
@@ -517,7 +640,7 @@ fn check_flow(scene: &Scene, flow: &FlowSettings) -> Check {
         ensure(
             step <= 0.1 * flow.length_scale,
             path.key("curl_step"),
-            "at most a tenth of flow.length_scale",
+            &format!("at most a tenth of {path}.length_scale"),
             Num::from(step),
             format!(
                 "a step that large blurs the noise; use curl_step = {} (L / 1000)",
@@ -525,13 +648,6 @@ fn check_flow(scene: &Scene, flow: &FlowSettings) -> Check {
             ),
         )?;
     }
-    ensure(
-        (1..=MAX_SUBSTEPS).contains(&flow.substeps),
-        path.key("substeps"),
-        "between 1 and 1000",
-        flow.substeps,
-        "set the integration steps per frame, e.g. substeps = 2".to_string(),
-    )?;
     for (index, obstacle) in flow.obstacles.iter().enumerate() {
         let at = path.key("obstacles").index(index);
         finite_vec(obstacle.center, at.key("center"))?;
@@ -548,6 +664,11 @@ fn check_flow(scene: &Scene, flow: &FlowSettings) -> Check {
                 .to_string(),
         )?;
     }
+    Ok(())
+}
+
+/// The emitters of a flow scene and the particle slots they need.
+fn check_emitters(scene: &Scene, path: &KeyPath, flow: &FlowSettings) -> Check {
     if flow.emitters.is_empty() {
         return Err(Issue::new(
             path.key("emitters"),
