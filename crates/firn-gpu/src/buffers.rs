@@ -1,4 +1,4 @@
-//! Creating storage buffers and reading them back.
+//! Creating storage and uniform buffers and reading them back.
 
 use bytemuck::Pod;
 use wgpu::util::DeviceExt;
@@ -19,6 +19,17 @@ pub fn storage_buffer<T: Pod>(context: &GpuContext, label: &str, contents: &[T])
             usage: wgpu::BufferUsages::STORAGE
                 | wgpu::BufferUsages::COPY_SRC
                 | wgpu::BufferUsages::COPY_DST,
+        })
+}
+
+/// A uniform buffer holding `value`, which the host may rewrite.
+pub fn uniform_buffer<T: Pod>(context: &GpuContext, label: &str, value: &T) -> wgpu::Buffer {
+    context
+        .device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: bytemuck::bytes_of(value),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         })
 }
 

@@ -132,8 +132,12 @@ pub const SNOW_STEP: Program = Program {
         SNOW_LIBRARY[2],
         SNOW_LIBRARY[3],
         part!("snow/layout.wgsl"),
+        part!("flow/layout.wgsl"),
         Part::Bindings(&StepBindings::TABLE),
         part!("snow/fixed_point.wgsl"),
+        part!("flow/noise.wgsl"),
+        part!("snow/wind.wgsl"),
+        part!("flow/field.wgsl"),
         part!("snow/begin_step.wgsl"),
         part!("snow/binning.wgsl"),
         part!("snow/p2g.wgsl"),
@@ -158,11 +162,12 @@ pub const SNOW_PARITY: Program = Program {
 /// Functions shared by the flow programs: the structs and the field's
 /// bindings they all see, simplex noise, random draws, the field and the
 /// emitters.
-const FLOW_LIBRARY: [Part; 6] = [
+const FLOW_LIBRARY: [Part; 7] = [
     part!("flow/layout.wgsl"),
     Part::Bindings(&FieldBindings::TABLE),
     part!("flow/noise.wgsl"),
     part!("flow/random.wgsl"),
+    part!("flow/noise_point.wgsl"),
     part!("flow/field.wgsl"),
     part!("flow/emitters.wgsl"),
 ];
@@ -177,6 +182,7 @@ pub const FLOW_STEP: Program = Program {
         FLOW_LIBRARY[3],
         FLOW_LIBRARY[4],
         FLOW_LIBRARY[5],
+        FLOW_LIBRARY[6],
         Part::Bindings(&ParticleBindings::TABLE),
         Part::Bindings(&TrailBindings::TABLE),
         part!("flow/step.wgsl"),
@@ -194,6 +200,7 @@ pub const FLOW_PARITY: Program = Program {
         FLOW_LIBRARY[3],
         FLOW_LIBRARY[4],
         FLOW_LIBRARY[5],
+        FLOW_LIBRARY[6],
         Part::Bindings(&ProbeBindings::TABLE),
         part!("flow/probe.wgsl"),
     ],

@@ -45,11 +45,52 @@ velocity = [0.5, 0.0, 0.0]
     Scene::from_toml_str(&text, "thrown-ball.toml").expect("the test scene is valid")
 }
 
+/// [`thrown_ball`] in a gusty crosswind along +z that flows around a
+/// sphere, strong enough to bend the ball's path within the run.
+fn thrown_ball_in_wind(transfer: &str) -> Scene {
+    let mut scene = thrown_ball(transfer);
+    let text = r#"format = 1
+[domain]
+max = [0.6, 0.4, 0.4]
+cell_size = 0.025
+[time]
+duration = 0.2
+[[bodies]]
+shape = "sphere"
+center = [0.3, 0.2, 0.2]
+radius = 0.05
+[wind]
+background_direction = [0.0, 0.0, 1.0]
+background_strength = 12.0
+noise_share = 0.4
+length_scale = 0.2
+noise_strength = 0.3
+evolution_rate = 2.0
+drag = 40.0
+[[wind.obstacles]]
+center = [0.3, 0.1, 0.1]
+radius = 0.05
+"#;
+    scene.wind = Scene::from_toml_str(text, "wind.toml")
+        .expect("the wind is valid")
+        .wind;
+    scene
+}
+
 fn compare_runs(transfer: &str, until: f64, momentum_tolerance: f64, position_tolerance: f64) {
+    compare_scene(
+        thrown_ball(transfer),
+        until,
+        momentum_tolerance,
+        position_tolerance,
+    );
+}
+
+fn compare_scene(scene: Scene, until: f64, momentum_tolerance: f64, position_tolerance: f64) {
     let Some(context) = context_for_tests() else {
         return;
     };
-    let scene = thrown_ball(transfer);
+    let transfer = format!("{:?}", scene.solver.transfer);
     let mut cpu = Simulation::new(scene.clone()).unwrap();
     let mut gpu = GpuSnow::new(context, scene.clone()).unwrap();
     let cpu_steps = cpu.advance_to(until).unwrap();
@@ -122,6 +163,29 @@ fn apic_on_the_gpu_follows_the_cpu() {
 #[test]
 fn pic_flip_on_the_gpu_follows_the_cpu() {
     compare_runs("pic-flip", 0.1, 1e-3, 2e-3);
+}
+
+/// The wind's drag (`[wind]`) on the GPU follows the CPU's, for both
+/// transfer schemes; a run without drag is checked above.
+#[test]
+fn snow_in_a_wind_on_the_gpu_follows_the_cpu() {
+    for transfer in ["apic", "pic-flip"] {
+        let scene = thrown_ball_in_wind(transfer);
+        let calm = thrown_ball(transfer);
+        // The wind must matter: the CPU's ball drifts along +z.
+        let drift = |scene: Scene| {
+            let mut cpu = Simulation::new(scene).unwrap();
+            cpu.advance_to(0.1).unwrap();
+            cpu.diagnostics().center_of_mass[2]
+        };
+        let (blown, still) = (drift(scene.clone()), drift(calm));
+        assert!(
+            blown - still > 2e-3,
+            "{transfer}: the wind moved the ball {:.2e} m along +z",
+            blown - still
+        );
+        compare_scene(scene, 0.1, 1e-3, 2e-3);
+    }
 }
 
 /// The scatter's fixed-point sums are associative, so the GPU run does not

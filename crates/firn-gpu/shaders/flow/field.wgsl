@@ -8,10 +8,10 @@
 // (eq. 2-3), and the curl is exact (product rule through the modulation) or
 // central differences of ψ' (eq. 4).
 
-// The noise coordinate of component c at a stage of the substep.
-fn noise_point(x: vec3<f32>, stage: u32, c: u32) -> vec3<f32> {
-    return x * field_constants.inv_length + substep.offsets[3u * stage + c].xyz;
-}
+// Each program that includes this file gives noise_point(x, stage, c), the
+// noise coordinate q_c of component c at a stage of its step
+// (flow/noise_point.wgsl for the flow, snow/wind.wgsl for the wind on snow),
+// and binds field_constants and obstacles.
 
 // ramp(r) = 6r⁵ − 15r⁴ + 10r³ on [0, 1] and its derivative 30 r² (1 − r)²
 // (seed eq. 2).

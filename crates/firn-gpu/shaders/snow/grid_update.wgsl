@@ -1,7 +1,8 @@
 // The grid update (thesis §3.4 steps 4 and 5, as firn_mpm::grid_update):
 // grid velocities from the scattered momentum, v_i = p_i / m_i, the forces
 // and gravity, v_i* = v_i + dt (f_i / m_i + g) (for APIC the force impulse is
-// already inside the momentum), and the grid-based collisions with the
+// already inside the momentum), the wind's drag where the scene has one
+// (wind.wgsl), and the grid-based collisions with the
 // colliders placed at the substep's end (Quellcode 12). The velocities
 // replace the sums in the word planes: v_i in the low words, v_i* in the
 // high words, for the gather.
@@ -32,8 +33,9 @@ fn store_node_velocities(node: u32, velocity: vec3<f32>, velocity_new: vec3<f32>
     atomicStore(&pz_hi[node], bitcast<u32>(velocity_new.z));
 }
 
-// Steps 4 and 5: v_i = p_i / m_i, v_i* = v_i + dt (f_i / m_i + g), then the
-// grid collisions at the end of the substep, on every node with mass.
+// Steps 4 and 5: v_i = p_i / m_i, v_i* = v_i + dt (f_i / m_i + g), the
+// wind's drag, then the grid collisions at the end of the substep, on every
+// node with mass.
 @compute @workgroup_size(64)
 fn update_grid(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
                @builtin(local_invocation_index) local: u32) {
@@ -55,6 +57,10 @@ fn update_grid(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups)
     }
     let cell = vec3<u32>(node / (dims.y * dims.z), node / dims.z % dims.y, node % dims.z);
     let position = params.origin.xyz + vec3<f32>(cell) * params.origin.w;
-    let velocity_new = collide_all(position, velocity + change, simulated_time());
+    var velocity_star = velocity + change;
+    if wind.enabled != 0u {
+        velocity_star = blown(vec3<i32>(cell), mass, velocity_star, position);
+    }
+    let velocity_new = collide_all(position, velocity_star, simulated_time());
     store_node_velocities(node, velocity, velocity_new);
 }

@@ -6,11 +6,10 @@ use firn_core::Scene;
 use firn_core::scene::FlowSettings;
 use firn_flow::FlowParticles;
 use glam::Vec3;
-use wgpu::util::DeviceExt;
 
 use super::bindings::{FieldBindings, ParticleBindings, TrailBindings};
 use super::layout::{self, FieldConstants, SubstepParams};
-use crate::buffers::{read_back, storage_buffer, zeroed_storage_buffer};
+use crate::buffers::{read_back, storage_buffer, uniform_buffer, zeroed_storage_buffer};
 use crate::context::GpuContext;
 use crate::error::GpuError;
 
@@ -32,16 +31,6 @@ pub(crate) fn check_fits(context: &GpuContext, what: &str, bytes: u64) -> Result
               or run with --backend cpu"
             .into(),
     })
-}
-
-fn uniform_buffer<T: bytemuck::Pod>(context: &GpuContext, label: &str, value: &T) -> wgpu::Buffer {
-    context
-        .device
-        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(label),
-            contents: bytemuck::bytes_of(value),
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        })
 }
 
 /// Group 0: what every flow kernel reads.

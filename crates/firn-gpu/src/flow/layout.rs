@@ -204,6 +204,11 @@ impl NoiseDomains {
         NoiseDomains { offsets, drift }
     }
 
+    /// w_c of each component, noise cells per second, rounded.
+    pub(crate) fn drift(&self) -> [[f32; 4]; 3] {
+        std::array::from_fn(|c| vec4(self.drift[c].as_vec3(), 0.0))
+    }
+
     /// ε_c / L + t w_c for each component, formed in f64 (long runs keep
     /// their precision) and then rounded.
     pub(crate) fn offsets_at(&self, t: f64) -> [[f32; 4]; 3] {

@@ -28,7 +28,7 @@
 
 pub mod bindings;
 mod buffers;
-mod layout;
+pub(crate) mod layout;
 mod probe;
 mod step;
 

@@ -73,6 +73,13 @@ bind_group! {
         /// Signed distance samples of the mesh colliders, one grid after
         /// another.
         28 => collider_distances: Read "array<f32>",
+        /// The wind's air field (`flow/field.wgsl`; zeroes without wind).
+        29 => field_constants: Uniform "FieldConstants",
+        /// The spheres the wind flows around, the first
+        /// `field_constants.obstacle_count` of them.
+        30 => obstacles: Uniform "array<Obstacle, 8>",
+        /// The wind's drag and noise domains (`snow/wind.wgsl`).
+        31 => wind: Uniform "WindParams",
     }
 }
 

@@ -8,6 +8,7 @@ use firn_mpm::Particles;
 use super::bindings::StepBindings;
 use super::binning::BinningBuffers;
 use super::layout::{GpuMat3, GpuPlastic, PackedColliders};
+use super::wind::WindBuffers;
 use crate::buffers::{storage_buffer, zeroed_storage_buffer};
 use crate::context::GpuContext;
 
@@ -133,6 +134,8 @@ pub struct SnowBuffers {
     pub grid: GridBuffers,
     /// The counting sort's buffers.
     pub binning: BinningBuffers,
+    /// The wind's field and drag.
+    pub wind: WindBuffers,
 }
 
 impl SnowBuffers {
@@ -190,6 +193,9 @@ impl SnowBuffers {
             bins: &self.binning.bins,
             particle_bins: &self.binning.particle_bins,
             work: &self.binning.work,
+            field_constants: &self.wind.field_constants,
+            obstacles: &self.wind.obstacles,
+            wind: &self.wind.params,
         }
     }
 }

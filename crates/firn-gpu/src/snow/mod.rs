@@ -15,8 +15,8 @@
 //!    binned scatter;
 //! 4. `p2g`: particle to grid (thesis steps 1 and 3), atomic or binned,
 //!    into 64-bit fixed-point sums ([`fixed_point`]);
-//! 5. `grid_update`: v_i = p_i / m_i, forces, gravity and grid collisions
-//!    (steps 4 and 5);
+//! 5. `grid_update`: v_i = p_i / m_i, forces, gravity, the wind's drag
+//!    ([`wind`], `[wind]` scenes) and grid collisions (steps 4 and 5);
 //! 6. `g2p`: grid to particle, the snow model (SVD, plastic clamp,
 //!    hardened stress), particle collisions and advection (steps 7 to 10),
 //!    with the maxima for the next Δt reduced per workgroup, then by atomics.
@@ -43,6 +43,7 @@ mod layout;
 mod memory;
 mod p2g;
 mod substep;
+mod wind;
 
 use std::sync::Arc;
 
@@ -62,6 +63,7 @@ use buffers::{ColliderBuffers, GridBuffers, ParticleBuffers, SnowBuffers};
 use fixed_point::{QUANTITY_NAMES, Scales};
 use layout::{GpuMat3, GpuMaterial, GpuPlastic, NO_PARTICLE, Params, StepState, pack_colliders};
 use substep::Substep;
+use wind::{MAX_WIND_OBSTACLES, WindBuffers};
 
 pub use memory::MemoryEstimate;
 pub use p2g::Scatter;
@@ -123,6 +125,7 @@ impl GpuSnow {
             particles: ParticleBuffers::upload(&context, &snapshot.particles),
             grid: GridBuffers::new(&context, estimate.nodes, scene.solver.transfer),
             binning: BinningBuffers::new(&context, estimate.particles, estimate.nodes),
+            wind: WindBuffers::upload(&context, &scene),
         };
         let state = StepState {
             max_speed_bits: snapshot.max_speed_squared.to_bits(),
@@ -165,10 +168,16 @@ impl GpuSnow {
                 fix: "run with --backend cpu, or set integrator = \"explicit\" in [solver]".into(),
             });
         }
-        if scene.wind.is_some() {
+        if let Some(wind) = &scene.wind
+            && wind.field.obstacles.len() > MAX_WIND_OBSTACLES
+        {
             return Err(GpuError::Unsupported {
-                what: "the wind's drag ([wind]) is not yet on the GPU".into(),
-                fix: "run with --backend cpu, or remove [wind]".into(),
+                what: format!(
+                    "the wind flows around {} spheres; the GPU backend takes at most \
+                     {MAX_WIND_OBSTACLES}",
+                    wind.field.obstacles.len()
+                ),
+                fix: "run with --backend cpu, or keep at most 8 [[wind.obstacles]]".into(),
             });
         }
         Ok(())

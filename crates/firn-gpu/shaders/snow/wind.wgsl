@@ -1,0 +1,72 @@
+// Wind on snow ([wind]; firn_mpm::wind, equations W1 to W3 of
+// firn_core::scene::wind): the curl-noise air field of flow/field.wgsl
+// dragging on each node's snow in the grid update,
+//
+//   k_i = c_d h² φ_i (1 − φ_up) / m_i,  φ = min(1, m / (ρ_packed h³))
+//   v_i ← v_w + (v_i − v_w) exp(−k_i Δt)
+//
+// with φ_up the share of a packed cell of the nodes one cell upwind against
+// each axis component of the relative wind, weighted by |u_a| / |u|₁.
+
+// What the grid update needs of the wind, beside the field's constants.
+struct WindParams {
+    // ε_c / L of the three noise components, in noise cells.
+    offsets: array<vec4<f32>, 3>,
+    // w_c, noise cells per second.
+    drift: array<vec4<f32>, 3>,
+    // c_d h²: the drag of a node exposed over a whole cell face, kg/s.
+    node_drag: f32,
+    // ρ_packed h³: the mass of a packed cell.
+    packed_mass: f32,
+    // 1 with a wind, 0 without.
+    enabled: u32,
+    pad: u32,
+}
+
+// The snow's noise coordinate of component c at the grid update's time (the
+// end of the substep, as for the colliders); the stage does not apply.
+fn noise_point(x: vec3<f32>, stage: u32, c: u32) -> vec3<f32> {
+    return x * field_constants.inv_length + wind.offsets[c].xyz + simulated_time() * wind.drift[c].xyz;
+}
+
+// φ of the node at `cell`, 0 outside the grid.
+fn packed_share(cell: vec3<i32>) -> f32 {
+    let dims = vec3<i32>(params.dims.xyz);
+    if any(cell < vec3<i32>(0)) || any(cell >= dims) {
+        return 0.0;
+    }
+    let node = node_index(cell);
+    let mass = from_fixed(atomicLoad(&mass_hi[node]), atomicLoad(&mass_lo[node])) / params.scales.x;
+    return min(mass / wind.packed_mass, 1.0);
+}
+
+// k_i of the node at `cell` with mass `mass` moving at `velocity` in air
+// moving at `air`.
+fn drag_rate(cell: vec3<i32>, mass: f32, velocity: vec3<f32>, air: vec3<f32>) -> f32 {
+    let relative = air - velocity;
+    let weights = abs(relative);
+    let total = weights.x + weights.y + weights.z;
+    if wind.node_drag == 0.0 || total <= 0.0 {
+        return 0.0;
+    }
+    var upwind = 0.0;
+    for (var axis = 0; axis < 3; axis++) {
+        if weights[axis] > 0.0 {
+            var offset = vec3<i32>(0);
+            offset[axis] = select(1, -1, relative[axis] > 0.0);
+            upwind += weights[axis] * packed_share(cell + offset);
+        }
+    }
+    let exposure = max(1.0 - upwind / total, 0.0);
+    return wind.node_drag * exposure / max(mass, wind.packed_mass);
+}
+
+// v_i after Δt of drag: v_w + (v − v_w) exp(−k Δt) (W3).
+fn blown(cell: vec3<i32>, mass: f32, velocity: vec3<f32>, position: vec3<f32>) -> vec3<f32> {
+    let air = field_velocity(position, 0u);
+    let rate = drag_rate(cell, mass, velocity, air);
+    if rate == 0.0 {
+        return velocity;
+    }
+    return air + (velocity - air) * exp(-rate * state.dt);
+}

@@ -1,0 +1,69 @@
+//! The wind's drag on the grid (`[wind]`, `shaders/snow/wind.wgsl`), as
+//! `firn_mpm::wind` computes it: the curl-noise air field of the flow
+//! kernels (`shaders/flow/field.wgsl`, with the same constants the flow
+//! backend forms) evaluated at each node in the grid update, and the drag
+//! rate from the node's and its upwind neighbours' masses. The CPU solver is
+//! the reference; the GPU follows it within the parity tolerances (its
+//! noise offsets are formed in f32 on the device, its exponential is WGSL's).
+
+use bytemuck::{Pod, Zeroable};
+use firn_core::Scene;
+
+use crate::buffers::uniform_buffer;
+use crate::context::GpuContext;
+use crate::flow::layout::{FieldConstants, NoiseDomains, ObstacleData, obstacles};
+
+/// Spheres a wind may flow around on the GPU (a uniform array).
+pub const MAX_WIND_OBSTACLES: usize = 8;
+
+/// `WindParams` of `wind.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct WindParams {
+    offsets: [[f32; 4]; 3],
+    drift: [[f32; 4]; 3],
+    node_drag: f32,
+    packed_mass: f32,
+    enabled: u32,
+    pad: u32,
+}
+
+/// The wind's three uniform buffers (zeroes, and `enabled` 0, without wind).
+pub struct WindBuffers {
+    /// The air field's constants (`FieldConstants`).
+    pub field_constants: wgpu::Buffer,
+    /// Its obstacles (`array<Obstacle, 8>`).
+    pub obstacles: wgpu::Buffer,
+    /// The drag and the noise domains (`WindParams`).
+    pub params: wgpu::Buffer,
+}
+
+impl WindBuffers {
+    /// The buffers of `scene`'s wind, or of none.
+    pub fn upload(context: &GpuContext, scene: &Scene) -> WindBuffers {
+        let mut constants = FieldConstants::zeroed();
+        let mut spheres = [ObstacleData::zeroed(); MAX_WIND_OBSTACLES];
+        let mut params = WindParams::zeroed();
+        if let Some(wind) = &scene.wind {
+            let h = scene.domain.cell_size;
+            let domains = NoiseDomains::new(&wind.field);
+            constants = FieldConstants::new(scene, &wind.field);
+            for (slot, sphere) in spheres.iter_mut().zip(obstacles(&wind.field)) {
+                *slot = sphere;
+            }
+            params = WindParams {
+                offsets: domains.offsets_at(0.0),
+                drift: domains.drift(),
+                node_drag: wind.drag * h * h,
+                packed_mass: wind.packed_density * h * h * h,
+                enabled: 1,
+                pad: 0,
+            };
+        }
+        WindBuffers {
+            field_constants: uniform_buffer(context, "wind field", &constants),
+            obstacles: uniform_buffer(context, "wind obstacles", &spheres),
+            params: uniform_buffer(context, "wind", &params),
+        }
+    }
+}
