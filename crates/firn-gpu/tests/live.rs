@@ -9,7 +9,7 @@
 
 use std::sync::Arc;
 
-use firn_core::scene::{FlowEmission, FlowSettings, SceneKind};
+use firn_core::scene::{FlowEmission, FlowSettings, SceneKind, Wind};
 use firn_core::{Material, Scene};
 use firn_flow::{FlowError, FlowSnapshot, Trails};
 use firn_gpu::buffers::read_back;
@@ -143,6 +143,38 @@ fn bad_materials_are_refused_on_the_gpu() {
         "{error}"
     );
     assert_eq!(snow.scene(), &scene, "refused changes change nothing");
+}
+
+/// A wind set on a running GPU run at the start runs as the scene with it;
+/// a wind the scene loader refuses changes nothing.
+#[test]
+fn a_wind_set_at_the_start_runs_as_a_scene_with_it_on_the_gpu() {
+    let Some(context) = context_for_tests() else {
+        return;
+    };
+    let scene = slab();
+    let mut wind = Wind::uniform(Vec3::X, 4.0);
+    wind.drag = 30.0;
+    let mut changed = GpuSnow::new(context.clone(), scene.clone()).unwrap();
+    let mut bad = wind.clone();
+    bad.drag = -1.0;
+    let error = changed.set_wind(&bad).unwrap_err();
+    let GpuError::Snow(SimulationError::Wind(error)) = error else {
+        panic!("not a wind error: {error}");
+    };
+    assert_eq!(error.key.as_deref(), Some("wind.drag"));
+    assert_eq!(changed.scene(), &scene, "a refused wind changes nothing");
+    changed.set_wind(&wind).unwrap();
+    let mut windy_scene = scene.clone();
+    windy_scene.wind = Some(wind);
+    let mut fresh = GpuSnow::new(context, windy_scene.clone()).unwrap();
+    assert_eq!(changed.scene(), &windy_scene);
+    changed.advance_to(0.05).unwrap();
+    fresh.advance_to(0.05).unwrap();
+    assert!(
+        changed.snapshot().unwrap() == fresh.snapshot().unwrap(),
+        "a wind set at t = 0 differs from a run of the windy scene"
+    );
 }
 
 /// A flow from a box around a sphere, with short lives and trails.

@@ -1,8 +1,9 @@
-//! Changing a running simulation's materials (an interactive viewer's
-//! parameter panel): which changes are allowed, checked once here for both
-//! backends (`firn-gpu` calls [`scene_with_materials`] too).
+//! Changing a running simulation's materials or wind (an interactive
+//! viewer's parameter panel): which changes are allowed, checked once here
+//! for both backends (`firn-gpu` calls [`scene_with_materials`] and
+//! [`scene_with_wind`] too).
 
-use firn_core::scene::{Material, Scene, SceneError};
+use firn_core::scene::{Material, Scene, SceneError, Wind};
 
 use crate::simulation::SimulationError;
 
@@ -24,6 +25,18 @@ pub fn scene_with_materials(
     changed
         .validate()
         .map_err(|error| SimulationError::Materials(Box::new(error)))?;
+    Ok(changed)
+}
+
+/// `scene` with its wind replaced by `wind`, for a change while the
+/// simulation runs: any wind the scene loader accepts ([`Scene::validate`]),
+/// also where the scene had none.
+pub fn scene_with_wind(scene: &Scene, wind: &Wind) -> Result<Scene, SimulationError> {
+    let mut changed = scene.clone();
+    changed.wind = Some(wind.clone());
+    changed
+        .validate()
+        .map_err(|error| SimulationError::Wind(Box::new(error)))?;
     Ok(changed)
 }
 

@@ -4,7 +4,9 @@
 use firn_core::math::bspline::{cubic_weights, quadratic_weights};
 use firn_core::math::lanes::Simd;
 use firn_core::scene::sampling::sample_bodies;
-use firn_core::scene::{Integrator, Material, Scene, SceneError, TimeSettings, TimeStep, Transfer};
+use firn_core::scene::{
+    Integrator, Material, Scene, SceneError, TimeSettings, TimeStep, Transfer, Wind,
+};
 use glam::{DVec3, Mat3, Vec3};
 
 use crate::binning::Bins;
@@ -89,6 +91,10 @@ pub enum SimulationError {
     /// ([`Simulation::set_materials`]); the error's key names the field.
     #[error("{0}")]
     Materials(Box<SceneError>),
+    /// A wind that cannot replace the running scene's
+    /// ([`Simulation::set_wind`]); the error's key names the field.
+    #[error("{0}")]
+    Wind(Box<SceneError>),
 }
 
 /// The full state needed to continue a run bit for bit.
@@ -301,6 +307,17 @@ impl Simulation {
         self.scene = crate::live::scene_with_materials(&self.scene, materials)?;
         self.materials = MaterialConstants::of_each(&self.scene.materials);
         self.stats.max_wave_speed_squared = self.max_wave_speed_squared();
+        Ok(())
+    }
+
+    /// Replaces the scene's wind while the simulation runs (an interactive
+    /// viewer's parameter panel), from the next substep on; a scene without
+    /// one gets it. Refused, with nothing changed, when the scene loader
+    /// would refuse it ([`crate::live::scene_with_wind`]).
+    pub fn set_wind(&mut self, wind: &Wind) -> Result<(), SimulationError> {
+        self.scene = crate::live::scene_with_wind(&self.scene, wind)?;
+        let cell_size = self.scene.domain.cell_size;
+        self.wind = Some(AirDrag::new(wind, cell_size).with_simd(self.simd));
         Ok(())
     }
 

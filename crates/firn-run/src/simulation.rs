@@ -19,7 +19,7 @@ use std::sync::Arc;
 
 use firn_core::Scene;
 use firn_core::math::lanes::Simd;
-use firn_core::scene::{ColorBy, FlowSettings, Material, SceneKind, TimeStep};
+use firn_core::scene::{ColorBy, FlowSettings, Material, SceneKind, TimeStep, Wind};
 use firn_flow::{FlowSimulation, FlowSnapshot};
 use firn_gpu::draw::ParticleArrays;
 use firn_gpu::snow::{MemoryEstimate, Scatter};
@@ -381,6 +381,25 @@ impl Solver {
             }
             Engine::CpuFlow(_) | Engine::GpuFlow(_) => {
                 return Err(RunError::Unsupported("a flow scene has no snow materials"));
+            }
+        }
+        Ok(())
+    }
+
+    /// Replaces the wind over the snow (`[wind]`); it takes effect at the
+    /// next substep. Refused, with nothing changed, for a flow, or a wind the
+    /// scene loader refuses.
+    pub fn set_wind(&mut self, wind: &Wind) -> Result<(), RunError> {
+        match &mut self.engine {
+            Engine::CpuSnow(simulation) => simulation.set_wind(wind)?,
+            Engine::GpuSnow(run) => {
+                run.device.set_wind(wind)?;
+                run.host = None;
+            }
+            Engine::CpuFlow(_) | Engine::GpuFlow(_) => {
+                return Err(RunError::Unsupported(
+                    "a flow scene has no wind over snow; change its [flow] instead",
+                ));
             }
         }
         Ok(())

@@ -6,7 +6,7 @@
 //! The panel never touches the simulation: it returns [`Action`]s, which
 //! the session carries out before the next step.
 
-use firn_core::scene::{ColorBy, FlowSettings, Material, SceneKind};
+use firn_core::scene::{ColorBy, FlowSettings, Material, SceneKind, Wind};
 
 use crate::draw::DrawStyle;
 use crate::session::{Action, Content, Session};
@@ -231,6 +231,14 @@ fn parameters(ui: &mut egui::Ui, session: &Session, actions: &mut Vec<Action>) {
             {
                 actions.push(Action::SetMaterials(materials));
             }
+            if let Some(wind) = &session.scene().wind {
+                let mut edited = wind.clone();
+                let domain = &session.scene().domain;
+                let largest_radius = 0.5 * (domain.max - domain.min).min_element();
+                if wind_editor(ui, &mut edited, largest_radius) {
+                    actions.push(Action::SetWind(Box::new(edited)));
+                }
+            }
         }
         SceneKind::Flow(settings) => {
             let mut edited = (**settings).clone();
@@ -262,6 +270,34 @@ fn material_editor(ui: &mut egui::Ui, material: &mut Material) -> bool {
     sliders
         .into_iter()
         .fold(false, |changed, slider| ui.add(slider).changed() | changed)
+}
+
+/// Controls for the wind over the snow: its drag (`[wind]`, equations W1
+/// to W3), its speed and its field; true when one moved.
+fn wind_editor(ui: &mut egui::Ui, wind: &mut Wind, largest_radius: f32) -> bool {
+    ui.label("wind");
+    let mut changed = false;
+    changed |= ui
+        .add(
+            egui::Slider::new(&mut wind.drag, 0.0..=200.0)
+                .logarithmic(true)
+                .text("c_d (kg/m² s)"),
+        )
+        .changed();
+    changed |= ui
+        .add(
+            egui::Slider::new(&mut wind.packed_density, 50.0..=1000.0)
+                .logarithmic(true)
+                .text("ρ packed (kg/m³)"),
+        )
+        .changed();
+    changed |= ui
+        .add(
+            egui::Slider::new(&mut wind.field.background_strength, 0.0..=100.0)
+                .text("M_f (background)"),
+        )
+        .changed();
+    flow_editor(ui, &mut wind.field, largest_radius) | changed
 }
 
 /// Controls for the flow (seed 002 eq. 1-4), obstacle radii up to

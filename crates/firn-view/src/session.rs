@@ -8,7 +8,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use firn_core::Scene;
-use firn_core::scene::{ColorBy, FlowSettings, Material, SceneKind};
+use firn_core::scene::{ColorBy, FlowSettings, Material, SceneKind, Wind};
 use firn_gpu::GpuContext;
 use firn_run::{Placement, Solver};
 
@@ -46,6 +46,8 @@ pub enum Action {
     SetMaterials(Vec<Material>),
     /// Replace the flow's field parameters (γ, M, L, background, obstacles).
     SetFlow(Box<FlowSettings>),
+    /// Replace the wind over the snow (its field, drag and packed density).
+    SetWind(Box<Wind>),
     /// Draw particles this way.
     SetStyle(DrawStyle),
     /// Colour particles by this quantity.
@@ -232,6 +234,7 @@ impl Session {
             Action::Restart => self.restart(),
             Action::SetMaterials(materials) => self.set_materials(materials),
             Action::SetFlow(settings) => self.set_flow(*settings),
+            Action::SetWind(wind) => self.set_wind(*wind),
             Action::SetStyle(style) => self.style = style,
             Action::SetColorBy(color_by) => self.color_by = color_by,
             Action::SetTimeScale(scale) => self.clock.set_time_scale(scale),
@@ -333,6 +336,17 @@ impl Session {
         };
         match live.set_flow(&settings) {
             Ok(()) => self.scene.kind = SceneKind::Flow(Box::new(settings)),
+            Err(error) => self.rejected = Some(error.to_string()),
+        }
+    }
+
+    fn set_wind(&mut self, wind: Wind) {
+        let Content::Live(live) = &mut self.content else {
+            self.rejected = Some("a played-back run cannot change its wind".into());
+            return;
+        };
+        match live.set_wind(&wind) {
+            Ok(()) => self.scene.wind = Some(wind),
             Err(error) => self.rejected = Some(error.to_string()),
         }
     }

@@ -48,7 +48,7 @@ mod wind;
 use std::sync::Arc;
 
 use firn_core::Scene;
-use firn_core::scene::{Integrator, Material, SceneKind, TimeStep, Transfer};
+use firn_core::scene::{Integrator, Material, SceneKind, TimeStep, Transfer, Wind};
 use firn_mpm::constitutive::{MaterialConstants, max_wave_speed_squared};
 use firn_mpm::grid::GridLayout;
 use firn_mpm::{Particles, SimulationError, Snapshot};
@@ -376,6 +376,18 @@ impl GpuSnow {
         self.substep
             .write_max_wave_speed(&self.context, wave_speed_squared);
         self.last.max_wave_bits = wave_speed_squared.to_bits();
+        self.scene = scene;
+        Ok(())
+    }
+
+    /// Replaces the scene's wind, from the next substep on; a scene without
+    /// one gets it. Refused, with nothing changed, where the scene loader
+    /// ([`firn_mpm::live::scene_with_wind`]) or the GPU backend
+    /// ([`GpuSnow::check_supported`]) would refuse it.
+    pub fn set_wind(&mut self, wind: &Wind) -> Result<(), GpuError> {
+        let scene = firn_mpm::live::scene_with_wind(&self.scene, wind)?;
+        GpuSnow::check_supported(&scene)?;
+        self.buffers.wind.write(&self.context, &scene);
         self.scene = scene;
         Ok(())
     }

@@ -41,29 +41,47 @@ pub struct WindBuffers {
 impl WindBuffers {
     /// The buffers of `scene`'s wind, or of none.
     pub fn upload(context: &GpuContext, scene: &Scene) -> WindBuffers {
-        let mut constants = FieldConstants::zeroed();
-        let mut spheres = [ObstacleData::zeroed(); MAX_WIND_OBSTACLES];
-        let mut params = WindParams::zeroed();
-        if let Some(wind) = &scene.wind {
-            let h = scene.domain.cell_size;
-            let domains = NoiseDomains::new(&wind.field);
-            constants = FieldConstants::new(scene, &wind.field);
-            for (slot, sphere) in spheres.iter_mut().zip(obstacles(&wind.field)) {
-                *slot = sphere;
-            }
-            params = WindParams {
-                offsets: domains.offsets_at(0.0),
-                drift: domains.drift(),
-                node_drag: wind.drag * h * h,
-                packed_mass: wind.packed_density * h * h * h,
-                enabled: 1,
-                pad: 0,
-            };
-        }
+        let (constants, spheres, params) = wind_data(scene);
         WindBuffers {
             field_constants: uniform_buffer(context, "wind field", &constants),
             obstacles: uniform_buffer(context, "wind obstacles", &spheres),
             params: uniform_buffer(context, "wind", &params),
         }
     }
+
+    /// Rewrites the buffers with `scene`'s wind, from the next substep on.
+    pub fn write(&self, context: &GpuContext, scene: &Scene) {
+        let (constants, spheres, params) = wind_data(scene);
+        let queue = &context.queue;
+        queue.write_buffer(&self.field_constants, 0, bytemuck::bytes_of(&constants));
+        queue.write_buffer(&self.obstacles, 0, bytemuck::bytes_of(&spheres));
+        queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+    }
+}
+
+/// The obstacles of a wind as the uniform array holds them.
+type Spheres = [ObstacleData; MAX_WIND_OBSTACLES];
+
+/// What the three buffers hold for `scene`'s wind (zeroes without one).
+fn wind_data(scene: &Scene) -> (FieldConstants, Spheres, WindParams) {
+    let mut constants = FieldConstants::zeroed();
+    let mut spheres = [ObstacleData::zeroed(); MAX_WIND_OBSTACLES];
+    let mut params = WindParams::zeroed();
+    if let Some(wind) = &scene.wind {
+        let h = scene.domain.cell_size;
+        let domains = NoiseDomains::new(&wind.field);
+        constants = FieldConstants::new(scene, &wind.field);
+        for (slot, sphere) in spheres.iter_mut().zip(obstacles(&wind.field)) {
+            *slot = sphere;
+        }
+        params = WindParams {
+            offsets: domains.offsets_at(0.0),
+            drift: domains.drift(),
+            node_drag: wind.drag * h * h,
+            packed_mass: wind.packed_density * h * h * h,
+            enabled: 1,
+            pad: 0,
+        };
+    }
+    (constants, spheres, params)
 }
