@@ -114,9 +114,10 @@ macro_rules! part {
 }
 
 /// Functions shared by the snow programs: weights, SVD, snow model, colliders.
-const SNOW_LIBRARY: [Part; 4] = [
+const SNOW_LIBRARY: [Part; 5] = [
     part!("common/bspline.wgsl"),
     part!("common/svd.wgsl"),
+    part!("common/polar.wgsl"),
     part!("common/snow_model.wgsl"),
     part!("common/colliders.wgsl"),
 ];
@@ -131,6 +132,7 @@ pub const SNOW_STEP: Program = Program {
         SNOW_LIBRARY[1],
         SNOW_LIBRARY[2],
         SNOW_LIBRARY[3],
+        SNOW_LIBRARY[4],
         part!("snow/layout.wgsl"),
         part!("flow/layout.wgsl"),
         Part::Bindings(&StepBindings::TABLE),
@@ -154,6 +156,7 @@ pub const SNOW_PARITY: Program = Program {
         SNOW_LIBRARY[0],
         SNOW_LIBRARY[1],
         SNOW_LIBRARY[2],
+        SNOW_LIBRARY[3],
         Part::Bindings(&ParityBindings::TABLE),
         part!("parity/snow_parity.wgsl"),
     ],

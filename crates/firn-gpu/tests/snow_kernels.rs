@@ -198,7 +198,27 @@ fn the_wgsl_snow_model_matches_the_cpu_update() {
         return;
     };
     let constants = MaterialConstants::new(&Material::preset("thesis").unwrap());
-    let trials = random_matrices(256, 0.08);
+    // Half far outside the yield surface (the SVD path), half rotated and
+    // strained within it (Newton's rotation, F_E and J_P kept).
+    let mut trials = random_matrices(128, 0.08);
+    let rotations = random_matrices(128, 1.0);
+    let small = random_matrices(128, 0.002);
+    trials.extend(rotations.iter().zip(&small).map(|(&m, &strain)| {
+        let rotation = firn_core::math::svd::svd3(m);
+        rotation.u * rotation.v.transpose() * strain
+    }));
+    let inside = trials
+        .iter()
+        .filter(|&&trial| {
+            MaterialLanes::splat(&constants)
+                .within_yield_surface(&Mat3s::<1>::splat(trial))
+                .all()
+        })
+        .count();
+    assert!(
+        (100..=160).contains(&inside),
+        "{inside} of 256 trials inside the yield surface; both paths need testing"
+    );
     let states: Vec<[f32; 4]> = (0..256)
         .map(|n| [0.6 + 0.4 * (n as f32 / 256.0), 1e-4, 0.0, 0.0])
         .collect();
