@@ -18,9 +18,8 @@ struct WindParams {
     node_drag: f32,
     // ρ_packed h³: the mass of a packed cell.
     packed_mass: f32,
-    // 1 with a wind, 0 without.
-    enabled: u32,
-    pad: u32,
+    pad0: u32,
+    pad1: u32,
 }
 
 // The snow's noise coordinate of component c at the grid update's time (the

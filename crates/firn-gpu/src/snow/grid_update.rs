@@ -3,28 +3,46 @@
 //! `firn_mpm::grid_update`: grid velocities from the scattered momentum,
 //! v_i = p_i / m_i, the forces and gravity, v_i* = v_i + Δt (f_i / m_i + g)
 //! (for APIC the force impulse is already inside the momentum), and the
+//! wind's drag in scenes with a `[wind]` (`shaders/snow/wind.wgsl`), and the
 //! grid-based collisions with the colliders placed at the substep's end
 //! (Quellcode 12). One invocation per node; v_i and v_i* replace the
 //! momentum sums in the word planes for the gather.
 
 use super::substep::StepProgram;
 
-/// The `update_grid` pipeline.
+/// The grid update's two pipelines: without wind, and with the wind's drag
+/// (`update_grid_in_wind`); a run records the one its scene needs.
 pub struct GridUpdate {
-    pipeline: wgpu::ComputePipeline,
+    calm: wgpu::ComputePipeline,
+    in_wind: wgpu::ComputePipeline,
+    /// Whether the scene has a wind.
+    windy: bool,
 }
 
 impl GridUpdate {
-    /// The pipeline of `update_grid` (both transfer schemes).
-    pub fn new(program: &StepProgram) -> GridUpdate {
+    /// The pipelines of both entry points (both transfer schemes), recording
+    /// the one with the wind's drag when `windy`.
+    pub fn new(program: &StepProgram, windy: bool) -> GridUpdate {
         GridUpdate {
-            pipeline: program.pipeline("update_grid"),
+            calm: program.pipeline("update_grid"),
+            in_wind: program.pipeline("update_grid_in_wind"),
+            windy,
         }
+    }
+
+    /// Records the wind's drag from now on when `windy`.
+    pub fn set_windy(&mut self, windy: bool) {
+        self.windy = windy;
     }
 
     /// Records the update, one invocation per node.
     pub fn record(&self, pass: &mut wgpu::ComputePass, (x, y, z): (u32, u32, u32)) {
-        pass.set_pipeline(&self.pipeline);
+        let pipeline = if self.windy {
+            &self.in_wind
+        } else {
+            &self.calm
+        };
+        pass.set_pipeline(pipeline);
         pass.dispatch_workgroups(x, y, z);
     }
 }

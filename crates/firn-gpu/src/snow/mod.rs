@@ -134,7 +134,15 @@ impl GpuSnow {
             left_domain: NO_PARTICLE,
             ..StepState::default()
         };
-        let substep = Substep::new(&context, scene.solver.transfer, &params, &state, &buffers);
+        let windy = scene.wind.is_some();
+        let substep = Substep::new(
+            &context,
+            scene.solver.transfer,
+            windy,
+            &params,
+            &state,
+            &buffers,
+        );
         Ok(GpuSnow {
             context,
             scales,
@@ -388,6 +396,7 @@ impl GpuSnow {
         let scene = firn_mpm::live::scene_with_wind(&self.scene, wind)?;
         GpuSnow::check_supported(&scene)?;
         self.buffers.wind.write(&self.context, &scene);
+        self.substep.set_windy(true);
         self.scene = scene;
         Ok(())
     }

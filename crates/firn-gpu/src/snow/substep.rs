@@ -81,10 +81,12 @@ pub struct Substep {
 }
 
 impl Substep {
-    /// Builds the stages of `transfer` and binds every buffer.
+    /// Builds the stages of `transfer`, with the wind's drag when `windy`,
+    /// and binds every buffer.
     pub fn new(
         context: &GpuContext,
         transfer: Transfer,
+        windy: bool,
         params: &Params,
         state: &StepState,
         buffers: &SnowBuffers,
@@ -126,7 +128,7 @@ impl Substep {
                 Scatter::Atomic
             },
             binned,
-            grid_update: GridUpdate::new(&program),
+            grid_update: GridUpdate::new(&program, windy),
             g2p: G2p::new(&program, transfer),
             particle_groups: workgroups(params.dims[3], limit),
             node_groups: workgroups(buffers.grid.nodes as u32, limit),
@@ -200,6 +202,11 @@ impl Substep {
         context.queue.submit([encoder.finish()]);
         let state = read_back::<StepState>(context, &[(&self.state, 1)])?;
         Ok(state[0].first().copied().unwrap_or_else(StepState::zeroed))
+    }
+
+    /// Records the wind's drag in the grid update from now on when `windy`.
+    pub fn set_windy(&mut self, windy: bool) {
+        self.grid_update.set_windy(windy);
     }
 
     /// Records one substep, stage by stage.

@@ -24,11 +24,10 @@ struct WindParams {
     drift: [[f32; 4]; 3],
     node_drag: f32,
     packed_mass: f32,
-    enabled: u32,
-    pad: u32,
+    pad: [u32; 2],
 }
 
-/// The wind's three uniform buffers (zeroes, and `enabled` 0, without wind).
+/// The wind's three uniform buffers (zeroes without wind).
 pub struct WindBuffers {
     /// The air field's constants (`FieldConstants`).
     pub field_constants: wgpu::Buffer,
@@ -79,8 +78,7 @@ fn wind_data(scene: &Scene) -> (FieldConstants, Spheres, WindParams) {
             drift: domains.drift(),
             node_drag: wind.drag * h * h,
             packed_mass: wind.packed_density * h * h * h,
-            enabled: 1,
-            pad: 0,
+            pad: [0; 2],
         };
     }
     (constants, spheres, params)
