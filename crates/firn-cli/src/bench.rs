@@ -727,6 +727,7 @@ pub fn snowball_drop(particles: u32, grid: u32, transfer: Transfer) -> Scene {
             formats: vec![CacheFormat::Ply],
             attributes: Vec::new(),
             checkpoint_every: 0,
+            ..OutputSettings::default()
         },
         camera: Camera::default(),
         render: RenderSettings::default(),

@@ -488,6 +488,20 @@ fn snow_attributes_in_a_flow_scene() {
 }
 
 #[test]
+fn vdb_volumes_in_a_flow_scene() {
+    let err = error(&format!(
+        "{HEAD}{EMITTER}\n[output]\nformats = [\"ply\", \"vdb\"]\n"
+    ));
+    check(
+        &err,
+        18,
+        19,
+        Some("output.formats[1]"),
+        "remove \"vdb\" from formats",
+    );
+}
+
+#[test]
 fn flow_scenes_built_in_code_are_checked_too() {
     let mut scene = load(&format!("{HEAD}{EMITTER}"));
     scene.validate().unwrap();

@@ -561,6 +561,39 @@ fn duplicate_output_attribute() {
 }
 
 #[test]
+fn vdb_voxel_size_must_be_positive() {
+    let err = error(&format!(
+        "{HEAD}{SPHERE}\n[output]\nformats = [\"vdb\"]\nvdb = {{ voxel_size = -0.01 }}\n"
+    ));
+    check(
+        &err,
+        16,
+        22,
+        Some("output.vdb.voxel_size"),
+        "voxel_size = 0.05",
+    );
+}
+
+#[test]
+fn vdb_voxels_finer_than_a_quarter_cell_are_refused() {
+    let err = error(&format!(
+        "{HEAD}{SPHERE}\n[output.vdb]\nvoxel_size = 0.01\nlevel_set = true\n"
+    ));
+    check(&err, 15, 14, Some("output.vdb.voxel_size"), "cell_size");
+    assert!(
+        err.message.contains("a quarter of domain.cell_size"),
+        "{err}"
+    );
+}
+
+#[test]
+fn unknown_vdb_key_is_located() {
+    let err = error(&format!("{HEAD}{SPHERE}\n[output.vdb]\nlevelset = true\n"));
+    assert_eq!(err.line, Some(15), "{err}");
+    assert!(err.message.contains("levelset"), "{err}");
+}
+
+#[test]
 fn syntax_error() {
     let err = error("format = 1\n[domain\nmax = [1.0, 1.0, 1.0]\n");
     check(&err, 2, 8, None, "TOML syntax");

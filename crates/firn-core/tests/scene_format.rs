@@ -192,9 +192,10 @@ keyframes = [
 
 [output]
 directory = "renders/full"
-formats = ["vtk"]
+formats = ["vtk", "vdb"]
 attributes = ["mass", "material", "elastic-j"]
 checkpoint_every = 0
+vdb = { voxel_size = 0.02, level_set = true }
 "#,
     );
     assert_eq!(scene.name, "full");
@@ -257,7 +258,12 @@ checkpoint_every = 0
     assert_eq!(keys[1].position, Vec3::new(0.5, 1.0, 0.5));
 
     assert_eq!(scene.output.directory, PathBuf::from("renders/full"));
-    assert_eq!(scene.output.formats, vec![CacheFormat::Vtk]);
+    assert_eq!(
+        scene.output.formats,
+        vec![CacheFormat::Vtk, CacheFormat::Vdb]
+    );
+    assert_eq!(scene.output.vdb.voxel_size, Some(0.02));
+    assert!(scene.output.vdb.level_set);
     assert_eq!(
         scene.output.attributes,
         vec![Attribute::Mass, Attribute::Material, Attribute::ElasticJ]

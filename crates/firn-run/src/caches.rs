@@ -1,13 +1,17 @@
-//! A frame's particle caches: the scene's `[output] attributes` in each of
-//! its `[output] formats` (binary PLY, VTK PolyData), and the ParaView
-//! collection (PVD) that lists the VTK frames by time.
+//! A frame's caches: the scene's `[output] attributes` in each of its
+//! `[output] formats` (binary PLY, VTK PolyData), the ParaView collection
+//! (PVD) that lists the VTK frames by time, and a snow frame's OpenVDB
+//! volumes (`vdb`, see [`crate::volumes`]).
 
-use firn_core::scene::{Attribute as SceneAttribute, CacheFormat};
-use firn_io::{Attribute, FrameData, IoError, PvdCollection, write_ply, write_vtp};
+use firn_core::scene::{Attribute as SceneAttribute, CacheFormat, Scene};
+use firn_io::{
+    Attribute, FloatGrid, FrameData, IoError, PvdCollection, write_ply, write_vdb, write_vtp,
+};
 use firn_mpm::{Particles, Simulation};
 
 use crate::run_dir::RunDirectory;
 use crate::simulation::HostState;
+use crate::volumes::snow_volumes;
 
 /// Writes frame `index` of `state` in every cache format of its scene into
 /// `run`, and updates the collection `pvd` with a VTK frame; returns the
@@ -24,7 +28,7 @@ pub fn write_frame(
             let frame = FrameData::new(index, flow.time(), flow.positions())
                 .with_attribute(Attribute::vector("velocity", flow.velocities()))
                 .with_attribute(Attribute::scalar("age", flow.ages()));
-            write_caches(&flow.scene().output.formats, &frame, run, pvd)
+            write_caches(&flow.scene().output.formats, &frame, &[], run, pvd)
         }
     }
 }
@@ -63,14 +67,37 @@ fn write_snow_frame(
     for attribute in wanted {
         frame = frame.with_attribute(attribute_data(*attribute, particles, &derived));
     }
-    write_caches(&scene.output.formats, &frame, run, pvd)
+    let volumes = if scene.output.formats.contains(&CacheFormat::Vdb) {
+        scene_volumes(scene, particles)
+    } else {
+        Vec::new()
+    };
+    write_caches(&scene.output.formats, &frame, &volumes, run, pvd)
 }
 
-/// Writes `frame` in each of `formats` into `run`; returns the files' paths
-/// relative to the run directory.
+/// The OpenVDB grids of a snow frame, as the scene's `[output.vdb]` asks.
+fn scene_volumes(scene: &Scene, particles: &Particles) -> Vec<FloatGrid> {
+    let settings = &scene.output.vdb;
+    let rest_density = scene
+        .materials
+        .iter()
+        .map(|material| material.density)
+        .fold(0.0, f32::max);
+    snow_volumes(
+        &particles.position,
+        &particles.mass,
+        scene.domain.min,
+        settings.voxel_size_for(scene.domain.cell_size),
+        settings.level_set.then_some(rest_density),
+    )
+}
+
+/// Writes `frame` in each of `formats` into `run` (`volumes` for `vdb`);
+/// returns the files' paths relative to the run directory.
 fn write_caches(
     formats: &[CacheFormat],
     frame: &FrameData,
+    volumes: &[FloatGrid],
     run: &RunDirectory,
     pvd: &mut PvdCollection,
 ) -> Result<Vec<String>, IoError> {
@@ -86,6 +113,7 @@ fn write_caches(
                 pvd.push(frame.time, name.clone());
                 pvd.write(&run.collection_path())?;
             }
+            CacheFormat::Vdb => write_vdb(&path, volumes)?,
         }
         files.push(name);
     }

@@ -99,6 +99,7 @@ impl RunDirectory {
         let extension = match format {
             CacheFormat::Ply => "ply",
             CacheFormat::Vtk => "vtp",
+            CacheFormat::Vdb => "vdb",
         };
         format!("{}/frame_{index:05}.{extension}", cache_folder(format))
     }
@@ -209,6 +210,7 @@ fn cache_folder(format: CacheFormat) -> &'static str {
     match format {
         CacheFormat::Ply => "ply",
         CacheFormat::Vtk => "vtk",
+        CacheFormat::Vdb => "vdb",
     }
 }
 
@@ -230,6 +232,10 @@ mod tests {
         assert_eq!(
             RunDirectory::cache_name(CacheFormat::Vtk, 12),
             "vtk/frame_00012.vtp"
+        );
+        assert_eq!(
+            RunDirectory::cache_name(CacheFormat::Vdb, 4),
+            "vdb/frame_00004.vdb"
         );
         assert_eq!(
             RunDirectory::image_name(RenderStyle::Volume, 3),

@@ -35,7 +35,7 @@ use super::mesh::{MeshBody, MeshCollider, MeshPlacement};
 use super::model::{
     self, Attribute, Body, CacheFormat, Collider, ColliderGeometry, Contact, ContactMode, Domain,
     ImplicitSettings, Integrator, Keyframe, Motion, OutputSettings, Scene, Shape, SolverSettings,
-    TimeSettings, TimeStep, Transfer,
+    TimeSettings, TimeStep, Transfer, VdbSettings,
 };
 use super::render::{Camera, CameraKey, ColorBy, Orbit, RenderSettings, RenderStyle};
 use super::sampling;
@@ -649,9 +649,12 @@ fn example(leaf: &str) -> Option<&'static str> {
         "time" => "time = 0.5",
         "position" => "position = [1.0, 0.5, 1.0]",
         "directory" => "directory = \"out/snowball\"",
-        "formats" => "formats = [\"ply\", \"vtk\"]",
+        "formats" => "formats = [\"ply\", \"vtk\", \"vdb\"]",
         "attributes" => "attributes = [\"velocity\", \"plastic-j\", \"density\"]",
         "checkpoint_every" => "checkpoint_every = 10",
+        "vdb" => "vdb = { voxel_size = 0.02, level_set = true }",
+        "voxel_size" => "voxel_size = 0.02",
+        "level_set" => "level_set = true",
         "look_at" => "look_at = [1.0, 0.3, 1.0]",
         "fov" => "fov = 40.0",
         "orbit" => "orbit = 30.0",
@@ -901,6 +904,14 @@ struct RawOutput {
     formats: Option<Vec<RawFormat>>,
     attributes: Option<Vec<RawAttribute>>,
     checkpoint_every: Option<u32>,
+    vdb: Option<RawVdb>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawVdb {
+    voxel_size: Option<f32>,
+    level_set: Option<bool>,
 }
 
 #[derive(Deserialize)]
@@ -939,6 +950,7 @@ struct RawRender {
 enum RawFormat {
     Ply,
     Vtk,
+    Vdb,
 }
 
 #[derive(Clone, Copy, Deserialize)]
@@ -1644,6 +1656,7 @@ fn resolve_output(raw: Option<RawOutput>, name: &str, kind: &SceneKind) -> Outpu
             .map(|format| match format {
                 RawFormat::Ply => CacheFormat::Ply,
                 RawFormat::Vtk => CacheFormat::Vtk,
+                RawFormat::Vdb => CacheFormat::Vdb,
             })
             .collect()
     });
@@ -1665,6 +1678,10 @@ fn resolve_output(raw: Option<RawOutput>, name: &str, kind: &SceneKind) -> Outpu
         formats,
         attributes,
         checkpoint_every: raw.checkpoint_every.unwrap_or(defaults.checkpoint_every),
+        vdb: raw.vdb.map_or(defaults.vdb, |vdb| VdbSettings {
+            voxel_size: vdb.voxel_size,
+            level_set: vdb.level_set.unwrap_or(false),
+        }),
     }
 }
 
@@ -1765,6 +1782,7 @@ fn check_scene(scene: &Scene) -> Check {
         check_collider(&KeyPath::of("colliders").index(index), collider)?;
     }
     check_output(&scene.output)?;
+    check_vdb(&scene.output.vdb, scene.domain.cell_size)?;
     check_camera(&scene.camera)?;
     check_render(&scene.render)
 }
@@ -2563,6 +2581,34 @@ fn check_output(output: &OutputSettings) -> Check {
         ));
     }
     Ok(())
+}
+
+/// Smallest `[output.vdb] voxel_size` as a fraction of the cell size: finer
+/// voxels only blur single particles (and cost 8 leaves each).
+const MIN_VOXELS_PER_CELL: f32 = 0.25;
+
+fn check_vdb(vdb: &VdbSettings, cell_size: f32) -> Check {
+    let Some(voxel_size) = vdb.voxel_size else {
+        return Ok(());
+    };
+    let path = KeyPath::of("output").key("vdb").key("voxel_size");
+    let hint = format!(
+        "set the voxel edge in metres, e.g. voxel_size = {}, or remove the key to use \
+         domain.cell_size",
+        Num::from(cell_size)
+    );
+    positive(voxel_size, path.clone(), hint.clone())?;
+    let smallest = cell_size * MIN_VOXELS_PER_CELL;
+    ensure(
+        voxel_size >= smallest,
+        path,
+        &format!(
+            "at least a quarter of domain.cell_size ({})",
+            Num::from(smallest)
+        ),
+        Num::from(voxel_size),
+        hint,
+    )
 }
 
 fn check_camera(camera: &Camera) -> Check {

@@ -743,6 +743,26 @@ pub enum CacheFormat {
     Ply,
     /// VTK XML PolyData (.vtp) with a .pvd time collection (ParaView).
     Vtk,
+    /// OpenVDB volumes (.vdb): the snow's density, optionally its surface as a
+    /// level set (Blender, Houdini); see [`VdbSettings`].
+    Vdb,
+}
+
+/// The `[output.vdb]` table: how the `vdb` format turns particles into
+/// volumes.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct VdbSettings {
+    /// Voxel edge length in metres; `None` uses the grid's `cell_size`.
+    pub voxel_size: Option<f32>,
+    /// Also write the snow's surface as a narrow-band level set (`surface`).
+    pub level_set: bool,
+}
+
+impl VdbSettings {
+    /// The voxel edge length for a scene whose grid cells are `cell_size`.
+    pub fn voxel_size_for(&self, cell_size: f32) -> f32 {
+        self.voxel_size.unwrap_or(cell_size)
+    }
 }
 
 /// What to write, and where.
@@ -756,6 +776,8 @@ pub struct OutputSettings {
     pub attributes: Vec<Attribute>,
     /// Write a checkpoint every this many frames (0: never).
     pub checkpoint_every: u32,
+    /// How the `vdb` format makes its volumes.
+    pub vdb: VdbSettings,
 }
 
 impl OutputSettings {
@@ -774,6 +796,7 @@ impl OutputSettings {
             formats: vec![CacheFormat::Ply, CacheFormat::Vtk],
             attributes: OutputSettings::default_attributes(&SceneKind::Snow),
             checkpoint_every: OutputSettings::DEFAULT_CHECKPOINT_EVERY,
+            vdb: VdbSettings::default(),
         }
     }
 

@@ -50,6 +50,7 @@ pub fn scene_with(body: Shape, velocity: Vec3, transfer: Transfer, cell_size: f3
             formats: vec![CacheFormat::Ply],
             attributes: Vec::new(),
             checkpoint_every: 0,
+            ..OutputSettings::default()
         },
         camera: Camera::default(),
         render: RenderSettings::default(),

@@ -19,7 +19,7 @@ use crate::scene::flow::{
     FlowCurl, FlowEmission, FlowEmitter, FlowEmitterShape, FlowIntegrator, FlowObstacle,
     FlowSettings, SceneKind,
 };
-use crate::scene::model::{Attribute, Domain, Scene};
+use crate::scene::model::{Attribute, CacheFormat, Domain, Scene};
 use crate::scene::wind::Wind;
 
 /// Largest number of particle slots a flow scene may ask for (2^26).
@@ -518,6 +518,18 @@ pub(super) fn check_flow_scene(scene: &Scene, flow: &FlowSettings) -> Check {
     }
     check_flow(scene, flow)?;
     check_output(&scene.output)?;
+    if let Some(index) = scene
+        .output
+        .formats
+        .iter()
+        .position(|format| *format == CacheFormat::Vdb)
+    {
+        return Err(snow_only(
+            KeyPath::of("output").key("formats").index(index),
+            "the \"vdb\" format (a volume of the snow's mass)",
+            "remove \"vdb\" from formats: flow particles carry no mass to make a volume of",
+        ));
+    }
     let attributes = KeyPath::of("output").key("attributes");
     if let Some(index) = scene
         .output
