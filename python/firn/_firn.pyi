@@ -163,6 +163,8 @@ def run(
 ) -> str:
     """A whole run as ``firn run`` makes it; returns the run directory.
 
-    An exception raised by ``progress``, or Ctrl-C, surfaces only once the
-    run has reached its last frame (the recording loop cannot stop early
-    yet); to stop early, step a :class:`Simulation` instead."""
+    An exception raised by ``progress``, or Ctrl-C (KeyboardInterrupt),
+    stops the run after the frame being simulated and is raised; the run
+    directory then ends at that frame with a checkpoint of it (its manifest
+    says ``running``, as after a killed ``firn run``), and ``resume=True``
+    continues it to the same bytes as a run never stopped."""
