@@ -117,6 +117,7 @@ def test_wrong_arrays_are_refused():
         sim.velocities = bad
     sim.velocities = np.zeros((len(sim), 3))
     assert not sim.velocities.any()
+    sim.positions = sim.positions + np.float32(0.01)  # float32 in, converted
 
 
 def test_stepping_releases_the_gil():
@@ -248,3 +249,37 @@ def test_the_gpu_backend_steps_the_snowball_like_the_cpu():
     assert gpu.positions.mean(axis=0)[0] > start[0]
     assert np.abs(gpu.positions.mean(axis=0) - cpu.positions.mean(axis=0)).max() < 1e-4
 
+
+def test_a_rendered_frame_shows_the_snowball_where_it_is(tmp_path):
+    import matplotlib.image
+
+    scene = short_frames(1)
+    scene["render.size"] = [192, 108]
+    moved = firn.Scene.from_dict(scene.to_dict())
+    moved["bodies[0].center"] = [0.7, 0.45, 0.3]
+    here, there = firn.Simulation(scene), firn.Simulation(moved)
+    image = here.render(style="points")
+    assert image.shape == (108, 192, 3) and image.dtype == np.uint8
+    changed = (image != there.render(style="points")).any(axis=2)
+
+    # Pixels within the balls' projected outlines (plus a sprite's width).
+    rows, columns = np.mgrid[0:108, 0:192] + 0.5
+    inside = np.zeros_like(changed)
+    for sim in (here, there):
+        pixels = sim.project(sim.positions)
+        centre = sim.project(sim.positions.mean(axis=0, keepdims=True))[0]
+        radius = np.linalg.norm(pixels - centre, axis=1).max() + 2
+        inside |= np.hypot(columns - centre[0], rows - centre[1]) <= radius
+    print(f"changed: {changed[inside].mean():.3f} inside the balls, {changed[~inside].mean():.4f} elsewhere")
+    assert changed[inside].mean() > 0.5, "the balls are drawn where they are"
+    assert changed[~inside].mean() < 0.05, "and little changes elsewhere"
+
+    # The same pixels as the PNG `firn run` writes for that frame.
+    run = pathlib.Path(firn.run(scene, out=tmp_path, backend="cpu"))
+    here.advance_frames(1)
+    png = matplotlib.image.imread(run / "images" / "points" / "frame_00001.png")
+    assert np.array_equal(np.rint(png[..., :3] * 255).astype(np.uint8), here.render())
+    with pytest.raises(ValueError, match="style"):
+        here.render(style="watercolour")
+    with pytest.raises(ValueError, match="pixels"):
+        here.render(width=8)
