@@ -9,6 +9,7 @@ import numpy.typing as npt
 __version__: str
 
 Backend = Literal["cpu", "gpu", "auto"]
+Style = Literal["points", "volume", "billboards", "trails"]
 Progress = Callable[[Dict[str, Any]], Any]
 
 class SceneError(ValueError):
@@ -100,6 +101,19 @@ class Solver:
     @property
     def memory_bytes(self) -> int:
         """Bytes the simulation holds (host or device buffers)."""
+    def render(
+        self, width: Optional[int] = None, height: Optional[int] = None, style: Optional[Style] = None
+    ) -> npt.NDArray[np.uint8]:
+        """The simulation now through the scene's camera, in ``style``
+        (default: the scene's first ``[render] styles``) at ``width`` x
+        ``height`` pixels (default: ``[render] size``, each side 16 to 8192):
+        an (height, width, 3) sRGB array, the pixels of ``firn run``'s PNG."""
+    def project(
+        self, points: npt.ArrayLike, width: Optional[int] = None, height: Optional[int] = None
+    ) -> npt.NDArray[np.float64]:
+        """Where (M, 3) points fall in a picture of ``width`` x ``height``
+        rendered now: (M, 2) pixel coordinates, x right and y down from the
+        top-left corner; NaN behind the camera."""
     def __len__(self) -> int:
         """Particles."""
 
@@ -163,6 +177,8 @@ def run(
 ) -> str:
     """A whole run as ``firn run`` makes it; returns the run directory.
 
-    An exception raised by ``progress``, or Ctrl-C, surfaces only once the
-    run has reached its last frame (the recording loop cannot stop early
-    yet); to stop early, step a :class:`Simulation` instead."""
+    An exception raised by ``progress``, or Ctrl-C (KeyboardInterrupt),
+    stops the run after the frame being simulated and is raised; the run
+    directory then ends at that frame with a checkpoint of it (its manifest
+    says ``running``, as after a killed ``firn run``), and ``resume=True``
+    continues it to the same bytes as a run never stopped."""

@@ -1,10 +1,11 @@
 //! Particle arrays between firn and numpy: out as fresh float32 arrays in
 //! the solver's layout ((N, 3) vectors, (N, 3, 3) row-major matrices), in
-//! from any float array of the right shape, refused unless every number is
-//! finite.
+//! from any array of numbers of the right shape (numpy converts it to
+//! float64), refused unless every number is finite; points in space in from
+//! (M, 3) arrays in double precision.
 
-use glam::{Mat3, Vec3};
-use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2};
+use glam::{DVec3, Mat3, Vec3};
+use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArray3, PyArrayLike2, PyArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
@@ -35,7 +36,7 @@ pub fn scalars_array(py: Python<'_>, values: Vec<f32>) -> Bound<'_, PyArray1<f32
 /// The vectors of an (N, 3) array of `count` particles, named `name` in
 /// errors; every number must be finite.
 pub fn positions_from_numpy(
-    values: PyReadonlyArray2<'_, f64>,
+    values: PyArrayLike2<'_, f64, AllowTypeChange>,
     count: usize,
     name: &str,
 ) -> PyResult<Vec<Vec3>> {
@@ -57,5 +58,21 @@ pub fn positions_from_numpy(
         .rows()
         .into_iter()
         .map(|row| Vec3::new(row[0] as f32, row[1] as f32, row[2] as f32))
+        .collect())
+}
+
+/// The points of an (M, 3) array, in double precision.
+pub fn points_from_numpy(points: &PyArrayLike2<'_, f64, AllowTypeChange>) -> PyResult<Vec<DVec3>> {
+    let view = points.as_array();
+    if view.ncols() != 3 {
+        return Err(PyValueError::new_err(format!(
+            "points must have shape (M, 3), not {:?}",
+            view.shape()
+        )));
+    }
+    Ok(view
+        .rows()
+        .into_iter()
+        .map(|row| DVec3::new(row[0], row[1], row[2]))
         .collect())
 }

@@ -8,12 +8,14 @@
 //! - [`scene`]: `Scene`, loaded from a file or built from dicts;
 //! - [`simulation`]: `Solver`, `Simulation` (snow) and `FlowSimulation`;
 //! - [`arrays`]: particle arrays in and out of numpy;
+//! - [`pictures`]: rendered frames as numpy images;
 //! - [`runs`]: `run`, a whole run as `firn run` makes it.
 
 use pyo3::prelude::*;
 
 mod arrays;
 mod errors;
+mod pictures;
 mod runs;
 mod scene;
 mod simulation;

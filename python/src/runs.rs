@@ -2,6 +2,7 @@
 //! checkpoints, pictures and animations, resumable), through firn-run's
 //! `Recording` and `RunDirectory`.
 
+use std::ops::ControlFlow;
 use std::path::PathBuf;
 
 use firn_core::Scene;
@@ -20,8 +21,10 @@ use crate::simulation::backend_named;
 /// off writes caches only. `resume` continues from the run's checkpoint.
 /// `progress` is called after each frame with a dict (frame, last_frame,
 /// time, substeps_per_second, eta_seconds). Returns the run directory.
-/// An exception from `progress`, or Ctrl-C, is raised when the run has
-/// reached its last frame: the recording loop has no way to stop early yet.
+/// An exception from `progress`, or Ctrl-C (KeyboardInterrupt), stops the
+/// run after the frame being simulated and is raised: the run directory
+/// then ends at that frame with a checkpoint of it, and `resume=True`
+/// continues it to the same bytes as a run never stopped.
 #[pyfunction]
 #[pyo3(signature = (scene, out = None, frames = None, render = true, resume = false, backend = None, progress = None))]
 #[allow(clippy::too_many_arguments)]
@@ -76,7 +79,8 @@ pub fn run(
 struct Pictures {
     directory: PathBuf,
     progress: Option<Py<PyAny>>,
-    /// The callback's exception (or Ctrl-C), raised once the run returns.
+    /// The callback's exception (or Ctrl-C), which stopped the run and is
+    /// raised once it returns.
     failure: Option<PyErr>,
 }
 
@@ -85,10 +89,7 @@ impl Observer for Pictures {
         frame_pictures(frame, &self.directory)
     }
 
-    fn frame_recorded(&mut self, progress: &Progress) {
-        if self.failure.is_some() {
-            return;
-        }
+    fn frame_recorded(&mut self, progress: &Progress) -> ControlFlow<()> {
         Python::attach(|py| {
             let outcome = py.check_signals().and_then(|()| {
                 let Some(callback) = &self.progress else {
@@ -104,6 +105,10 @@ impl Observer for Pictures {
             });
             self.failure = outcome.err();
         });
+        match self.failure {
+            Some(_) => ControlFlow::Break(()),
+            None => ControlFlow::Continue(()),
+        }
     }
 
     fn animations(&mut self, scene: &Scene, frames: &[u32]) -> Result<Vec<String>, String> {

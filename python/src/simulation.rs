@@ -2,7 +2,7 @@
 //! `firn.FlowSimulation` (curl noise): a scene running on the CPU or the
 //! GPU through firn-run's `Solver`, stepped by substeps, frames or simulated
 //! time with the GIL released, and stopped cleanly by Ctrl-C between
-//! substeps or frames.
+//! substeps or frames; its frame rendered as a numpy image.
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -10,16 +10,21 @@ use std::time::Instant;
 use firn_core::scene::{Backend, SceneKind};
 use firn_flow::FlowSimulation as FlowHost;
 use firn_mpm::particles::Particles;
+use firn_render::scene_view::{scene_camera, scene_picture};
+use firn_run::pictures::frame_particles;
 use firn_run::simulation::{HostState, SolverState};
 use firn_run::{Placement, choose_backend};
 use glam::{DVec3, Vec3};
-use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2};
+use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArray3, PyArrayLike2, PyArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::arrays::{matrices_array, positions_from_numpy, scalars_array, vectors_array};
+use crate::arrays::{
+    matrices_array, points_from_numpy, positions_from_numpy, scalars_array, vectors_array,
+};
 use crate::errors::simulation_error;
+use crate::pictures::{image_array, image_size, style_or_default};
 use crate::scene::PyScene;
 
 /// Substeps stepped between two looks for Ctrl-C.
@@ -259,6 +264,65 @@ impl Solver {
         self.solver.memory_bytes()
     }
 
+    /// The simulation now as the scene's camera sees it (its `[camera]`,
+    /// or the automatic view of the domain), drawn in `style` ("points",
+    /// "volume", "billboards" or "trails"; default: the scene's first
+    /// `[render] styles`) at `width` x `height` pixels (default: its
+    /// `[render] size`): an (height, width, 3) uint8 array of sRGB pixels,
+    /// those `firn run` writes into a frame's PNG at that size.
+    #[pyo3(signature = (width = None, height = None, style = None))]
+    fn render<'py>(
+        &mut self,
+        py: Python<'py>,
+        width: Option<u32>,
+        height: Option<u32>,
+        style: Option<&str>,
+    ) -> PyResult<Bound<'py, PyArray3<u8>>> {
+        let scene = self.solver.scene();
+        let size = image_size(scene, width, height)?;
+        let style = style_or_default(scene, style)?;
+        let pixels = self.stepping(py, |solver| {
+            let time = solver.time();
+            let host = solver.host()?;
+            let scene = host.scene();
+            let particles = host.particles(scene.render.color_by);
+            let picture =
+                scene_picture(scene, time, style, frame_particles(&particles), Some(size));
+            Ok(firn_render::render(&picture).into_raw())
+        })?;
+        image_array(py, pixels, size)
+    }
+
+    /// Where `points` (shape (M, 3), metres) fall in a picture of `width`
+    /// x `height` pixels (default: `[render] size`) rendered now: (M, 2)
+    /// pixel coordinates, x to the right and y down from the top-left
+    /// corner (pixel (i, j) covers [i, i+1) x [j, j+1)); NaN for points
+    /// behind the camera.
+    #[pyo3(signature = (points, width = None, height = None))]
+    fn project<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyArrayLike2<'_, f64, AllowTypeChange>,
+        width: Option<u32>,
+        height: Option<u32>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let scene = self.solver.scene();
+        let [width, height] = image_size(scene, width, height)?;
+        let camera = scene_camera(scene, self.solver.time(), width, height);
+        let points = points_from_numpy(&points)?;
+        let pixels: Vec<f64> = points
+            .iter()
+            .flat_map(|point| {
+                camera
+                    .project(point.as_vec3())
+                    .map_or([f64::NAN; 2], |projected| {
+                        projected.pixel.as_dvec2().to_array()
+                    })
+            })
+            .collect();
+        PyArray1::from_vec(py, pixels).reshape([points.len(), 2])
+    }
+
     fn __len__(&self) -> usize {
         self.solver.particle_count()
     }
@@ -302,7 +366,7 @@ impl Simulation {
     #[setter]
     fn set_positions(
         mut this: PyRefMut<'_, Self>,
-        values: PyReadonlyArray2<'_, f64>,
+        values: PyArrayLike2<'_, f64, AllowTypeChange>,
     ) -> PyResult<()> {
         set_snow_vectors(this.as_super(), values, "positions", |particles| {
             &mut particles.position
@@ -323,7 +387,7 @@ impl Simulation {
     #[setter]
     fn set_velocities(
         mut this: PyRefMut<'_, Self>,
-        values: PyReadonlyArray2<'_, f64>,
+        values: PyArrayLike2<'_, f64, AllowTypeChange>,
     ) -> PyResult<()> {
         set_snow_vectors(this.as_super(), values, "velocities", |particles| {
             &mut particles.velocity
@@ -409,7 +473,7 @@ fn snow(solver: &mut Solver) -> PyResult<&Particles> {
 /// Replaces one vector attribute of every snow particle by `values`.
 fn set_snow_vectors(
     solver: &mut Solver,
-    values: PyReadonlyArray2<'_, f64>,
+    values: PyArrayLike2<'_, f64, AllowTypeChange>,
     name: &str,
     attribute: impl FnOnce(&mut Particles) -> &mut Vec<Vec3>,
 ) -> PyResult<()> {
@@ -489,10 +553,10 @@ impl FlowSimulation {
     fn velocity_at<'py>(
         mut this: PyRefMut<'py, Self>,
         py: Python<'py>,
-        points: PyReadonlyArray2<'_, f64>,
+        points: PyArrayLike2<'_, f64, AllowTypeChange>,
         time: Option<f64>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let points = field_points(&points)?;
+        let points = points_from_numpy(&points)?;
         let flow = flow(this.as_super())?;
         let t = time.unwrap_or(flow.time());
         let values: Vec<f64> = points
@@ -509,7 +573,7 @@ impl FlowSimulation {
     fn divergence_at<'py>(
         mut this: PyRefMut<'py, Self>,
         py: Python<'py>,
-        points: PyReadonlyArray2<'_, f64>,
+        points: PyArrayLike2<'_, f64, AllowTypeChange>,
         time: Option<f64>,
         h: f64,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
@@ -518,7 +582,7 @@ impl FlowSimulation {
                 "h must be a positive number of metres",
             ));
         }
-        let points = field_points(&points)?;
+        let points = points_from_numpy(&points)?;
         let flow = flow(this.as_super())?;
         let t = time.unwrap_or(flow.time());
         let field = flow.field();
@@ -556,20 +620,4 @@ fn flow(solver: &mut Solver) -> PyResult<&FlowHost> {
         HostState::Flow(flow) => Ok(flow),
         HostState::Snow(_) => Err(simulation_error("not a flow simulation")),
     }
-}
-
-/// Points of an (M, 3) array.
-fn field_points(points: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<DVec3>> {
-    let view = points.as_array();
-    if view.ncols() != 3 {
-        return Err(PyValueError::new_err(format!(
-            "points must have shape (M, 3), not {:?}",
-            view.shape()
-        )));
-    }
-    Ok(view
-        .rows()
-        .into_iter()
-        .map(|row| DVec3::new(row[0], row[1], row[2]))
-        .collect())
 }

@@ -1,7 +1,9 @@
 """The Python module against the physics and the command line."""
 
+import json
 import os
 import pathlib
+import signal
 import subprocess
 import sys
 import threading
@@ -31,6 +33,26 @@ def small_snowball() -> firn.Scene:
     scene = firn.Scene.default()
     scene["time.duration"] = 2 / scene.fps
     return scene
+
+
+def short_frames(frames: int) -> firn.Scene:
+    """The default scene at 120 frames per second (a quarter of the substeps
+    of a 30 fps frame), `frames` frames long."""
+    scene = firn.Scene.default()
+    scene["time.fps"] = 120
+    scene["time.duration"] = frames / 120
+    return scene
+
+
+def ply_bytes(run: pathlib.Path) -> dict:
+    """A run directory's PLY frames by name."""
+    return {path.name: path.read_bytes() for path in sorted((run / "ply").iterdir())}
+
+
+def ctrl_c_timer(delay: float = 0.0) -> threading.Timer:
+    """A thread that sends this process SIGINT (Ctrl-C) `delay` s after it
+    is started."""
+    return threading.Timer(delay, os.kill, (os.getpid(), signal.SIGINT))
 
 
 def test_stepping_the_snowball_conserves_mass_and_moves_it():
@@ -95,6 +117,7 @@ def test_wrong_arrays_are_refused():
         sim.velocities = bad
     sim.velocities = np.zeros((len(sim), 3))
     assert not sim.velocities.any()
+    sim.positions = sim.positions + np.float32(0.01)  # float32 in, converted
 
 
 def test_stepping_releases_the_gil():
@@ -151,3 +174,112 @@ def test_reprs_say_what_things_are():
     scene = small_snowball()
     assert "snowball-wall" in repr(scene) and "snow" in repr(scene)
     assert "4185 snow particles" in repr(firn.Simulation(scene))
+
+
+def test_ctrl_c_stops_stepping_and_leaves_a_consistent_state():
+    sim = firn.Simulation(small_snowball(), backend="cpu", threads=1)
+    mass = sim.masses.sum(dtype=np.float64)
+    timer = ctrl_c_timer(0.3)
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        sim.step(1_000_000)  # hours, unless Ctrl-C stops it
+    timer.join()
+    taken = sim.substeps
+    assert 0 < taken < 1_000_000
+    assert np.isfinite(sim.positions).all() and np.isfinite(sim.elastic_deformation).all()
+    assert sim.masses.sum(dtype=np.float64) == mass
+    assert sim.step(3) == 3 and sim.substeps == taken + 3
+    assert sim.masses.sum(dtype=np.float64) == mass
+
+
+def test_ctrl_c_stops_a_run_which_resumes_to_the_same_bytes(tmp_path):
+    scene = short_frames(3)
+    whole = pathlib.Path(firn.run(scene, out=tmp_path / "whole", render=False, backend="cpu"))
+    parts = tmp_path / "parts"
+    timers = []
+
+    def press_ctrl_c(info):
+        # The signal reaches the run while it simulates frame 2 or, if it
+        # is quick, before this callback returns; either way it stops there.
+        if info["frame"] == 1:
+            timers.append(ctrl_c_timer())
+            timers[0].start()
+
+    with pytest.raises(KeyboardInterrupt):
+        firn.run(scene, out=parts, render=False, backend="cpu", progress=press_ctrl_c)
+    timers[0].join()
+    manifest = json.loads((parts / "manifest.json").read_text())
+    assert manifest["status"]["state"] == "running"
+    stopped_at = manifest["frames"][-1]["index"]
+    assert stopped_at in (1, 2), stopped_at
+    assert sorted(ply_bytes(parts)) == [f"frame_{i:05}.ply" for i in range(stopped_at + 1)]
+    assert (parts / "checkpoint.firnckpt").is_file()
+
+    firn.run(scene, out=parts, render=False, backend="cpu", resume=True)
+    assert ply_bytes(parts) == ply_bytes(whole)
+    assert json.loads((parts / "manifest.json").read_text())["status"]["state"] == "finished"
+
+
+def test_an_exception_in_progress_stops_a_run_at_that_frame(tmp_path):
+    def fail_at_frame_1(info):
+        if info["frame"] == 1:
+            raise ValueError("enough")
+
+    with pytest.raises(ValueError, match="enough"):
+        firn.run(short_frames(3), out=tmp_path, render=False, backend="cpu", progress=fail_at_frame_1)
+    assert sorted(ply_bytes(tmp_path)) == ["frame_00000.ply", "frame_00001.ply"]
+
+
+def test_the_gpu_backend_steps_the_snowball_like_the_cpu():
+    scene = small_snowball()
+    scene["bodies[0].radius"] = 0.05  # 517 particles: lavapipe is slow
+    try:
+        gpu = firn.Simulation(scene, backend="gpu")
+    except firn.SimulationError as error:
+        if os.environ.get("FIRN_REQUIRE_GPU") == "1":
+            pytest.fail(f"FIRN_REQUIRE_GPU=1 but the GPU backend cannot start: {error}")
+        pytest.skip(f"no GPU adapter (Mesa's lavapipe will do): {error}")
+    assert gpu.backend == "gpu" and "on the gpu" in repr(gpu)
+    mass = gpu.masses.sum(dtype=np.float64)
+    start = gpu.positions.mean(axis=0)
+    gpu.step(4)
+    assert gpu.masses.sum(dtype=np.float64) == mass
+    cpu = firn.Simulation(scene, backend="cpu")
+    cpu.advance_to(gpu.time)
+    assert gpu.positions.mean(axis=0)[0] > start[0]
+    assert np.abs(gpu.positions.mean(axis=0) - cpu.positions.mean(axis=0)).max() < 1e-4
+
+
+def test_a_rendered_frame_shows_the_snowball_where_it_is(tmp_path):
+    import matplotlib.image
+
+    scene = short_frames(1)
+    scene["render.size"] = [192, 108]
+    moved = firn.Scene.from_dict(scene.to_dict())
+    moved["bodies[0].center"] = [0.7, 0.45, 0.3]
+    here, there = firn.Simulation(scene), firn.Simulation(moved)
+    image = here.render(style="points")
+    assert image.shape == (108, 192, 3) and image.dtype == np.uint8
+    changed = (image != there.render(style="points")).any(axis=2)
+
+    # Pixels within the balls' projected outlines (plus a sprite's width).
+    rows, columns = np.mgrid[0:108, 0:192] + 0.5
+    inside = np.zeros_like(changed)
+    for sim in (here, there):
+        pixels = sim.project(sim.positions)
+        centre = sim.project(sim.positions.mean(axis=0, keepdims=True))[0]
+        radius = np.linalg.norm(pixels - centre, axis=1).max() + 2
+        inside |= np.hypot(columns - centre[0], rows - centre[1]) <= radius
+    print(f"changed: {changed[inside].mean():.3f} inside the balls, {changed[~inside].mean():.4f} elsewhere")
+    assert changed[inside].mean() > 0.5, "the balls are drawn where they are"
+    assert changed[~inside].mean() < 0.05, "and little changes elsewhere"
+
+    # The same pixels as the PNG `firn run` writes for that frame.
+    run = pathlib.Path(firn.run(scene, out=tmp_path, backend="cpu"))
+    here.advance_frames(1)
+    png = matplotlib.image.imread(run / "images" / "points" / "frame_00001.png")
+    assert np.array_equal(np.rint(png[..., :3] * 255).astype(np.uint8), here.render())
+    with pytest.raises(ValueError, match="style"):
+        here.render(style="watercolour")
+    with pytest.raises(ValueError, match="pixels"):
+        here.render(width=8)

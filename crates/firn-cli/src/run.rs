@@ -3,6 +3,7 @@
 //! per frame).
 
 use std::io::IsTerminal;
+use std::ops::ControlFlow;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -218,7 +219,7 @@ impl Observer for Terminal {
         frame_pictures(frame, &self.directory)
     }
 
-    fn frame_recorded(&mut self, progress: &Progress) {
+    fn frame_recorded(&mut self, progress: &Progress) -> ControlFlow<()> {
         let status = format!(
             "t = {:.3} s, {:.0} substeps/s",
             progress.time,
@@ -236,6 +237,7 @@ impl Observer for Terminal {
             bar.set_position(u64::from(progress.frame));
             bar.set_message(status);
         }
+        ControlFlow::Continue(())
     }
 
     fn animations(&mut self, scene: &Scene, frames: &[u32]) -> Result<Vec<String>, String> {

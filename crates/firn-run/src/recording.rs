@@ -5,8 +5,10 @@
 //! interrupted run can be resumed or read.
 //!
 //! What is shown while it runs and how pictures are made is the front
-//! door's: it hands in an [`Observer`].
+//! door's: it hands in an [`Observer`], which can also stop the run between
+//! two frames.
 
+use std::ops::ControlFlow;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -45,9 +47,11 @@ pub trait Observer {
         Ok(Vec::new())
     }
 
-    /// Hears that a frame was recorded.
-    fn frame_recorded(&mut self, progress: &Progress) {
+    /// Hears that a frame was recorded; `Break` stops the run there (see
+    /// [`Recording::run_to`]).
+    fn frame_recorded(&mut self, progress: &Progress) -> ControlFlow<()> {
         let _ = progress;
+        ControlFlow::Continue(())
     }
 
     /// Makes the animations of the frames `frames` (their indices, in
@@ -200,6 +204,12 @@ impl Recording {
     /// `last_frame`, then the animations and a checkpoint; the run is
     /// finished when `last_frame` is the scene's last. A failure is written
     /// into the manifest before it is returned.
+    ///
+    /// When the observer stops the run after a frame, that frame is the
+    /// last: a checkpoint of it is written, no animations, and the manifest
+    /// keeps the status `running`, as a run killed by Ctrl-C leaves it, so
+    /// that [`Recording::resume`] continues from there. [`Recording::frame`]
+    /// says where it stopped.
     pub fn run_to(&mut self, last_frame: u32, observer: &mut dyn Observer) -> Result<(), RunError> {
         let first_frame = self.frame;
         let started = Instant::now();
@@ -212,7 +222,7 @@ impl Recording {
                 .map_err(|error| self.fail(error))?;
             self.record_frame(frame, substeps, frame_started.elapsed(), observer)?;
             substeps_total += u64::from(substeps);
-            observer.frame_recorded(&Progress {
+            let asked = observer.frame_recorded(&Progress {
                 frame,
                 first_frame,
                 last_frame,
@@ -220,6 +230,9 @@ impl Recording {
                 substeps: substeps_total,
                 elapsed: started.elapsed(),
             });
+            if asked.is_break() {
+                return self.write_checkpoint();
+            }
         }
         self.write_animations(observer)?;
         self.write_checkpoint()?;

@@ -4,6 +4,7 @@
 
 mod common;
 
+use std::ops::ControlFlow;
 use std::path::Path;
 
 use firn_core::Scene;
@@ -13,12 +14,14 @@ use firn_run::error::{ReadRunError, ResumeError};
 use firn_run::recording::{FrameToPicture, Observer, Progress};
 use firn_run::{Placement, Recording, RunDirectory, Solver};
 
-/// An observer that remembers what it was told and "draws" a file name.
+/// An observer that remembers what it was told and "draws" a file name,
+/// and stops the run after the frame `stop_after` if set.
 #[derive(Default)]
 struct Notes {
     pictured: Vec<(u32, usize)>,
     recorded: Vec<Progress>,
     animated: Vec<u32>,
+    stop_after: Option<u32>,
 }
 
 impl Observer for Notes {
@@ -28,8 +31,13 @@ impl Observer for Notes {
         Ok(vec![format!("images/test/{}.png", frame.index)])
     }
 
-    fn frame_recorded(&mut self, progress: &Progress) {
+    fn frame_recorded(&mut self, progress: &Progress) -> ControlFlow<()> {
         self.recorded.push(*progress);
+        if self.stop_after == Some(progress.frame) {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
     }
 
     fn animations(&mut self, _scene: &Scene, frames: &[u32]) -> Result<Vec<String>, String> {
@@ -150,6 +158,54 @@ fn a_resumed_run_writes_the_same_bytes_as_an_uninterrupted_one() {
     let manifest = RunDirectory::new(parts.path()).read().unwrap().manifest;
     assert_eq!(manifest.frames.len() as u32, last + 1);
     assert_eq!(manifest.status, RunStatus::Finished);
+}
+
+#[test]
+fn a_run_stopped_by_its_observer_resumes_to_the_same_bytes() {
+    let (whole, parts) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let mut scene = common::slab();
+    scene.render.enabled = true;
+    let last = scene.time.frame_count();
+    let mut notes = Notes::default();
+    start(scene.clone(), whole.path(), &mut notes)
+        .run_to(last, &mut notes)
+        .unwrap();
+    // Frame 3 is between two of the scene's checkpoints (every second frame).
+    let mut stopping = Notes {
+        stop_after: Some(3),
+        ..Notes::default()
+    };
+    let mut stopped = start(scene.clone(), parts.path(), &mut stopping);
+    stopped
+        .run_to(last, &mut stopping)
+        .expect("a stop is not a failure");
+    assert_eq!(stopped.frame(), 3);
+    assert!(
+        stopping.animated.is_empty(),
+        "a stopped run is not animated"
+    );
+    assert!(!parts.path().join("ply/frame_00004.ply").exists());
+    let manifest = RunDirectory::new(parts.path()).read().unwrap().manifest;
+    assert_eq!(manifest.status, RunStatus::Running);
+    assert_eq!(manifest.frames.len(), 4);
+    assert!(manifest.animations.is_empty());
+
+    let mut resumed = Recording::resume(scene, RunDirectory::new(parts.path()), &Placement::Cpu)
+        .expect("the stopped run resumes");
+    assert_eq!(
+        resumed.frame(),
+        3,
+        "from a checkpoint of the frame it stopped at"
+    );
+    resumed.run_to(last, &mut notes).unwrap();
+    for index in 1..=last {
+        let file = format!("ply/frame_{index:05}.ply");
+        let read = |folder: &Path| std::fs::read(folder.join(&file)).unwrap();
+        assert!(read(whole.path()) == read(parts.path()), "{file} differs");
+    }
+    let manifest = RunDirectory::new(parts.path()).read().unwrap().manifest;
+    assert_eq!(manifest.status, RunStatus::Finished);
+    assert_eq!(manifest.frames.len() as u32, last + 1);
 }
 
 #[test]
