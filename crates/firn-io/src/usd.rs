@@ -1,0 +1,404 @@
+//! USD point caches (`.usda`): one stage per run that Houdini, Omniverse,
+//! Blender and Pixar's own `usdview` open as a whole animation.
+//!
+//! No maintained Rust crate writes USD, and the binary crate format is
+//! documented only by its C++ source; `usda` is USD's documented text
+//! format, so this module writes that text itself.
+//!
+//! A run's particles are a `UsdGeomPoints` prim, `/World/<name>`, with
+//! `points`, `velocities`, `extent` and one primvar per other cached
+//! attribute, all time-sampled at the frame index as time code; its
+//! colliders are `Mesh` (planes), `Cube` (boxes) and `Sphere` prims moved by
+//! a time-sampled `xformOp:translate`. Rewriting one file with every frame
+//! would cost the whole run's data at each frame, so the samples are split
+//! into USD *value clips*, one layer per frame ([`clip_name`]), which the
+//! small stage file ([`STAGE_FILE`]) lists by a template: a frame writes its
+//! own clip and rewrites the stage (a few kilobytes) with the new end time.
+//! The bytes depend only on the frames, so a resumed run ends with the same
+//! files as one never interrupted.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use glam::Vec3;
+
+use crate::{AttributeValues, FrameData, IoError, write_atomically};
+
+/// The stage file, relative to the run folder.
+pub const STAGE_FILE: &str = "particles.usda";
+/// The folder of the per-frame clip layers, relative to the run folder.
+pub const CLIP_FOLDER: &str = "usd";
+/// The clip manifest (the attributes the clips give values to), relative to
+/// the run folder.
+pub const MANIFEST_FILE: &str = "usd/manifest.usda";
+/// The clips as USD's template (`#` stands for a digit of the frame index).
+const CLIP_TEMPLATE: &str = "usd/frame.#####.usda";
+
+/// Path of frame `index`'s clip layer, relative to the run folder (USD's
+/// clip templates ask for `name.NNNNN.usda`).
+pub fn clip_name(index: u32) -> String {
+    format!("{CLIP_FOLDER}/frame.{index:05}.usda")
+}
+
+/// What the stage says of a run besides the particles.
+#[derive(Clone, Debug, PartialEq)]
+pub struct UsdStage {
+    /// Name of the points prim under `/World` (a USD identifier).
+    pub points_name: String,
+    /// Frames per second: the stage's time codes per second.
+    pub fps: f64,
+    /// The last frame written so far: the stage's end time code.
+    pub last_frame: u32,
+    /// Diameter drawn for each particle, in metres.
+    pub width: f32,
+    /// The colliders' shapes, about their reference points.
+    pub colliders: Vec<UsdShape>,
+}
+
+/// A collider's shape about its reference point (the prim's translate).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum UsdShape {
+    /// A square of half edge `half_size` through the point, facing `normal`.
+    Plane {
+        /// Unit normal of the free side.
+        normal: Vec3,
+        /// Half the square's edge in metres.
+        half_size: f32,
+    },
+    /// A ball.
+    Sphere {
+        /// Radius in metres.
+        radius: f32,
+    },
+    /// An axis-aligned box.
+    Box {
+        /// Edge lengths in metres.
+        size: Vec3,
+    },
+}
+
+/// Writes frame `frame`'s clip into `folder` (the run folder) with the
+/// colliders' reference points at `colliders`, then the clip manifest and
+/// the stage, each atomically.
+pub fn write_usd_frame(
+    folder: &Path,
+    stage: &UsdStage,
+    frame: &FrameData,
+    colliders: &[Vec3],
+) -> Result<(), IoError> {
+    frame.validate().map_err(|problem| IoError::InvalidFrame {
+        path: folder.join(clip_name(frame.index)),
+        problem,
+    })?;
+    let files = [
+        (
+            clip_name(frame.index),
+            encode_usd_clip(stage, frame, colliders),
+        ),
+        (MANIFEST_FILE.to_string(), encode_usd_manifest(stage, frame)),
+        (STAGE_FILE.to_string(), encode_usd_stage(stage, frame)),
+    ];
+    for (name, text) in files {
+        write_atomically(&folder.join(name), |out| out.write_all(text.as_bytes()))?;
+    }
+    Ok(())
+}
+
+/// One attribute of the points prim as USD declares it.
+struct Declaration {
+    /// The USD value type, e.g. `float[]`.
+    type_name: &'static str,
+    /// The attribute's name on the prim, e.g. `primvars:density`.
+    name: String,
+}
+
+/// The time-sampled attributes of the points prim: positions, extent, then
+/// one per cached attribute (`velocity` as UsdGeom's `velocities`).
+fn declarations(frame: &FrameData) -> Vec<Declaration> {
+    let mut list = vec![
+        Declaration {
+            type_name: "point3f[]",
+            name: "points".to_string(),
+        },
+        Declaration {
+            type_name: "float3[]",
+            name: "extent".to_string(),
+        },
+    ];
+    for attribute in &frame.attributes {
+        let (type_name, name) = match attribute.values {
+            AttributeValues::Vector(_) if attribute.name == "velocity" => {
+                ("vector3f[]", "velocities".to_string())
+            }
+            AttributeValues::Vector(_) => ("vector3f[]", primvar_name(&attribute.name)),
+            AttributeValues::Scalar(_) => ("float[]", primvar_name(&attribute.name)),
+            AttributeValues::Integer(_) => ("int[]", primvar_name(&attribute.name)),
+        };
+        list.push(Declaration { type_name, name });
+    }
+    list
+}
+
+/// A cache attribute's primvar: `-` and `.` are not allowed in USD names.
+fn primvar_name(attribute: &str) -> String {
+    format!("primvars:{}", attribute.replace(['-', '.'], "_"))
+}
+
+/// The stage: metadata, the points prim's declarations and the colliders.
+pub fn encode_usd_stage(stage: &UsdStage, frame: &FrameData) -> String {
+    let last = stage.last_frame;
+    let mut text = String::new();
+    // Writing into a String cannot fail.
+    let _ = write!(
+        text,
+        "#usda 1.0\n(\n    defaultPrim = \"World\"\n    startTimeCode = 0\n    \
+         endTimeCode = {last}\n    timeCodesPerSecond = {fps}\n    framesPerSecond = {fps}\n    \
+         upAxis = \"Y\"\n    metersPerUnit = 1\n)\n\n\
+         def Xform \"World\" (\n    clips = {{\n        dictionary default = {{\n            \
+         string templateAssetPath = \"{CLIP_TEMPLATE}\"\n            \
+         double templateStartTime = 0\n            double templateEndTime = {last}\n            \
+         double templateStride = 1\n            \
+         asset manifestAssetPath = @{MANIFEST_FILE}@\n            \
+         string primPath = \"/World\"\n        }}\n    }}\n)\n{{\n",
+        fps = stage.fps,
+    );
+    let _ = write!(
+        text,
+        "    def Points \"{}\"\n    {{\n        float[] widths = [{}] (interpolation = \"constant\")\n",
+        stage.points_name, stage.width
+    );
+    for declaration in declarations(frame) {
+        let metadata = if declaration.name.starts_with("primvars:") {
+            " (interpolation = \"vertex\")"
+        } else {
+            ""
+        };
+        let _ = writeln!(
+            text,
+            "        {} {}{metadata}",
+            declaration.type_name, declaration.name
+        );
+    }
+    text.push_str("    }\n");
+    for (index, shape) in stage.colliders.iter().enumerate() {
+        push_collider(&mut text, index, shape);
+    }
+    text.push_str("}\n");
+    text
+}
+
+/// A collider prim, its translate left to the clips.
+fn push_collider(text: &mut String, index: usize, shape: &UsdShape) {
+    let (kind, body, scaled) = match *shape {
+        UsdShape::Plane { normal, half_size } => ("Mesh", plane_mesh(normal, half_size), false),
+        UsdShape::Sphere { radius } => (
+            "Sphere",
+            format!("        double radius = {radius}\n"),
+            false,
+        ),
+        UsdShape::Box { .. } => ("Cube", "        double size = 1\n".to_string(), true),
+    };
+    let _ = write!(text, "    def {kind} \"Collider{index}\"\n    {{\n{body}");
+    text.push_str("        double3 xformOp:translate\n");
+    if let (true, UsdShape::Box { size }) = (scaled, shape) {
+        let _ = writeln!(text, "        float3 xformOp:scale = {}", tuple(*size));
+        text.push_str(
+            "        uniform token[] xformOpOrder = [\"xformOp:translate\", \"xformOp:scale\"]\n",
+        );
+    } else {
+        text.push_str("        uniform token[] xformOpOrder = [\"xformOp:translate\"]\n");
+    }
+    text.push_str("    }\n");
+}
+
+/// A square quad through the origin facing `normal`, counter-clockwise seen
+/// from the free side.
+fn plane_mesh(normal: Vec3, half_size: f32) -> String {
+    let (u, v) = normal.any_orthonormal_pair();
+    let corners = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+        .map(|(a, b)| tuple((u * a + v * b) * half_size));
+    format!(
+        "        int[] faceVertexCounts = [4]\n        int[] faceVertexIndices = [0, 1, 2, 3]\n        \
+         point3f[] points = [{}]\n        uniform token subdivisionScheme = \"none\"\n",
+        corners.join(", ")
+    )
+}
+
+/// The clip manifest: every attribute that the clips give samples to.
+pub fn encode_usd_manifest(stage: &UsdStage, frame: &FrameData) -> String {
+    let mut text = format!(
+        "#usda 1.0\n\nover \"World\"\n{{\n    over \"{}\"\n    {{\n",
+        stage.points_name
+    );
+    for declaration in declarations(frame) {
+        let _ = writeln!(
+            text,
+            "        {} {}",
+            declaration.type_name, declaration.name
+        );
+    }
+    text.push_str("    }\n");
+    for index in 0..stage.colliders.len() {
+        let _ = write!(
+            text,
+            "    over \"Collider{index}\"\n    {{\n        double3 xformOp:translate\n    }}\n"
+        );
+    }
+    text.push_str("}\n");
+    text
+}
+
+/// Frame `frame`'s clip: the samples at its time code.
+pub fn encode_usd_clip(stage: &UsdStage, frame: &FrameData, colliders: &[Vec3]) -> String {
+    let code = frame.index;
+    let mut text = format!(
+        "#usda 1.0\n\nover \"World\"\n{{\n    over \"{}\"\n    {{\n",
+        stage.points_name
+    );
+    let samples = declarations(frame);
+    let (low, high) = extent(frame.positions, stage.width * 0.5);
+    let mut values = vec![
+        vectors(frame.positions),
+        format!("[{}, {}]", tuple(low), tuple(high)),
+    ];
+    values.extend(frame.attributes.iter().map(|a| match a.values {
+        AttributeValues::Vector(data) => vectors(data),
+        AttributeValues::Scalar(data) => list(data.iter()),
+        AttributeValues::Integer(data) => {
+            list(data.iter().map(|&n| i32::try_from(n).unwrap_or(i32::MAX)))
+        }
+    }));
+    for (declaration, value) in samples.iter().zip(values) {
+        let _ = writeln!(
+            text,
+            "        {} {}.timeSamples = {{ {code}: {value} }}",
+            declaration.type_name, declaration.name
+        );
+    }
+    text.push_str("    }\n");
+    for (index, position) in colliders.iter().enumerate() {
+        let _ = write!(
+            text,
+            "    over \"Collider{index}\"\n    {{\n        \
+             double3 xformOp:translate.timeSamples = {{ {code}: {} }}\n    }}\n",
+            tuple(*position)
+        );
+    }
+    text.push_str("}\n");
+    text
+}
+
+/// The bounds of `positions` grown by `margin` (zero where there are none).
+fn extent(positions: &[Vec3], margin: f32) -> (Vec3, Vec3) {
+    if positions.is_empty() {
+        return (Vec3::ZERO, Vec3::ZERO);
+    }
+    let (low, high) = positions.iter().fold(
+        (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)),
+        |(low, high), &p| (low.min(p), high.max(p)),
+    );
+    (low - margin, high + margin)
+}
+
+/// `(x, y, z)`, each the shortest text that reads back as the same f32.
+fn tuple(v: Vec3) -> String {
+    format!("({}, {}, {})", v.x, v.y, v.z)
+}
+
+/// `[(x, y, z), ...]`.
+fn vectors(data: &[Vec3]) -> String {
+    let mut text = String::with_capacity(data.len() * 32 + 2);
+    text.push('[');
+    for (index, v) in data.iter().enumerate() {
+        if index > 0 {
+            text.push_str(", ");
+        }
+        let _ = write!(text, "({}, {}, {})", v.x, v.y, v.z);
+    }
+    text.push(']');
+    text
+}
+
+/// `[a, b, ...]`.
+fn list<T: std::fmt::Display>(data: impl Iterator<Item = T>) -> String {
+    let mut text = String::from("[");
+    for (index, value) in data.enumerate() {
+        if index > 0 {
+            text.push_str(", ");
+        }
+        let _ = write!(text, "{value}");
+    }
+    text.push(']');
+    text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Attribute;
+
+    fn stage() -> UsdStage {
+        UsdStage {
+            points_name: "Snow".to_string(),
+            fps: 24.0,
+            last_frame: 3,
+            width: 0.02,
+            colliders: vec![
+                UsdShape::Plane {
+                    normal: Vec3::Y,
+                    half_size: 1.0,
+                },
+                UsdShape::Box {
+                    size: Vec3::new(1.0, 2.0, 3.0),
+                },
+            ],
+        }
+    }
+
+    #[test]
+    fn the_clip_holds_the_frame_samples_at_its_time_code() {
+        let positions = [Vec3::new(0.5, 1.0, 0.25), Vec3::new(0.0, 0.1, 2.0)];
+        let density = [400.0, 350.5];
+        let frame = FrameData::new(3, 0.125, &positions)
+            .with_attribute(Attribute::vector("velocity", &positions))
+            .with_attribute(Attribute::scalar("plastic-j", &density));
+        let clip = encode_usd_clip(&stage(), &frame, &[Vec3::ZERO, Vec3::X]);
+        assert!(
+            clip.contains("point3f[] points.timeSamples = { 3: [(0.5, 1, 0.25), (0, 0.1, 2)] }")
+        );
+        assert!(clip.contains("vector3f[] velocities.timeSamples = { 3: ["));
+        assert!(clip.contains("float[] primvars:plastic_j.timeSamples = { 3: [400, 350.5] }"));
+        assert!(clip.contains("float3[] extent.timeSamples = { 3: [(-0.01, "));
+        assert!(clip.contains("double3 xformOp:translate.timeSamples = { 3: (1, 0, 0) }"));
+    }
+
+    #[test]
+    fn the_stage_names_the_range_the_clips_and_the_colliders() {
+        let positions = [Vec3::ONE];
+        let frame = FrameData::new(3, 0.125, &positions);
+        let text = encode_usd_stage(&stage(), &frame);
+        for line in [
+            "endTimeCode = 3",
+            "timeCodesPerSecond = 24",
+            "upAxis = \"Y\"",
+            "metersPerUnit = 1",
+            "string templateAssetPath = \"usd/frame.#####.usda\"",
+            "double templateEndTime = 3",
+            "def Points \"Snow\"",
+            "float[] widths = [0.02] (interpolation = \"constant\")",
+            "def Mesh \"Collider0\"",
+            "def Cube \"Collider1\"",
+            "float3 xformOp:scale = (1, 2, 3)",
+        ] {
+            assert!(text.contains(line), "{line} missing from\n{text}");
+        }
+        assert_eq!(clip_name(3), "usd/frame.00003.usda");
+    }
+
+    #[test]
+    fn a_plane_quad_faces_its_normal() {
+        let (u, v) = Vec3::Z.any_orthonormal_pair();
+        assert!((u.cross(v) - Vec3::Z).length() < 1e-6);
+        assert!(plane_mesh(Vec3::Z, 2.0).contains("faceVertexIndices = [0, 1, 2, 3]"));
+    }
+}
