@@ -1,16 +1,19 @@
 //! A frame's caches: the scene's `[output] attributes` in each of its
 //! `[output] formats` (binary PLY, VTK PolyData), the ParaView collection
-//! (PVD) that lists the VTK frames by time, and a snow frame's OpenVDB
-//! volumes (`vdb`, see [`crate::volumes`]).
+//! (PVD) that lists the VTK frames by time, a snow frame's OpenVDB
+//! volumes (`vdb`, see [`crate::volumes`]) and the run's USD stage (`usd`,
+//! see [`crate::usd_stage`]).
 
 use firn_core::scene::{Attribute as SceneAttribute, CacheFormat, Scene};
 use firn_io::{
-    Attribute, FloatGrid, FrameData, IoError, PvdCollection, write_ply, write_vdb, write_vtp,
+    Attribute, FloatGrid, FrameData, IoError, PvdCollection, write_ply, write_usd_frame, write_vdb,
+    write_vtp,
 };
 use firn_mpm::{Particles, Simulation};
 
 use crate::run_dir::RunDirectory;
 use crate::simulation::HostState;
+use crate::usd_stage::{collider_positions, usd_stage};
 use crate::volumes::snow_volumes;
 
 /// Writes frame `index` of `state` in every cache format of its scene into
@@ -28,7 +31,7 @@ pub fn write_frame(
             let frame = FrameData::new(index, flow.time(), flow.positions())
                 .with_attribute(Attribute::vector("velocity", flow.velocities()))
                 .with_attribute(Attribute::scalar("age", flow.ages()));
-            write_caches(&flow.scene().output.formats, &frame, &[], run, pvd)
+            write_caches(flow.scene(), &frame, &[], run, pvd)
         }
     }
 }
@@ -72,7 +75,7 @@ fn write_snow_frame(
     } else {
         Vec::new()
     };
-    write_caches(&scene.output.formats, &frame, &volumes, run, pvd)
+    write_caches(scene, &frame, &volumes, run, pvd)
 }
 
 /// The OpenVDB grids of a snow frame, as the scene's `[output.vdb]` asks.
@@ -92,17 +95,17 @@ fn scene_volumes(scene: &Scene, particles: &Particles) -> Vec<FloatGrid> {
     )
 }
 
-/// Writes `frame` in each of `formats` into `run` (`volumes` for `vdb`);
-/// returns the files' paths relative to the run directory.
+/// Writes `frame` in each of `scene`'s formats into `run` (`volumes` for
+/// `vdb`); returns the files' paths relative to the run directory.
 fn write_caches(
-    formats: &[CacheFormat],
+    scene: &Scene,
     frame: &FrameData,
     volumes: &[FloatGrid],
     run: &RunDirectory,
     pvd: &mut PvdCollection,
 ) -> Result<Vec<String>, IoError> {
     let mut files = Vec::new();
-    for &format in formats {
+    for &format in &scene.output.formats {
         let name = RunDirectory::cache_name(format, frame.index);
         let path = run.path().join(&name);
         match format {
@@ -114,6 +117,12 @@ fn write_caches(
                 pvd.write(&run.collection_path())?;
             }
             CacheFormat::Vdb => write_vdb(&path, volumes)?,
+            CacheFormat::Usd => write_usd_frame(
+                run.path(),
+                &usd_stage(scene, frame.index),
+                frame,
+                &collider_positions(scene, frame.time),
+            )?,
         }
         files.push(name);
     }

@@ -29,6 +29,7 @@ pub mod pictures;
 pub mod recording;
 pub mod run_dir;
 pub mod simulation;
+pub mod usd_stage;
 pub mod volumes;
 
 pub use backend::{Chosen, Placement, choose_backend};

@@ -100,6 +100,7 @@ impl RunDirectory {
             CacheFormat::Ply => "ply",
             CacheFormat::Vtk => "vtp",
             CacheFormat::Vdb => "vdb",
+            CacheFormat::Usd => return firn_io::usd::clip_name(index),
         };
         format!("{}/frame_{index:05}.{extension}", cache_folder(format))
     }
@@ -211,6 +212,7 @@ fn cache_folder(format: CacheFormat) -> &'static str {
         CacheFormat::Ply => "ply",
         CacheFormat::Vtk => "vtk",
         CacheFormat::Vdb => "vdb",
+        CacheFormat::Usd => firn_io::usd::CLIP_FOLDER,
     }
 }
 
@@ -236,6 +238,10 @@ mod tests {
         assert_eq!(
             RunDirectory::cache_name(CacheFormat::Vdb, 4),
             "vdb/frame_00004.vdb"
+        );
+        assert_eq!(
+            RunDirectory::cache_name(CacheFormat::Usd, 7),
+            "usd/frame.00007.usda"
         );
         assert_eq!(
             RunDirectory::image_name(RenderStyle::Volume, 3),

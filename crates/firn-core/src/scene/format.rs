@@ -951,6 +951,7 @@ enum RawFormat {
     Ply,
     Vtk,
     Vdb,
+    Usd,
 }
 
 #[derive(Clone, Copy, Deserialize)]
@@ -1657,6 +1658,7 @@ fn resolve_output(raw: Option<RawOutput>, name: &str, kind: &SceneKind) -> Outpu
                 RawFormat::Ply => CacheFormat::Ply,
                 RawFormat::Vtk => CacheFormat::Vtk,
                 RawFormat::Vdb => CacheFormat::Vdb,
+                RawFormat::Usd => CacheFormat::Usd,
             })
             .collect()
     });

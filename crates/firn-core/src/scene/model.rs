@@ -746,6 +746,10 @@ pub enum CacheFormat {
     /// OpenVDB volumes (.vdb): the snow's density, optionally its surface as a
     /// level set (Blender, Houdini); see [`VdbSettings`].
     Vdb,
+    /// One USD stage per run (`particles.usda`, per-frame value clips in
+    /// `usd/`): the particles as time-sampled points, and the colliders
+    /// (Houdini, Omniverse, Blender).
+    Usd,
 }
 
 /// The `[output.vdb]` table: how the `vdb` format turns particles into

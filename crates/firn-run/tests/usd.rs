@@ -1,0 +1,205 @@
+//! A run's `usd` stage opened by Pixar's USD (`usd-core` from PyPI, the
+//! `pxr` module): the prim type, time codes and rate, and several frames'
+//! points against the run's PLY caches; and a resumed run's stage against an
+//! uninterrupted one's. The python is `FIRN_USD_PYTHON`, else `python3`;
+//! the pxr test is skipped where `pxr` is missing, unless
+//! `FIRN_REQUIRE_USD=1` (as `.ci/run` sets it).
+
+use std::path::Path;
+use std::process::Command;
+
+use firn_core::Scene;
+use firn_io::{PlyValues, read_ply};
+use firn_run::recording::Observer;
+use firn_run::{Placement, Recording, RunDirectory, Solver};
+
+/// A slab of snow falling past a moving ball onto a floor plane: 5 frames.
+const SCENE: &str = r#"
+format = 1
+name = "usd-slab"
+
+[domain]
+max = [1.0, 1.0, 1.0]
+cell_size = 0.1
+
+[time]
+duration = 0.2
+fps = 20
+
+[[bodies]]
+shape = "box"
+center = [0.5, 0.4, 0.5]
+size = [0.3, 0.2, 0.3]
+velocity = [0.0, -1.0, 0.0]
+
+[[colliders]]
+shape = "plane"
+point = [0.0, 0.1, 0.0]
+normal = [0.0, 1.0, 0.0]
+
+[[colliders]]
+shape = "sphere"
+center = [0.2, 0.7, 0.2]
+radius = 0.1
+velocity = [1.0, 0.0, 0.0]
+
+[render]
+enabled = false
+
+[output]
+formats = ["ply", "usd"]
+attributes = ["velocity", "plastic-j", "density"]
+checkpoint_every = 1
+"#;
+
+/// Opens the stage `sys.argv[1]`; prints the prim type, the time codes and
+/// rate, the primvars, the points' sample times and the ball's translate at 2, then per frame of
+/// `sys.argv[2:]` its index, point count and points.
+const READ: &str = "
+import sys
+from pxr import Usd, UsdGeom
+stage = Usd.Stage.Open(sys.argv[1])
+prim = stage.GetPrimAtPath('/World/Snow')
+points = UsdGeom.Points(prim)
+names = sorted(p.GetPrimvarName() for p in UsdGeom.PrimvarsAPI(prim).GetAuthoredPrimvars())
+print(prim.GetTypeName(), stage.GetStartTimeCode(), stage.GetEndTimeCode(),
+      stage.GetTimeCodesPerSecond(), UsdGeom.GetStageUpAxis(stage),
+      UsdGeom.GetStageMetersPerUnit(stage), ','.join(names),
+      *points.GetPointsAttr().GetTimeSamples())
+ball = stage.GetPrimAtPath('/World/Collider1')
+print(ball.GetTypeName(), *UsdGeom.Xformable(ball).ComputeLocalToWorldTransform(2).ExtractTranslation())
+for frame in sys.argv[2:]:
+    t = float(frame)
+    xyz = [repr(c) for p in points.GetPointsAttr().Get(t) for c in p]
+    velocities = len(points.GetVelocitiesAttr().Get(t))
+    print(frame, len(xyz) // 3, velocities, *xyz)
+";
+
+/// The frames compared with the PLY caches.
+const FRAMES: [u32; 3] = [0, 2, 4];
+
+/// The python to run `pxr` with.
+fn python() -> String {
+    std::env::var("FIRN_USD_PYTHON").unwrap_or_else(|_| "python3".to_string())
+}
+
+/// Whether `pxr` imports; panics where it must and does not.
+fn usd_available() -> bool {
+    let imports = Command::new(python())
+        .args(["-c", "from pxr import Usd"])
+        .output()
+        .is_ok_and(|output| output.status.success());
+    if !imports && std::env::var("FIRN_REQUIRE_USD").as_deref() == Ok("1") {
+        panic!("FIRN_REQUIRE_USD=1 but {} cannot import pxr", python());
+    }
+    if !imports {
+        eprintln!(
+            "skipped: {} cannot import pxr (pip install usd-core)",
+            python()
+        );
+    }
+    imports
+}
+
+/// An observer that draws nothing and never stops the run.
+struct Quiet;
+
+impl Observer for Quiet {}
+
+/// Records `scene` into `path` up to frame `last`.
+fn record(scene: &Scene, path: &Path, last: u32) {
+    let run = RunDirectory::new(path);
+    run.create(scene).unwrap();
+    let solver = Solver::new(scene.clone(), &Placement::Cpu).unwrap();
+    let mut recording = Recording::start(solver, run, None, &mut Quiet).unwrap();
+    recording.run_to(last, &mut Quiet).unwrap();
+}
+
+/// The positions of a PLY cache as x, y, z in a row.
+fn ply_positions(path: &Path) -> Vec<f32> {
+    let cloud = read_ply(path).unwrap();
+    let column = |name| match cloud.column(name) {
+        Some(PlyValues::Float(values)) => values.clone(),
+        _ => panic!("{name} missing from {}", path.display()),
+    };
+    let (x, y, z) = (column("x"), column("y"), column("z"));
+    (0..x.len()).flat_map(|i| [x[i], y[i], z[i]]).collect()
+}
+
+fn scene() -> Scene {
+    Scene::from_toml_str(SCENE, "usd-slab.toml").expect("the scene is valid")
+}
+
+#[test]
+fn pixar_usd_reads_the_frames_of_the_ply_caches() {
+    if !usd_available() {
+        return;
+    }
+    let scene = scene();
+    let last = scene.time.frame_count();
+    assert_eq!(last, 4);
+    let folder = tempfile::tempdir().unwrap();
+    record(&scene, folder.path(), last);
+    let output = Command::new(python())
+        .args(["-c", READ])
+        .arg(folder.path().join("particles.usda"))
+        .args(FRAMES.map(|frame| frame.to_string()))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "pxr failed:\n{stderr}");
+    assert!(stderr.is_empty(), "pxr warned:\n{stderr}");
+    let text = String::from_utf8(output.stdout).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(
+        lines[0],
+        "Points 0.0 4.0 20.0 Y 1.0 density,plastic_j 0.0 1.0 2.0 3.0 4.0"
+    );
+    assert_eq!(
+        lines[1], "Sphere 0.3 0.7 0.2",
+        "the ball at frame 2 (0.1 s)"
+    );
+    for (line, frame) in lines[2..].iter().zip(FRAMES) {
+        let fields: Vec<&str> = line.split(' ').collect();
+        let ply = ply_positions(&folder.path().join(format!("ply/frame_{frame:05}.ply")));
+        assert_eq!(fields[0], frame.to_string());
+        assert_eq!(
+            fields[1].parse::<usize>().unwrap() * 3,
+            ply.len(),
+            "frame {frame}"
+        );
+        assert_eq!(fields[2], fields[1], "velocities at frame {frame}");
+        let usd: Vec<f32> = fields[3..].iter().map(|f| f.parse().unwrap()).collect();
+        assert!(
+            usd == ply,
+            "frame {frame}: pxr's points differ from the PLY's"
+        );
+        eprintln!(
+            "frame {frame}: pxr read {} points equal to the PLY's",
+            fields[1]
+        );
+    }
+    assert_eq!(lines.len(), 2 + FRAMES.len());
+}
+
+#[test]
+fn a_resumed_run_writes_the_same_stage_as_an_uninterrupted_one() {
+    let scene = scene();
+    let last = scene.time.frame_count();
+    let (whole, parts) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    record(&scene, whole.path(), last);
+    record(&scene, parts.path(), 2);
+    let mut resumed =
+        Recording::resume(scene, RunDirectory::new(parts.path()), &Placement::Cpu).unwrap();
+    assert_eq!(resumed.frame(), 2);
+    resumed.run_to(last, &mut Quiet).unwrap();
+    let mut files = vec![
+        "particles.usda".to_string(),
+        "usd/manifest.usda".to_string(),
+    ];
+    files.extend((0..=last).map(|frame| format!("usd/frame.{frame:05}.usda")));
+    for file in files {
+        let read = |folder: &Path| std::fs::read(folder.join(&file)).unwrap();
+        assert!(read(whole.path()) == read(parts.path()), "{file} differs");
+    }
+}
