@@ -1,0 +1,67 @@
+//! What the `usd` cache costs per frame at about 262k particles: the time to
+//! write a frame's clip, manifest and stage, and the clip's size. Ignored by
+//! default (it samples a quarter of a million particles); docs/benchmarks.md
+//! gives the command and the figures:
+//!
+//! `cargo test -p firn-run --test usd_cost -- --ignored --nocapture`
+
+use std::time::Instant;
+
+use firn_core::Scene;
+use firn_io::{Attribute, FrameData, write_usd_frame};
+use firn_mpm::Simulation;
+use firn_run::usd_stage::{collider_positions, usd_stage};
+
+/// A snowball of radius 20 cells above the floor: 268k particles.
+const SCENE: &str = r#"
+format = 1
+name = "usd-cost"
+
+[domain]
+max = [1.0, 1.0, 1.0]
+cell_size = 0.01
+
+[time]
+duration = 0.2
+fps = 30
+
+[[bodies]]
+shape = "sphere"
+center = [0.5, 0.3, 0.5]
+radius = 0.2
+velocity = [0.0, -3.0, 0.0]
+"#;
+
+#[test]
+#[ignore = "a quarter of a million particles: run with --ignored"]
+fn usd_cost_per_frame() {
+    let scene = Scene::from_toml_str(SCENE, "usd-cost.toml").unwrap();
+    let simulation = Simulation::new(scene.clone()).unwrap();
+    let particles = simulation.particles();
+    let folder = tempfile::tempdir().unwrap();
+    std::fs::create_dir(folder.path().join("usd")).unwrap();
+    println!("{} particles", particles.position.len());
+    for index in 0..3 {
+        let start = Instant::now();
+        let frame = FrameData::new(index, 0.0, &particles.position)
+            .with_attribute(Attribute::vector("velocity", &particles.velocity))
+            .with_attribute(Attribute::scalar("plastic_j", &particles.plastic_j));
+        let stage = usd_stage(&scene, index);
+        write_usd_frame(
+            folder.path(),
+            &stage,
+            &frame,
+            &collider_positions(&scene, 0.0),
+        )
+        .unwrap();
+        let clip = folder.path().join(firn_io::usd::clip_name(index));
+        println!(
+            "frame {index}: {:.1} ms, clip {} bytes, stage {} bytes",
+            start.elapsed().as_secs_f64() * 1e3,
+            std::fs::metadata(clip).unwrap().len(),
+            std::fs::metadata(folder.path().join("particles.usda"))
+                .unwrap()
+                .len()
+        );
+    }
+}
