@@ -3,43 +3,18 @@
 //! missing, unless `FIRN_REQUIRE_OPENVDB=1` (as `.ci/run` sets it).
 
 use std::path::Path;
-use std::process::Command;
 
 use firn_io::vdb::voxel_of;
 use firn_io::{FloatGrid, GridClass, Leaf, write_vdb};
 
-/// The interpreter that Debian's `python3-openvdb` installs into.
-const PYTHON: &str = "/usr/bin/python3";
+#[path = "support/openvdb.rs"]
+mod support;
 
-/// Whether `pyopenvdb` imports; panics where it must and does not.
-fn openvdb_available() -> bool {
-    let imports = Command::new(PYTHON)
-        .args(["-c", "import pyopenvdb"])
-        .output()
-        .is_ok_and(|output| output.status.success());
-    if !imports && std::env::var("FIRN_REQUIRE_OPENVDB").as_deref() == Ok("1") {
-        panic!("FIRN_REQUIRE_OPENVDB=1 but {PYTHON} cannot import pyopenvdb");
-    }
-    if !imports {
-        eprintln!("skipped: {PYTHON} cannot import pyopenvdb (apt-get install python3-openvdb)");
-    }
-    imports
-}
+use support::{openvdb_available, run_openvdb};
 
 /// Runs `script` with `path` as `sys.argv[1]` and returns its standard output.
 fn read_with_openvdb(path: &Path, script: &str) -> String {
-    let output = Command::new(PYTHON)
-        .args(["-c", script])
-        .arg(path)
-        .output()
-        .expect("python runs");
-    assert!(
-        output.status.success(),
-        "OpenVDB could not read {}:\n{}",
-        path.display(),
-        String::from_utf8_lossy(&output.stderr)
-    );
-    String::from_utf8(output.stdout).expect("utf-8")
+    run_openvdb(script, path, &[])
 }
 
 /// A fog volume over leaves on both sides of every axis' zero, in three

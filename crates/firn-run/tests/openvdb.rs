@@ -5,7 +5,6 @@
 //! `.ci/run` sets it).
 
 use std::path::Path;
-use std::process::Command;
 
 use firn_core::Scene;
 use firn_core::scene::CacheFormat;
@@ -16,8 +15,10 @@ use firn_run::volumes::snow_volumes;
 use firn_run::{Placement, RunDirectory, Solver};
 use glam::Vec3;
 
-/// The interpreter that Debian's `python3-openvdb` installs into.
-const PYTHON: &str = "/usr/bin/python3";
+#[path = "../../firn-io/tests/support/openvdb.rs"]
+mod support;
+
+use support::{openvdb_available, run_openvdb};
 
 /// A slab of snow falling onto the floor, cached as VDB volumes only.
 const SCENE: &str = r#"
@@ -62,21 +63,6 @@ surface = [g for g in grids if g.name == 'surface'][0].getConstAccessor()
 print(surface.getValue(tuple(int(c) for c in sys.argv[2:5])))
 ";
 
-/// Whether `pyopenvdb` imports; panics where it must and does not.
-fn openvdb_available() -> bool {
-    let imports = Command::new(PYTHON)
-        .args(["-c", "import pyopenvdb"])
-        .output()
-        .is_ok_and(|output| output.status.success());
-    if !imports && std::env::var("FIRN_REQUIRE_OPENVDB").as_deref() == Ok("1") {
-        panic!("FIRN_REQUIRE_OPENVDB=1 but {PYTHON} cannot import pyopenvdb");
-    }
-    if !imports {
-        eprintln!("skipped: {PYTHON} cannot import pyopenvdb (apt-get install python3-openvdb)");
-    }
-    imports
-}
-
 /// What OpenVDB says of one grid.
 #[derive(Debug)]
 struct GridReport {
@@ -89,19 +75,8 @@ struct GridReport {
 }
 
 fn read_with_openvdb(path: &Path, probe: [i32; 3]) -> (Vec<GridReport>, f32) {
-    let output = Command::new(PYTHON)
-        .args(["-c", READ])
-        .arg(path)
-        .args(probe.map(|c| c.to_string()))
-        .output()
-        .expect("python runs");
-    assert!(
-        output.status.success(),
-        "OpenVDB could not read {}:\n{}",
-        path.display(),
-        String::from_utf8_lossy(&output.stderr)
-    );
-    let text = String::from_utf8(output.stdout).unwrap();
+    let args = probe.map(|c| c.to_string());
+    let text = run_openvdb(READ, path, &args);
     let mut lines: Vec<&str> = text.lines().collect();
     let probed = lines.pop().unwrap().parse().unwrap();
     let grids = lines
