@@ -339,14 +339,14 @@ fn simd_words(simd: Option<&str>) -> String {
     simd.map(|name| format!(" simd={name}")).unwrap_or_default()
 }
 
-/// Prints a run's phase profile as a small table, or why there is none.
-fn print_phases(record: &BenchRecord) {
-    if record.backend.backend != "cpu" {
+/// Prints `phases` as a small table, or why a run on `backend` has none.
+fn print_phase_table(backend: &BackendRecord, phases: &[PhaseRecord]) {
+    if backend.backend != "cpu" {
         println!(
             "  phases: not measured on the GPU; --phases profiles the CPU solver (--backend cpu)"
         );
     }
-    for phase in &record.phases_ns_per_particle_substep {
+    for phase in phases {
         println!(
             "  {:<15} {:>9.2} ns  {:>5.1} %",
             phase.phase,
@@ -374,9 +374,16 @@ struct SceneRecord {
     max_solver_iterations: Option<u32>,
     unconverged_solves: Option<u64>,
     worst_solver_residual: Option<f32>,
+    /// The semi-implicit solve's time per node-row of a product with H
+    /// (its phase time over the solves' (iterations + 1) × active nodes; CPU
+    /// runs with the semi-implicit integrator only).
+    implicit_ns_per_node_product: Option<f64>,
     threads: usize,
     /// Instruction set of the batched particle update (CPU runs only).
     simd: Option<&'static str>,
+    /// Nanoseconds per particle-substep in each phase of the step (CPU
+    /// runs only; empty on the GPU).
+    phases_ns_per_particle_substep: Vec<PhaseRecord>,
     /// Where it ran.
     #[serde(flatten)]
     backend: BackendRecord,
@@ -441,7 +448,7 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
                 );
                 record.backend.print_memory();
                 if args.phases {
-                    print_phases(&record);
+                    print_phase_table(&record.backend, &record.phases_ns_per_particle_substep);
                 }
                 records.push(record);
             }
@@ -520,6 +527,16 @@ fn measure_scene(path: &std::path::Path, args: &BenchArgs) -> Result<SceneRecord
     let substeps = solver.steps();
     let particles = solver.particle_count();
     let stats = solver.solver_stats();
+    let times = solver.phase_times();
+    let implicit_ns_per_node_product = match (times, stats) {
+        (Some(times), Some(stats)) => stats
+            .seconds_per_node_product(times.implicit_solve)
+            .map(|seconds| seconds * 1e9),
+        _ => None,
+    };
+    let phases = times
+        .map(|times| phase_records(times, substeps as u32, particles))
+        .unwrap_or_default();
     let record = SceneRecord {
         scene: path.display().to_string(),
         integrator: match integrator {
@@ -539,8 +556,10 @@ fn measure_scene(path: &std::path::Path, args: &BenchArgs) -> Result<SceneRecord
         max_solver_iterations: stats.map(|stats| stats.max_iterations),
         unconverged_solves: stats.map(|stats| stats.unconverged_steps),
         worst_solver_residual: stats.map(|stats| stats.worst_residual),
+        implicit_ns_per_node_product,
         threads: rayon::current_num_threads(),
         simd: solver.options().simd.map(Simd::name),
+        phases_ns_per_particle_substep: phases,
         backend: BackendRecord::of(&solver, args),
     };
     let iterations = match (record.mean_solver_iterations, record.max_solver_iterations) {
@@ -550,8 +569,12 @@ fn measure_scene(path: &std::path::Path, args: &BenchArgs) -> Result<SceneRecord
         ),
         _ => String::new(),
     };
+    let per_node = record
+        .implicit_ns_per_node_product
+        .map(|ns| format!(" implicit_ns_per_node_product={ns:.1}"))
+        .unwrap_or_default();
     println!(
-        "firn{} scene={} integrator={} transfer={} particles={} simulated_s={} substeps={} mean_dt={:.3e} wall_s={:.3} wall_s_per_simulated_s={:.2} ns_per_particle_step={:.1}{iterations} threads={}{}",
+        "firn{} scene={} integrator={} transfer={} particles={} simulated_s={} substeps={} mean_dt={:.3e} wall_s={:.3} wall_s_per_simulated_s={:.2} ns_per_particle_step={:.1}{iterations}{per_node} threads={}{}",
         record.backend.words(),
         record.scene,
         record.integrator,
@@ -567,6 +590,9 @@ fn measure_scene(path: &std::path::Path, args: &BenchArgs) -> Result<SceneRecord
         simd_words(record.simd)
     );
     record.backend.print_memory();
+    if args.phases {
+        print_phase_table(&record.backend, &record.phases_ns_per_particle_substep);
+    }
     Ok(record)
 }
 

@@ -387,17 +387,31 @@ fn bench_times_a_scene_file_with_either_integrator() {
         "semi-implicit",
         "--dt",
         "2e-3",
+        "--phases",
         "--json",
         json.to_str().unwrap(),
     ]);
     assert!(output.status.success(), "{}", text(&output.stderr));
-    assert!(text(&output.stdout).contains("mean_iterations="));
+    let stdout = text(&output.stdout);
+    assert!(stdout.contains("mean_iterations="), "{stdout}");
+    assert!(stdout.contains("implicit_ns_per_node_product="), "{stdout}");
+    assert!(
+        stdout.contains("implicit_solve"),
+        "the phase table: {stdout}"
+    );
     let records: serde_json::Value =
         serde_json::from_str(&fs::read_to_string(&json).unwrap()).unwrap();
     let record = &records[0];
     assert_eq!(record["integrator"], "semi-implicit");
     assert_eq!(record["substeps"], 10);
     assert!(record["mean_solver_iterations"].as_f64().is_some());
+    assert!(record["implicit_ns_per_node_product"].as_f64().unwrap() > 0.0);
+    let phases = record["phases_ns_per_particle_substep"].as_array().unwrap();
+    let implicit = phases
+        .iter()
+        .find(|phase| phase["phase"] == "implicit_solve")
+        .expect("the implicit phase is profiled");
+    assert!(implicit["ns_per_particle_substep"].as_f64().unwrap() > 0.0);
     assert!(
         record["wall_seconds_per_simulated_second"]
             .as_f64()

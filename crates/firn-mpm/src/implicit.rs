@@ -512,6 +512,10 @@ pub struct SolverStats {
     /// Substeps that stopped at the iteration limit, or broke down, before
     /// reaching the tolerance; their velocities are the last iterate.
     pub unconverged_steps: u64,
+    /// Σ over substeps of (iterations + 1) × the nodes with mass: how many
+    /// node-rows of H v the solves computed (the first product is the
+    /// initial residual's), for the cost per product and node.
+    pub node_products: u64,
 }
 
 impl SolverStats {
@@ -524,7 +528,14 @@ impl SolverStats {
         }
     }
 
-    fn record(&mut self, report: SolveReport) {
+    /// The cost of the solves' products with H per node-row, from the
+    /// seconds they took (e.g. the implicit phase of a profile).
+    pub fn seconds_per_node_product(&self, seconds: f64) -> Option<f64> {
+        (self.node_products > 0).then(|| seconds / self.node_products as f64)
+    }
+
+    fn record(&mut self, report: SolveReport, active_nodes: u64) {
+        self.node_products += (u64::from(report.iterations) + 1) * active_nodes;
         self.steps += 1;
         self.total_iterations += u64::from(report.iterations);
         self.max_iterations = self.max_iterations.max(report.iterations);
@@ -571,11 +582,12 @@ impl ImplicitSolver {
         particles: &Particles,
         step: &ImplicitStep,
     ) -> SolveReport {
+        let active_nodes = grid.nodes.iter().filter(|node| node.mass() > 0.0).count();
         let report = match step.transfer {
             Transfer::PicFlip => self.solve_with(CubicGradient, grid, bins, particles, step),
             Transfer::Apic => self.solve_with(MlsGradient, grid, bins, particles, step),
         };
-        self.stats.record(report);
+        self.stats.record(report, active_nodes as u64);
         report
     }
 
