@@ -119,7 +119,7 @@ fn air_at_nodes(grid: &Grid, step: &NodeStep, wind: WindStep) -> Vec<NodeAir> {
                 if mass <= 0.0 {
                     continue;
                 }
-                let velocity = step.velocity_star(node);
+                let (_, velocity) = step.velocities(node);
                 let position = GridLayout::node_in_block(block, local);
                 air[local] = NodeAir {
                     wind: winds[local],
@@ -142,16 +142,16 @@ struct NodeStep<'a> {
 }
 
 impl NodeStep<'_> {
-    /// v_i* = v_i + Δt (f_i / m_i + g) of a node with mass, before the wind
-    /// and the collisions.
-    fn velocity_star(&self, node: &Node) -> Vec3 {
+    /// v_i = p_i / m_i and v_i* = v_i + Δt (f_i / m_i + g) of a node with
+    /// mass, before the wind and the collisions.
+    fn velocities(&self, node: &Node) -> (Vec3, Vec3) {
         let inverse_mass = 1.0 / node.mass();
         let velocity = node.velocity() * inverse_mass;
         let acceleration = match self.forces {
             GridForces::Separate => node.velocity_new() * inverse_mass + self.gravity,
             GridForces::InMomentum => self.gravity,
         };
-        velocity + acceleration * self.dt
+        (velocity, velocity + acceleration * self.dt)
     }
 
     /// Updates the nodes of one block, blown by `air` where there is wind;
@@ -163,7 +163,7 @@ impl NodeStep<'_> {
             if mass <= 0.0 {
                 continue;
             }
-            let mut velocity_new = self.velocity_star(node);
+            let (velocity, mut velocity_new) = self.velocities(node);
             if let Some(air) = air {
                 let blown = relax(velocity_new, air[local].wind, air[local].rate, self.dt);
                 impulse += f64::from(mass) * (blown - velocity_new).as_dvec3();
@@ -172,7 +172,7 @@ impl NodeStep<'_> {
             let position = self
                 .layout
                 .node_position(GridLayout::node_in_block(block, local));
-            node.velocity_mass = (node.velocity() * (1.0 / mass)).extend(mass);
+            node.velocity_mass = velocity.extend(mass);
             node.set_velocity_new(self.colliders.collide(position, velocity_new));
         }
         impulse
