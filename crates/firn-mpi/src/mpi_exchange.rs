@@ -1,6 +1,8 @@
 //! [`Exchange`] over MPI (rsmpi): the counts by `MPI_Alltoall`, the words
 //! by `MPI_Alltoallv`.
 
+use std::rc::Rc;
+
 use mpi::Count;
 use mpi::datatype::{Partition, PartitionMut};
 use mpi::topology::SimpleCommunicator;
@@ -8,16 +10,19 @@ use mpi::traits::{Communicator, CommunicatorCollectives};
 
 use crate::exchange::Exchange;
 
-/// The ranks of an MPI communicator (`MPI_COMM_WORLD` for a run).
+/// The ranks of an MPI communicator (`MPI_COMM_WORLD` for a run); clones
+/// share it.
 #[derive(Clone)]
 pub struct MpiExchange {
-    world: SimpleCommunicator,
+    world: Rc<SimpleCommunicator>,
 }
 
 impl MpiExchange {
     /// The ranks of `world`.
     pub fn new(world: SimpleCommunicator) -> MpiExchange {
-        MpiExchange { world }
+        MpiExchange {
+            world: Rc::new(world),
+        }
     }
 
     /// Stops every rank of the run with exit code `code` (`MPI_Abort`),
@@ -74,5 +79,33 @@ impl Exchange for MpiExchange {
             .zip(&receive_counts)
             .map(|(&start, &count)| receive[start as usize..(start + count) as usize].to_vec())
             .collect()
+    }
+}
+
+/// Variables that MPI launchers set in the processes they start: Open MPI's
+/// mpirun, MPICH's Hydra and PMIx-based launchers (srun, prterun).
+const LAUNCHER_VARIABLES: [&str; 3] = ["OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK"];
+
+/// MPI for the length of a run: finalized when dropped.
+pub struct MpiRun {
+    universe: mpi::environment::Universe,
+}
+
+impl MpiRun {
+    /// Starts MPI if an MPI launcher started this process; `None` for a
+    /// process started otherwise (it runs alone, without MPI).
+    pub fn launched() -> Option<MpiRun> {
+        let by_launcher = LAUNCHER_VARIABLES
+            .iter()
+            .any(|name| std::env::var_os(name).is_some());
+        if !by_launcher {
+            return None;
+        }
+        mpi::initialize().map(|universe| MpiRun { universe })
+    }
+
+    /// All ranks of the run.
+    pub fn exchange(&self) -> MpiExchange {
+        MpiExchange::new(self.universe.world())
     }
 }
