@@ -42,11 +42,29 @@ pub fn run(args: &RunArgs, mpi: &MpiRun) -> Result<(), Failure> {
         Err(Failure::BadInput(_)) => crate::EXIT_BAD_INPUT,
         Err(_) => crate::EXIT_FAILED,
     };
+    // Said before the others hear stop: mpirun ends the whole job once a
+    // rank exits with an error, and rank 0 could go before it had spoken.
+    let result = result.map_err(said);
     Command::Stop {
         code: i32::from(code),
     }
     .send(&exchange);
     result
+}
+
+/// Prints `failure`'s message now and returns it emptied, so that main
+/// prints it not again.
+fn said(failure: Failure) -> Failure {
+    match failure {
+        Failure::BadInput(message) => {
+            eprintln!("{message}");
+            Failure::BadInput(String::new())
+        }
+        Failure::Failed(message) => {
+            eprintln!("{message}");
+            Failure::Failed(String::new())
+        }
+    }
 }
 
 /// Every rank's verdict on the scene: when one could not load it (or it
@@ -56,11 +74,14 @@ fn agree_on<T>(exchange: &MpiExchange, verdict: Result<T, Failure>) -> Result<T,
     let failed = u32::from(verdict.is_err());
     let failures = exchange.all_gather(&[failed]);
     let first_failing = failures.iter().position(|flags| flags[0] == 1);
-    match (first_failing, verdict) {
-        (None, verdict) => verdict,
-        (Some(rank), Err(failure)) if rank == exchange.rank() => Err(failure),
+    let verdict = match (first_failing, verdict) {
+        (None, verdict) => return verdict,
+        (Some(rank), Err(failure)) if rank == exchange.rank() => Err(said(failure)),
         (Some(_), _) => Err(Failure::BadInput(String::new())),
-    }
+    };
+    // No rank exits (and has mpirun end the job) before the message is out.
+    exchange.all_gather(&[]);
+    verdict
 }
 
 /// A rank other than 0: follows rank 0 to the end and exits with the
