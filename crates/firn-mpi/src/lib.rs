@@ -26,5 +26,5 @@ pub mod slabs;
 
 pub use driver::{Command, RootStepper, follow};
 pub use exchange::{Exchange, ThreadRanks};
-pub use rank::{RankSnow, RankTraffic};
+pub use rank::{Phase, RankSnow, RankTraffic};
 pub use slabs::Slabs;

@@ -43,6 +43,47 @@ pub const REBALANCE_ABOVE: f64 = 1.1;
 /// hears from cells 4·x0 − 4 … 4·x1 + 3: still one column.
 const GHOST_COLUMNS: u32 = 1;
 
+/// The steps of a substep in which a rank exchanges with the others.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Phase {
+    /// The particle histogram that decides whether the slabs move.
+    Balance,
+    /// Particles that left the slab.
+    Migration,
+    /// The particle counts of the renumbering.
+    Renumbering,
+    /// The ghost copies.
+    Ghosts,
+    /// Failures and the next Δt.
+    Agreement,
+    /// The state gathered on rank 0 (frames, checkpoints).
+    Gathering,
+}
+
+impl Phase {
+    /// Every phase, in substep order.
+    pub const ALL: [Phase; 6] = [
+        Phase::Balance,
+        Phase::Migration,
+        Phase::Renumbering,
+        Phase::Ghosts,
+        Phase::Agreement,
+        Phase::Gathering,
+    ];
+
+    /// The phase's name in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Phase::Balance => "balance",
+            Phase::Migration => "migration",
+            Phase::Renumbering => "renumbering",
+            Phase::Ghosts => "ghosts",
+            Phase::Agreement => "agreement",
+            Phase::Gathering => "gathering",
+        }
+    }
+}
+
 /// What a rank sent and how it balanced, since it started.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RankTraffic {
@@ -56,8 +97,9 @@ pub struct RankTraffic {
     pub bytes_sent: u64,
     /// Times the slabs moved.
     pub rebalances: u64,
-    /// Seconds spent in exchanges (transfer and waiting for the others).
-    pub exchange_seconds: f64,
+    /// Seconds spent in exchanges (transfer and waiting for the others),
+    /// by [`Phase`] (in the order of [`Phase::ALL`]).
+    pub exchange_seconds: [f64; 6],
 }
 
 /// One rank's part of a split snow run.
@@ -169,7 +211,7 @@ impl<E: Exchange> RankSnow<E> {
         let result = self.simulation.step(until);
         let dt = self.agree(result)?;
         let (speed, waves) = self.simulation.motion_bounds();
-        let bounds = self.timed(|exchange| exchange.max_f32(&[speed, waves]));
+        let bounds = self.timed(Phase::Agreement, |exchange| exchange.max_f32(&[speed, waves]));
         self.simulation.set_motion_bounds(bounds[0], bounds[1]);
         self.traffic.substeps += 1;
         Ok(dt)
@@ -183,7 +225,7 @@ impl<E: Exchange> RankSnow<E> {
         for (p, &key) in self.keys.iter().enumerate() {
             crate::packing::pack(particles, key, p, &mut words);
         }
-        let parts = self.timed(|exchange| exchange.gather(words))?;
+        let parts = self.timed(Phase::Gathering, |exchange| exchange.gather(words))?;
         let mut all = KeyedParticles::default();
         for part in &parts {
             all.unpack(part);
@@ -206,11 +248,11 @@ impl<E: Exchange> RankSnow<E> {
         })
     }
 
-    /// Runs `exchange_with` on the exchange, timing it.
-    fn timed<T>(&mut self, exchange_with: impl FnOnce(&E) -> T) -> T {
+    /// Runs `exchange_with` on the exchange, timing it as part of `phase`.
+    fn timed<T>(&mut self, phase: Phase, exchange_with: impl FnOnce(&E) -> T) -> T {
         let started = std::time::Instant::now();
         let result = exchange_with(&self.exchange);
-        self.traffic.exchange_seconds += started.elapsed().as_secs_f64();
+        self.traffic.exchange_seconds[phase as usize] += started.elapsed().as_secs_f64();
         result
     }
 
@@ -243,7 +285,7 @@ impl<E: Exchange> RankSnow<E> {
         for column in self.columns(&own.particles) {
             histogram[column as usize] += 1;
         }
-        let histogram = self.timed(|exchange| exchange.sum_u64(&histogram));
+        let histogram = self.timed(Phase::Balance, |exchange| exchange.sum_u64(&histogram));
         let now = self.slabs.imbalance(&histogram);
         if now <= REBALANCE_ABOVE {
             return;
@@ -256,8 +298,9 @@ impl<E: Exchange> RankSnow<E> {
     }
 
     /// Sends the particles outside this rank's slab to their owners and
-    /// takes in those that entered it; the result is sorted by key.
-    fn migrate(&mut self, own: KeyedParticles) -> KeyedParticles {
+    /// takes in those that entered it; the result is sorted by key (`own`
+    /// is), reordered in one pass and only when a particle left or came.
+    fn migrate(&mut self, mut own: KeyedParticles) -> KeyedParticles {
         let me = self.exchange.rank();
         let columns = self.columns(&own.particles);
         let mut outgoing = vec![Vec::new(); self.exchange.size()];
@@ -272,14 +315,19 @@ impl<E: Exchange> RankSnow<E> {
             }
         }
         self.count_sent(&outgoing);
-        let incoming = self.timed(|exchange| exchange.exchange(outgoing));
-        let mut result = own;
-        result.permute(&kept, &mut self.buffers);
+        let incoming = self.timed(Phase::Migration, |exchange| exchange.exchange(outgoing));
+        let stayed = own.len();
         for words in &incoming {
-            result.unpack(words);
+            own.unpack(words);
         }
-        result.sort_by_key(&mut self.buffers);
-        result
+        if kept.len() == stayed && own.len() == stayed {
+            return own;
+        }
+        let mut arrived: Vec<u32> = (stayed as u32..own.len() as u32).collect();
+        arrived.sort_unstable_by_key(|&p| own.keys[p as usize]);
+        let order = merge_by_key(&kept, &arrived, &own.keys);
+        own.permute(&order, &mut self.buffers);
+        own
     }
 
     /// Renumbers the particles as one process reorders its array: sorted
@@ -296,7 +344,7 @@ impl<E: Exchange> RankSnow<E> {
         order.sort_by_key(|&p| blocks[p as usize]);
         own.permute(&order, &mut self.buffers);
         let count = split_u64(own.len() as u64);
-        let counts = self.timed(|exchange| exchange.all_gather(&count));
+        let counts = self.timed(Phase::Renumbering, |exchange| exchange.all_gather(&count));
         let first: u64 = counts[..self.exchange.rank()]
             .iter()
             .map(|words| join_u64(words[0], words[1]))
@@ -325,7 +373,7 @@ impl<E: Exchange> RankSnow<E> {
             }
         }
         self.count_sent(&outgoing);
-        let incoming = self.timed(|exchange| exchange.exchange(outgoing));
+        let incoming = self.timed(Phase::Ghosts, |exchange| exchange.exchange(outgoing));
         let mut ghosts = KeyedParticles::default();
         for words in &incoming {
             ghosts.unpack(words);
@@ -353,7 +401,7 @@ impl<E: Exchange> RankSnow<E> {
                 words
             }
         };
-        let statuses = self.timed(|exchange| exchange.all_gather(&status));
+        let statuses = self.timed(Phase::Agreement, |exchange| exchange.all_gather(&status));
         let first = statuses
             .iter()
             .enumerate()
@@ -400,6 +448,25 @@ impl<E: Exchange> RankSnow<E> {
             other => (0, SimulationError::SnapshotMismatch(other.to_string())),
         }
     }
+}
+
+/// The places of two lists, each sorted by key, merged into one sorted by
+/// key.
+fn merge_by_key(first: &[u32], second: &[u32], keys: &[u64]) -> Vec<u32> {
+    let mut merged = Vec::with_capacity(first.len() + second.len());
+    let (mut a, mut b) = (first.iter().peekable(), second.iter().peekable());
+    while let (Some(&&x), Some(&&y)) = (a.peek(), b.peek()) {
+        if keys[x as usize] < keys[y as usize] {
+            merged.push(x);
+            a.next();
+        } else {
+            merged.push(y);
+            b.next();
+        }
+    }
+    merged.extend(a);
+    merged.extend(b);
+    merged
 }
 
 /// What rank 0 sends each rank to start: the time, the substeps, the speed
