@@ -211,7 +211,9 @@ impl<E: Exchange> RankSnow<E> {
         let result = self.simulation.step(until);
         let dt = self.agree(result)?;
         let (speed, waves) = self.simulation.motion_bounds();
-        let bounds = self.timed(Phase::Agreement, |exchange| exchange.max_f32(&[speed, waves]));
+        let bounds = self.timed(Phase::Agreement, |exchange| {
+            exchange.max_f32(&[speed, waves])
+        });
         self.simulation.set_motion_bounds(bounds[0], bounds[1]);
         self.traffic.substeps += 1;
         Ok(dt)
