@@ -399,6 +399,10 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
                 Failure::Failed(format!("error: cannot start {count} threads: {error}"))
             })?;
     }
+    #[cfg(feature = "mpi")]
+    if let Some(mpi) = firn_mpi::mpi_exchange::MpiRun::launched() {
+        return crate::ranks::bench(&args, &mpi);
+    }
     if (args.render || args.flow || args.sweep.sweep.is_some())
         && matches!(args.backend, Some(BackendChoice::Gpu))
     {

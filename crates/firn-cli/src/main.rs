@@ -13,6 +13,8 @@ mod compare_layout;
 mod info;
 mod pictures;
 mod presets;
+#[cfg(feature = "mpi")]
+mod ranks;
 mod render;
 mod run;
 mod scene_source;
@@ -100,12 +102,20 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(Failure::BadInput(message)) => {
-            eprintln!("{message}");
+            say(&message);
             ExitCode::from(EXIT_BAD_INPUT)
         }
         Err(Failure::Failed(message)) => {
-            eprintln!("{message}");
+            say(&message);
             ExitCode::from(EXIT_FAILED)
         }
+    }
+}
+
+/// Prints a failure's message on stderr; an empty one (an MPI rank whose
+/// failure another rank reports) prints nothing.
+fn say(message: &str) {
+    if !message.is_empty() {
+        eprintln!("{message}");
     }
 }

@@ -62,6 +62,23 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
     // Before anything runs in parallel (loading fills bodies on the global
     // pool), so that the pool gets the asked-for size.
     configure_threads(args.threads)?;
+    #[cfg(feature = "mpi")]
+    if let Some(mpi) = firn_mpi::mpi_exchange::MpiRun::launched() {
+        return crate::ranks::run(&args, &mpi);
+    }
+    let (scene, scene_file) = scene_for(&args)?;
+    let chosen = choose_backend(&scene)?;
+    if let (Some(note), false) = (&chosen.note, args.quiet) {
+        eprintln!("{note}");
+    }
+    let placement = chosen.placement;
+    let described = placement.describe();
+    record(&args, scene, scene_file, &placement, &described, Ok)
+}
+
+/// The scene of `args` with the command line's overrides applied, and the
+/// file it came from.
+pub(crate) fn scene_for(args: &RunArgs) -> Result<(Scene, Option<PathBuf>), Failure> {
     let (mut scene, scene_file) = load_scene(args.scene.as_deref())?;
     if let Some(out) = &args.out {
         scene.output.directory = out.clone();
@@ -78,14 +95,23 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
     if let Some(choice) = args.backend {
         scene.compute.backend = choice.backend();
     }
-    let chosen = choose_backend(&scene)?;
-    if let (Some(note), false) = (&chosen.note, args.quiet) {
-        eprintln!("{note}");
-    }
-    let placement = chosen.placement;
+    Ok((scene, scene_file))
+}
+
+/// Records `scene` on `placement` (described as `described` in the start
+/// line) into its output directory, started or resumed as `args` say;
+/// `attach` may hand the recording a stepper before the first frame.
+pub(crate) fn record(
+    args: &RunArgs,
+    scene: Scene,
+    scene_file: Option<PathBuf>,
+    placement: &Placement,
+    described: &str,
+    attach: impl FnOnce(Recording) -> Result<Recording, RunError>,
+) -> Result<(), Failure> {
     // Before anything is written: a scene past the machine leaves no trace.
     Budget::of(&scene)
-        .check_placement(&scene, &placement)
+        .check_placement(&scene, placement)
         .map_err(|error| Failure::BadInput(format!("error: {error}")))?;
     let run = RunDirectory::new(scene.output.directory.clone());
     run.create(&scene).map_err(|error| {
@@ -106,15 +132,16 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
         bar: None,
         log_lines: !args.quiet && !std::io::stderr().is_terminal(),
     };
-    let mut recording = if args.resume {
-        Recording::resume(scene, run, &placement).map_err(resume_failure)?
+    let recording = if args.resume {
+        Recording::resume(scene, run, placement).map_err(resume_failure)?
     } else {
-        let solver = Solver::new(scene, &placement)
+        let solver = Solver::new(scene, placement)
             .map_err(|error| Failure::BadInput(format!("error: {error}")))?;
         Recording::start(solver, run, scene_file, &mut terminal).map_err(failed)?
     };
+    let mut recording = attach(recording).map_err(failed)?;
     if !args.quiet {
-        announce(&recording, last_frame, &placement);
+        announce(&recording, last_frame, described);
     }
     terminal.bar = Some(progress_bar(last_frame, recording.frame(), args.quiet));
     let started = Instant::now();
@@ -171,8 +198,8 @@ fn resume_failure(error: ResumeError) -> Failure {
     Failure::BadInput(format!("error: cannot resume: {error}\n  fix: {fix}"))
 }
 
-/// Says on stderr what runs where: the start line.
-fn announce(recording: &Recording, last_frame: u32, placement: &Placement) {
+/// Says on stderr what runs where (`described`): the start line.
+fn announce(recording: &Recording, last_frame: u32, described: &str) {
     let solver = recording.solver();
     eprintln!(
         "firn: {}: {} particles, frames {} to {}, on {}",
@@ -180,7 +207,7 @@ fn announce(recording: &Recording, last_frame: u32, placement: &Placement) {
         solver.particle_count(),
         recording.frame() + 1,
         last_frame,
-        placement.describe()
+        described
     );
 }
 

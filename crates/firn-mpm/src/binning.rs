@@ -228,8 +228,9 @@ fn runs_of(keys: &[u32]) -> Vec<Run> {
 /// log₂ of [`BLOCK_WIDTH`].
 const BLOCK_SHIFT: i32 = 2;
 
-/// Linear index of the block holding the cell of `position`.
-fn block_key(grid: &GridLayout, position: Vec3) -> usize {
+/// Linear index of the block holding the cell of `position` (clamped to
+/// the grid), the key the particles are sorted by.
+pub fn block_key(grid: &GridLayout, position: Vec3) -> usize {
     let (_, cell) = floor(grid.to_grid(position));
     let last = grid.blocks.as_ivec3() - IVec3::ONE;
     // ⌊cell / 4⌋ by an arithmetic shift, negative cells included.

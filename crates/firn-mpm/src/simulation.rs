@@ -26,7 +26,7 @@ use crate::wind::AirDrag;
 
 /// Particles are physically reordered by block every this many substeps, so
 /// that the scatter and gather stream through memory.
-const REORDER_INTERVAL: u64 = 16;
+pub const REORDER_INTERVAL: u64 = 16;
 
 /// How far (in cells) a particle may stray outside the domain before the run
 /// stops: the walls act on the grid, so snow can sit a fraction of a cell out.
@@ -213,6 +213,12 @@ pub struct Simulation {
     wind: Option<AirDrag>,
     /// Σ of the wind's impulse on the snow since this simulation was made.
     wind_impulse: DVec3,
+    /// When this simulation is one part of a run split between processes:
+    /// how many particles at the front of the arrays are its own (the rest
+    /// are ghosts, see [`Simulation::set_part`]).
+    owned: Option<usize>,
+    /// The bins of the own particles alone, which the gather visits.
+    owned_bins: Bins,
 }
 
 impl Simulation {
@@ -286,8 +292,60 @@ impl Simulation {
                 .as_ref()
                 .map(|wind| AirDrag::new(wind, domain.cell_size)),
             wind_impulse: DVec3::ZERO,
+            owned: None,
+            owned_bins: Bins::default(),
             scene,
         }
+    }
+
+    /// An empty part of a run split between processes (MPI ranks), at
+    /// simulated time `time` after `steps` substeps: [`Simulation::set_part`]
+    /// gives it particles, [`Simulation::set_motion_bounds`] the next Δt.
+    pub fn part(scene: Scene, time: f64, steps: u64) -> Simulation {
+        let mut part = Simulation::with_particles(scene, Particles::default(), time, steps);
+        part.owned = Some(0);
+        part
+    }
+
+    /// Makes this simulation one part of a run split between processes
+    /// (MPI ranks), for the substeps to come: `particles` replace its own;
+    /// the first `owned` are this part's, the rest are ghosts, copies of
+    /// other parts' particles near it. A substep scatters all of them but
+    /// updates only the owned ones (the ghosts keep their state; the caller
+    /// drops them), and it does not reorder the particles: the caller keeps
+    /// them in the order the whole run's array would have (see the MPI
+    /// section of docs/architecture.md). Every part must take the same Δt:
+    /// the caller reduces [`Simulation::motion_bounds`] over the parts and
+    /// hands the result back with [`Simulation::set_motion_bounds`].
+    pub fn set_part(&mut self, particles: Particles, owned: usize) {
+        assert!(
+            owned <= particles.len(),
+            "more owned particles than particles"
+        );
+        self.particles = particles;
+        self.owned = Some(owned);
+    }
+
+    /// Takes the particles out (leaving none), e.g. to send some of them to
+    /// another part; [`Simulation::set_part`] puts particles back.
+    pub fn take_particles(&mut self) -> Particles {
+        std::mem::take(&mut self.particles)
+    }
+
+    /// The largest |v_p|² and squared elastic wave speed of the particles
+    /// after the last substep: what the next Δt is made of.
+    pub fn motion_bounds(&self) -> (f32, f32) {
+        (
+            self.stats.max_speed_squared,
+            self.stats.max_wave_speed_squared,
+        )
+    }
+
+    /// Sets what the next Δt is made of (the maxima of
+    /// [`Simulation::motion_bounds`] over all parts of a split run).
+    pub fn set_motion_bounds(&mut self, max_speed_squared: f32, max_wave_speed_squared: f32) {
+        self.stats.max_speed_squared = max_speed_squared;
+        self.stats.max_wave_speed_squared = max_wave_speed_squared;
     }
 
     /// The largest squared wave speed of the particles as they are, with
@@ -353,7 +411,7 @@ impl Simulation {
         let dt = (next as f64).min(until - self.time).max(0.0) as f32;
         let layout = self.grid.layout;
         let mut clock = PhaseClock::start();
-        if self.steps.is_multiple_of(REORDER_INTERVAL) {
+        if self.owned.is_none() && self.steps.is_multiple_of(REORDER_INTERVAL) {
             self.bins.rebuild(&layout, &self.particles.position);
             self.particles
                 .permute(self.bins.order(), &mut self.permute_buffers);
@@ -416,10 +474,18 @@ impl Simulation {
             lower: self.scene.domain.min - tolerance,
             upper: self.scene.domain.max + tolerance,
         };
+        let gather_bins = match self.owned {
+            Some(owned) => {
+                self.owned_bins
+                    .rebuild(&layout, &self.particles.position[..owned]);
+                &self.owned_bins
+            }
+            None => &self.bins,
+        };
         let stats = match transfer_scheme {
             Transfer::PicFlip => gather_pic_flip(
                 &self.grid,
-                &self.bins,
+                gather_bins,
                 &mut self.particles,
                 self.scene.solver.flip_blend,
                 &context,
@@ -427,7 +493,7 @@ impl Simulation {
             ),
             Transfer::Apic => gather_apic(
                 &self.grid,
-                &self.bins,
+                gather_bins,
                 &mut self.particles,
                 &context,
                 self.simd,

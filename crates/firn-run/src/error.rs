@@ -48,6 +48,17 @@ pub enum RunError {
     /// A picture handed in by the front door could not be made.
     #[error("{0}")]
     Pictures(String),
+    /// Another process of a run split between processes (an MPI rank)
+    /// failed; its own message says why.
+    #[error("rank {rank} of {ranks}: {message}")]
+    Rank {
+        /// The failing rank.
+        rank: usize,
+        /// How many ranks the run has.
+        ranks: usize,
+        /// The failing rank's error message.
+        message: String,
+    },
 }
 
 /// Why a checkpoint file could not be read back.

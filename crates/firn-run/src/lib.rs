@@ -1,5 +1,7 @@
 //! firn-run: firn's app layer, shared by every front door (the `firn`
-//! command, the viewer, and later a Python module or MPI ranks): a scene
+//! command, the viewer, the Python module, and MPI ranks through
+//! firn-mpi, whose rank 0 drives a [`Recording`] with a
+//! [`Stepper`](recording::Stepper)): a scene
 //! simulated on the CPU or the GPU, snow or flow, turned into frames,
 //! checkpoints and a run directory, and a run directory read back.
 //!

@@ -34,6 +34,16 @@ pub struct Recording {
     scene_json: serde_json::Value,
     /// The solver's running totals when the previous frame was recorded.
     solver_totals: Option<SolverStats>,
+    /// Who advances the solver, if not the solver itself.
+    stepper: Option<Box<dyn Stepper>>,
+}
+
+/// Who brings a recording's solver to the end of each frame, when the
+/// solver does not step itself: the ranks of a run split between processes
+/// (firn-mpi), which step their parts and hand the whole state back.
+pub trait Stepper {
+    /// Brings `solver` to simulated time `until`; returns the substeps taken.
+    fn advance_to(&mut self, solver: &mut Solver, until: f64) -> Result<u32, RunError>;
 }
 
 /// What a front door does while a run is recorded. Every method does
@@ -140,6 +150,7 @@ impl Recording {
             frame: 0,
             scene_json,
             solver_totals: None,
+            stepper: None,
         };
         recording.record_frame(0, 0, Duration::ZERO, observer)?;
         Ok(recording)
@@ -182,7 +193,14 @@ impl Recording {
             frame: saved.frame,
             scene_json,
             solver_totals: None,
+            stepper: None,
         })
+    }
+
+    /// This recording with its solver advanced by `stepper` from now on.
+    pub fn with_stepper(mut self, stepper: Box<dyn Stepper>) -> Recording {
+        self.stepper = Some(stepper);
+        self
     }
 
     /// The solver.
@@ -281,10 +299,12 @@ impl Recording {
             frame,
             source: Box::new(error),
         };
-        let substeps = self
-            .solver
-            .advance_to(frame as f64 / fps)
-            .map_err(stopped)?;
+        let until = frame as f64 / fps;
+        let substeps = match &mut self.stepper {
+            Some(stepper) => stepper.advance_to(&mut self.solver, until),
+            None => self.solver.advance_to(until),
+        }
+        .map_err(stopped)?;
         self.solver.host().map_err(stopped)?;
         Ok(substeps)
     }

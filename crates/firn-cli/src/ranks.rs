@@ -1,0 +1,218 @@
+//! `firn run` and `firn bench` under an MPI launcher (the `mpi` feature):
+//! `mpirun -np N firn run SCENE` splits the snow between N ranks
+//! (firn-mpi). Every rank loads the scene; rank 0 records the run as one
+//! process would (the same caches, manifest and checkpoints, byte for
+//! byte), the other ranks step their slabs and follow rank 0's commands.
+
+use std::time::Instant;
+
+use firn_core::Scene;
+use firn_core::scene::Transfer;
+use firn_mpi::driver::refusal;
+use firn_mpi::exchange::{join_u64, split_u64};
+use firn_mpi::mpi_exchange::{MpiExchange, MpiRun};
+use firn_mpi::{Command, Exchange, Phase, RankSnow, RootStepper, follow};
+use firn_mpm::Snapshot;
+use firn_run::Placement;
+
+use crate::Failure;
+use crate::bench::{BenchArgs, failed, snowball_drop, transfer_name};
+use crate::run::{RunArgs, record, scene_for};
+
+/// Runs `args` as one rank of `mpi`'s run.
+pub fn run(args: &RunArgs, mpi: &MpiRun) -> Result<(), Failure> {
+    let exchange = mpi.exchange();
+    let ranks = exchange.size();
+    let scene = scene_for(args).and_then(|(scene, file)| match refusal(&scene, ranks) {
+        Some(reason) => Err(Failure::BadInput(format!("error: {reason}"))),
+        None => Ok((scene, file)),
+    });
+    let (scene, scene_file) = agree_on(&exchange, scene)?;
+    if exchange.rank() != 0 {
+        return follower(exchange, &scene);
+    }
+    let described = format!("the CPU, split between {ranks} MPI ranks");
+    let result = record(
+        args,
+        scene,
+        scene_file,
+        &Placement::Cpu,
+        &described,
+        |recording| {
+            let stepper = RootStepper::start(exchange.clone(), recording.solver())?;
+            Ok(recording.with_stepper(Box::new(stepper)))
+        },
+    );
+    let code = match &result {
+        Ok(()) => 0,
+        Err(Failure::BadInput(_)) => crate::EXIT_BAD_INPUT,
+        Err(_) => crate::EXIT_FAILED,
+    };
+    // Said before the others hear stop: mpirun ends the whole job once a
+    // rank exits with an error, and rank 0 could go before it had spoken.
+    let result = result.map_err(said);
+    Command::Stop {
+        code: i32::from(code),
+    }
+    .send(&exchange);
+    result
+}
+
+/// Prints `failure`'s message now and returns it emptied, so that main
+/// prints it not again.
+fn said(failure: Failure) -> Failure {
+    match failure {
+        Failure::BadInput(message) => {
+            eprintln!("{message}");
+            Failure::BadInput(String::new())
+        }
+        Failure::Failed(message) => {
+            eprintln!("{message}");
+            Failure::Failed(String::new())
+        }
+    }
+}
+
+/// Every rank's verdict on the scene: when one could not load it (or it
+/// cannot run split), every rank stops with exit code 2, and the lowest
+/// such rank says why.
+fn agree_on<T>(exchange: &MpiExchange, verdict: Result<T, Failure>) -> Result<T, Failure> {
+    let failed = u32::from(verdict.is_err());
+    let failures = exchange.all_gather(&[failed]);
+    let first_failing = failures.iter().position(|flags| flags[0] == 1);
+    let verdict = match (first_failing, verdict) {
+        (None, verdict) => return verdict,
+        (Some(rank), Err(failure)) if rank == exchange.rank() => Err(said(failure)),
+        (Some(_), _) => Err(Failure::BadInput(String::new())),
+    };
+    // No rank exits (and has mpirun end the job) before the message is out.
+    exchange.all_gather(&[]);
+    verdict
+}
+
+/// A rank other than 0: follows rank 0 to the end and exits with the
+/// run's exit code, leaving the message to rank 0.
+fn follower(exchange: MpiExchange, scene: &Scene) -> Result<(), Failure> {
+    match follow(exchange, scene) {
+        0 => Ok(()),
+        code if code == i32::from(crate::EXIT_BAD_INPUT) => Err(Failure::BadInput(String::new())),
+        _ => Err(Failure::Failed(String::new())),
+    }
+}
+
+/// `firn bench` under an MPI launcher: the snowball bench split between the
+/// ranks; rank 0 prints the speed and, per rank, its particles, the bytes
+/// it sent per substep and its milliseconds per substep in exchanges, by
+/// phase.
+pub fn bench(args: &BenchArgs, mpi: &MpiRun) -> Result<(), Failure> {
+    let exchange = mpi.exchange();
+    let refused = (args.scene.is_some() || args.render || args.flow || args.sweep.sweep.is_some())
+        .then(|| {
+            Failure::BadInput(
+                "error: under mpirun, firn bench measures the snowball bench only\n  fix: leave out --scene, --render, --flow and --sweep, or run without mpirun".into(),
+            )
+        });
+    agree_on(&exchange, refused.map_or(Ok(()), Err))?;
+    for &grid in &args.grid {
+        for &particles in &args.particles {
+            for &transfer in args.transfer.schemes() {
+                let scene = snowball_drop(particles, grid, transfer);
+                let measured = measure_split(&exchange, scene, args);
+                let verdict = measured.map(|record| {
+                    if let Some(parts) = record {
+                        print_split(&parts, grid, transfer, args.steps);
+                    }
+                });
+                agree_on(&exchange, verdict.map_err(said))?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// One rank's measurement: its particles, seconds, bytes sent and
+/// exchange seconds by phase over the timed substeps.
+struct RankMeasure {
+    particles: u64,
+    seconds: f64,
+    bytes_sent: u64,
+    exchange_seconds: [f64; 6],
+}
+
+/// Times `args.steps` substeps of `scene` split between the ranks after
+/// `args.warmup`; every rank's measurement on rank 0.
+fn measure_split(
+    exchange: &MpiExchange,
+    scene: Scene,
+    args: &BenchArgs,
+) -> Result<Option<Vec<RankMeasure>>, Failure> {
+    let snapshot = match exchange.rank() {
+        0 => Some(Snapshot::initial(&scene).map_err(|error| failed(error.into()))?),
+        _ => None,
+    };
+    let mut part = RankSnow::scatter(exchange.clone(), scene, snapshot);
+    for _ in 0..args.warmup {
+        part.step(f64::MAX).map_err(failed)?;
+    }
+    let before = part.traffic();
+    exchange.all_gather(&[]);
+    let started = Instant::now();
+    for _ in 0..args.steps {
+        part.step(f64::MAX).map_err(failed)?;
+    }
+    let seconds = started.elapsed().as_secs_f64();
+    let after = part.traffic();
+    let mut words = vec![part.owned() as u32];
+    words.extend(split_u64(seconds.to_bits()));
+    words.extend(split_u64(after.bytes_sent - before.bytes_sent));
+    for phase in Phase::ALL {
+        let spent =
+            after.exchange_seconds[phase as usize] - before.exchange_seconds[phase as usize];
+        words.extend(split_u64(spent.to_bits()));
+    }
+    let parts = exchange.gather(words);
+    Ok(parts.map(|parts| {
+        parts
+            .iter()
+            .map(|w| RankMeasure {
+                particles: u64::from(w[0]),
+                seconds: f64::from_bits(join_u64(w[1], w[2])),
+                bytes_sent: join_u64(w[3], w[4]),
+                exchange_seconds: std::array::from_fn(|phase| {
+                    f64::from_bits(join_u64(w[5 + 2 * phase], w[6 + 2 * phase]))
+                }),
+            })
+            .collect()
+    }))
+}
+
+/// Rank 0's report of a split bench: the speed (the slowest rank's time),
+/// then a line per rank.
+fn print_split(parts: &[RankMeasure], grid: u32, transfer: Transfer, steps: u32) {
+    let particles: u64 = parts.iter().map(|part| part.particles).sum();
+    let seconds = parts.iter().map(|part| part.seconds).fold(0.0, f64::max);
+    let substeps = f64::from(steps.max(1));
+    println!(
+        "firn mpi ranks={} threads={} transfer={} particles={particles} grid={grid} steps={steps} seconds={seconds:.3} ns_per_particle_step={:.2} substeps_per_s={:.2}",
+        parts.len(),
+        rayon::current_num_threads(),
+        transfer_name(transfer),
+        seconds * 1e9 / (substeps * particles as f64),
+        substeps / seconds,
+    );
+    for (rank, part) in parts.iter().enumerate() {
+        let phases: Vec<String> = Phase::ALL
+            .iter()
+            .map(|phase| {
+                let ms = part.exchange_seconds[*phase as usize] * 1e3 / substeps;
+                format!("{}={ms:.3}", phase.name())
+            })
+            .collect();
+        println!(
+            "  rank {rank}: particles={} bytes_sent_per_substep={:.0} exchange_ms_per_substep: {}",
+            part.particles,
+            part.bytes_sent as f64 / substeps,
+            phases.join(" ")
+        );
+    }
+}

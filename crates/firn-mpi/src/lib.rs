@@ -1,0 +1,30 @@
+//! firn-mpi: a snow simulation split between processes (MPI ranks), giving
+//! the same bits as one process for any rank count.
+//!
+//! The grid's blocks are cut into slabs of whole block columns along x
+//! ([`slabs`]); each rank owns the particles of its slab, holds copies
+//! (ghosts) of the particles within reach of its nodes, and steps them with
+//! [`firn_mpm::Simulation`] ([`rank`]). Particles carry their place in the
+//! one-process array, so every block sums its particles in the one-process
+//! order and every node gets the one-process bits without any partial sums
+//! sent (docs/architecture.md, "MPI").
+//!
+//! The ranks talk through one collective, [`exchange::Exchange`]: each rank
+//! hands every rank a buffer of words. [`exchange::ThreadRanks`] runs ranks
+//! as threads of one process (the tests); with the `mpi` feature,
+//! `MpiExchange` runs them on MPI (`mpirun -np N firn run SCENE`).
+//! [`driver`] plugs the ranks into [`firn_run::Recording`]: rank 0 writes
+//! the frames and checkpoints of the whole run, the others follow.
+
+pub mod driver;
+pub mod exchange;
+#[cfg(feature = "mpi")]
+pub mod mpi_exchange;
+pub mod packing;
+pub mod rank;
+pub mod slabs;
+
+pub use driver::{Command, RootStepper, follow};
+pub use exchange::{Exchange, ThreadRanks};
+pub use rank::{Phase, RankSnow, RankTraffic};
+pub use slabs::Slabs;

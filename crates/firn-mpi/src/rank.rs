@@ -1,0 +1,518 @@
+//! One rank's share of a split snow run: [`RankSnow`] owns the particles of
+//! its slab and steps them with [`Simulation`], exchanging particles with
+//! the other ranks every substep so that the result is the one process's
+//! bit for bit:
+//!
+//! 1. **migration**: particles whose block left the slab go to its owner;
+//!    the slabs move first when the particle counts grew uneven;
+//! 2. **renumbering**, on the substeps where one process sorts its array
+//!    by block ([`REORDER_INTERVAL`]): each particle's key becomes its
+//!    place in that sorted array, the particles of lower ranks first;
+//! 3. **ghosts**: copies of the particles of the block columns within
+//!    reach of the nodes the slab reads (one column each side, wind
+//!    included, see [`GHOST_COLUMNS`]), sorted by key after the own
+//!    particles;
+//! 4. the substep itself on own and ghost particles, every block summing
+//!    its particles in key order, hence in the one-process order;
+//! 5. **agreement**: a failure anywhere stops every rank with the failing
+//!    rank's message (the lowest key first, as one process reports the
+//!    lowest index), and the largest speeds, reduced over the ranks, give
+//!    every rank the same next Δt.
+
+use firn_core::Scene;
+use firn_mpm::binning::block_key;
+use firn_mpm::grid::GridLayout;
+use firn_mpm::simulation::REORDER_INTERVAL;
+use firn_mpm::{Particles, PermuteBuffers, Simulation, SimulationError, Snapshot};
+use firn_run::RunError;
+
+use crate::exchange::{Exchange, join_u64, split_u64};
+use crate::packing::{KeyedParticles, WORDS_PER_PARTICLE};
+use crate::slabs::Slabs;
+
+/// The slabs move when the busiest rank holds this much more than its
+/// share of the particles (1.1: 10 % more).
+pub const REBALANCE_ABOVE: f64 = 1.1;
+
+/// Block columns of ghosts either side of a slab. A particle in cell c
+/// reaches nodes c − 1 … c + 2 with either transfer (cubic, or quadratic
+/// from ⌊x/h − ½⌋), so the particles of a slab of block columns
+/// x0 … x1 − 1 read nodes 4·x0 − 1 … 4·x1 + 1, and those nodes hear only
+/// from cells 4·x0 − 3 … 4·x1 + 2, within one block column of the slab. The
+/// wind's drag also reads the node upwind (4·x0 − 2 or 4·x1 + 2), which
+/// hears from cells 4·x0 − 4 … 4·x1 + 3: still one column.
+const GHOST_COLUMNS: u32 = 1;
+
+/// The steps of a substep in which a rank exchanges with the others.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Phase {
+    /// The particle histogram that decides whether the slabs move.
+    Balance,
+    /// Particles that left the slab.
+    Migration,
+    /// The particle counts of the renumbering.
+    Renumbering,
+    /// The ghost copies.
+    Ghosts,
+    /// Failures and the next Δt.
+    Agreement,
+    /// The state gathered on rank 0 (frames, checkpoints).
+    Gathering,
+}
+
+impl Phase {
+    /// Every phase, in substep order.
+    pub const ALL: [Phase; 6] = [
+        Phase::Balance,
+        Phase::Migration,
+        Phase::Renumbering,
+        Phase::Ghosts,
+        Phase::Agreement,
+        Phase::Gathering,
+    ];
+
+    /// The phase's name in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Phase::Balance => "balance",
+            Phase::Migration => "migration",
+            Phase::Renumbering => "renumbering",
+            Phase::Ghosts => "ghosts",
+            Phase::Agreement => "agreement",
+            Phase::Gathering => "gathering",
+        }
+    }
+}
+
+/// What a rank sent and how it balanced, since it started.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RankTraffic {
+    /// Substeps taken.
+    pub substeps: u64,
+    /// Particles this rank sent away because they left its slab.
+    pub migrated: u64,
+    /// Ghost copies this rank sent.
+    pub ghosts_sent: u64,
+    /// Bytes of particles this rank sent to other ranks.
+    pub bytes_sent: u64,
+    /// Times the slabs moved.
+    pub rebalances: u64,
+    /// Seconds spent in exchanges (transfer and waiting for the others),
+    /// by [`Phase`] (in the order of [`Phase::ALL`]).
+    pub exchange_seconds: [f64; 6],
+}
+
+/// One rank's part of a split snow run.
+pub struct RankSnow<E: Exchange> {
+    exchange: E,
+    simulation: Simulation,
+    /// The keys of the own particles, the first `keys.len()` of the
+    /// simulation's arrays.
+    keys: Vec<u64>,
+    slabs: Slabs,
+    layout: GridLayout,
+    buffers: PermuteBuffers,
+    traffic: RankTraffic,
+}
+
+impl<E: Exchange> RankSnow<E> {
+    /// Starts a split run of `scene` from `snapshot`, which rank 0 holds
+    /// (the others pass `None`): rank 0 cuts the slabs by particle count
+    /// and sends each rank its particles, keyed by their place in the
+    /// snapshot. Every rank must call it.
+    pub fn scatter(exchange: E, scene: Scene, snapshot: Option<Snapshot>) -> RankSnow<E> {
+        let layout = GridLayout::new(scene.domain.min, scene.domain.max, scene.domain.cell_size);
+        let outgoing = match snapshot {
+            Some(snapshot) => parts_of(&snapshot, &layout, exchange.size()),
+            None => vec![Vec::new(); exchange.size()],
+        };
+        let message = exchange.exchange(outgoing).swap_remove(0);
+        let ranks = exchange.size();
+        let (header, records) = message.split_at(6 + ranks + 1);
+        let time = f64::from_bits(join_u64(header[0], header[1]));
+        let steps = join_u64(header[2], header[3]);
+        let slabs = Slabs::from_words(&header[6..]);
+        let mut own = KeyedParticles::default();
+        own.unpack(records);
+        let mut simulation = Simulation::part(scene, time, steps);
+        simulation.set_motion_bounds(f32::from_bits(header[4]), f32::from_bits(header[5]));
+        let owned = own.len();
+        simulation.set_part(own.particles, owned);
+        RankSnow {
+            exchange,
+            simulation,
+            keys: own.keys,
+            slabs,
+            layout,
+            buffers: PermuteBuffers::default(),
+            traffic: RankTraffic::default(),
+        }
+    }
+
+    /// How this rank talks to the others.
+    pub fn exchange(&self) -> &E {
+        &self.exchange
+    }
+
+    /// This rank's number.
+    pub fn rank(&self) -> usize {
+        self.exchange.rank()
+    }
+
+    /// The particles this rank owns now.
+    pub fn owned(&self) -> usize {
+        self.keys.len()
+    }
+
+    /// The current slabs.
+    pub fn slabs(&self) -> &Slabs {
+        &self.slabs
+    }
+
+    /// What this rank sent, and how often the slabs moved.
+    pub fn traffic(&self) -> RankTraffic {
+        self.traffic
+    }
+
+    /// The rank's simulation (own particles first, then the last substep's
+    /// ghosts).
+    pub fn simulation(&self) -> &Simulation {
+        &self.simulation
+    }
+
+    /// Substeps until time `until`, as [`Simulation::advance_to`]; returns
+    /// the number of substeps. Every rank must call it.
+    pub fn advance_to(&mut self, until: f64) -> Result<u32, RunError> {
+        let mut substeps = 0;
+        while until - self.simulation.time() > 1e-9 {
+            self.step(until)?;
+            substeps += 1;
+        }
+        Ok(substeps)
+    }
+
+    /// One substep of the whole run, never past `until`; returns its Δt.
+    /// Every rank must call it.
+    pub fn step(&mut self, until: f64) -> Result<f32, RunError> {
+        let mut own = self.take_own();
+        self.rebalance(&own);
+        own = self.migrate(own);
+        if self.simulation.steps().is_multiple_of(REORDER_INTERVAL) {
+            self.renumber(&mut own);
+        }
+        let owned = own.len();
+        let KeyedParticles {
+            particles,
+            mut keys,
+        } = self.with_ghosts(own);
+        keys.truncate(owned);
+        self.keys = keys;
+        self.simulation.set_part(particles, owned);
+        let result = self.simulation.step(until);
+        let dt = self.agree(result)?;
+        let (speed, waves) = self.simulation.motion_bounds();
+        let bounds = self.timed(Phase::Agreement, |exchange| {
+            exchange.max_f32(&[speed, waves])
+        });
+        self.simulation.set_motion_bounds(bounds[0], bounds[1]);
+        self.traffic.substeps += 1;
+        Ok(dt)
+    }
+
+    /// The whole run's state on rank 0, in the one-process order (`None` on
+    /// the other ranks). Every rank must call it.
+    pub fn gather(&mut self) -> Option<Snapshot> {
+        let particles = self.simulation.particles();
+        let mut words = Vec::with_capacity(self.keys.len() * WORDS_PER_PARTICLE);
+        for (p, &key) in self.keys.iter().enumerate() {
+            crate::packing::pack(particles, key, p, &mut words);
+        }
+        let parts = self.timed(Phase::Gathering, |exchange| exchange.gather(words))?;
+        let mut all = KeyedParticles::default();
+        for part in &parts {
+            all.unpack(part);
+        }
+        all.sort_by_key(&mut self.buffers);
+        assert!(
+            all.keys
+                .iter()
+                .enumerate()
+                .all(|(place, &key)| key == place as u64),
+            "the ranks' particles are not each particle exactly once"
+        );
+        let (max_speed_squared, max_wave_speed_squared) = self.simulation.motion_bounds();
+        Some(Snapshot {
+            time: self.simulation.time(),
+            steps: self.simulation.steps(),
+            max_speed_squared,
+            max_wave_speed_squared,
+            particles: all.particles,
+        })
+    }
+
+    /// Runs `exchange_with` on the exchange, timing it as part of `phase`.
+    fn timed<T>(&mut self, phase: Phase, exchange_with: impl FnOnce(&E) -> T) -> T {
+        let started = std::time::Instant::now();
+        let result = exchange_with(&self.exchange);
+        self.traffic.exchange_seconds[phase as usize] += started.elapsed().as_secs_f64();
+        result
+    }
+
+    /// The own particles out of the simulation, without the ghosts.
+    fn take_own(&mut self) -> KeyedParticles {
+        let mut own = KeyedParticles {
+            particles: self.simulation.take_particles(),
+            keys: std::mem::take(&mut self.keys),
+        };
+        own.truncate(own.keys.len());
+        own
+    }
+
+    /// The block column of every particle.
+    fn columns(&self, particles: &Particles) -> Vec<u32> {
+        particles
+            .position
+            .iter()
+            .map(|&x| self.layout.block_coord(block_key(&self.layout, x)).x as u32)
+            .collect()
+    }
+
+    /// Moves the slabs when the particle counts per rank grew too uneven
+    /// (every rank sees the same counts, so all move them alike).
+    fn rebalance(&mut self, own: &KeyedParticles) {
+        if self.exchange.size() == 1 {
+            return;
+        }
+        let mut histogram = vec![0u64; self.layout.blocks.x as usize];
+        for column in self.columns(&own.particles) {
+            histogram[column as usize] += 1;
+        }
+        let histogram = self.timed(Phase::Balance, |exchange| exchange.sum_u64(&histogram));
+        let now = self.slabs.imbalance(&histogram);
+        if now <= REBALANCE_ABOVE {
+            return;
+        }
+        let balanced = Slabs::balanced(&histogram, self.exchange.size());
+        if balanced.imbalance(&histogram) < now {
+            self.slabs = balanced;
+            self.traffic.rebalances += 1;
+        }
+    }
+
+    /// Sends the particles outside this rank's slab to their owners and
+    /// takes in those that entered it; the result is sorted by key (`own`
+    /// is), reordered in one pass and only when a particle left or came.
+    fn migrate(&mut self, mut own: KeyedParticles) -> KeyedParticles {
+        let me = self.exchange.rank();
+        let columns = self.columns(&own.particles);
+        let mut outgoing = vec![Vec::new(); self.exchange.size()];
+        let mut kept = Vec::with_capacity(own.len());
+        for (p, &column) in columns.iter().enumerate() {
+            let owner = self.slabs.owner(column);
+            if owner == me {
+                kept.push(p as u32);
+            } else {
+                own.pack(p, &mut outgoing[owner]);
+                self.traffic.migrated += 1;
+            }
+        }
+        self.count_sent(&outgoing);
+        let incoming = self.timed(Phase::Migration, |exchange| exchange.exchange(outgoing));
+        let stayed = own.len();
+        for words in &incoming {
+            own.unpack(words);
+        }
+        if kept.len() == stayed && own.len() == stayed {
+            return own;
+        }
+        let mut arrived: Vec<u32> = (stayed as u32..own.len() as u32).collect();
+        arrived.sort_unstable_by_key(|&p| own.keys[p as usize]);
+        let order = merge_by_key(&kept, &arrived, &own.keys);
+        own.permute(&order, &mut self.buffers);
+        own
+    }
+
+    /// Renumbers the particles as one process reorders its array: sorted
+    /// by block (stably, so by key within a block), lower ranks' blocks
+    /// first; a particle's key becomes its place in that order.
+    fn renumber(&mut self, own: &mut KeyedParticles) {
+        let blocks: Vec<u32> = own
+            .particles
+            .position
+            .iter()
+            .map(|&x| block_key(&self.layout, x) as u32)
+            .collect();
+        let mut order: Vec<u32> = (0..own.len() as u32).collect();
+        order.sort_by_key(|&p| blocks[p as usize]);
+        own.permute(&order, &mut self.buffers);
+        let count = split_u64(own.len() as u64);
+        let counts = self.timed(Phase::Renumbering, |exchange| exchange.all_gather(&count));
+        let first: u64 = counts[..self.exchange.rank()]
+            .iter()
+            .map(|words| join_u64(words[0], words[1]))
+            .sum();
+        for (key, place) in own.keys.iter_mut().zip(first..) {
+            *key = place;
+        }
+    }
+
+    /// The own particles followed by the ghosts this rank needs, sorted by
+    /// key, after sending every other rank the ghosts it needs.
+    fn with_ghosts(&mut self, mut own: KeyedParticles) -> KeyedParticles {
+        let me = self.exchange.rank();
+        let columns = self.columns(&own.particles);
+        let mut outgoing = vec![Vec::new(); self.exchange.size()];
+        for (rank, words) in outgoing.iter_mut().enumerate() {
+            if rank == me {
+                continue;
+            }
+            let [below, above] = self.slabs.ghost_columns(rank, GHOST_COLUMNS);
+            for (p, column) in columns.iter().enumerate() {
+                if below.contains(column) || above.contains(column) {
+                    own.pack(p, words);
+                    self.traffic.ghosts_sent += 1;
+                }
+            }
+        }
+        self.count_sent(&outgoing);
+        let incoming = self.timed(Phase::Ghosts, |exchange| exchange.exchange(outgoing));
+        let mut ghosts = KeyedParticles::default();
+        for words in &incoming {
+            ghosts.unpack(words);
+        }
+        ghosts.sort_by_key(&mut self.buffers);
+        own.append(&mut ghosts);
+        own
+    }
+
+    /// Adds the particle words in `outgoing` to the bytes sent.
+    fn count_sent(&mut self, outgoing: &[Vec<u32>]) {
+        let words: usize = outgoing.iter().map(Vec::len).sum();
+        self.traffic.bytes_sent += (words * std::mem::size_of::<u32>()) as u64;
+    }
+
+    /// Every rank learns whether the substep failed anywhere; the failure
+    /// of the lowest key (then the lowest rank) is everyone's.
+    fn agree(&mut self, result: Result<f32, SimulationError>) -> Result<f32, RunError> {
+        let own_failure = result.as_ref().err().map(|error| self.keyed(error));
+        let status = match &own_failure {
+            None => Vec::new(),
+            Some((key, error)) => {
+                let mut words = split_u64(*key).to_vec();
+                words.extend(text_to_words(&error.to_string()));
+                words
+            }
+        };
+        let statuses = self.timed(Phase::Agreement, |exchange| exchange.all_gather(&status));
+        let first = statuses
+            .iter()
+            .enumerate()
+            .filter(|(_, words)| !words.is_empty())
+            .min_by_key(|(rank, words)| (join_u64(words[0], words[1]), *rank));
+        match (first, own_failure, result) {
+            (None, _, result) => Ok(result.expect("no rank failed")),
+            (Some((rank, _)), Some((_, error)), _) if rank == self.exchange.rank() => {
+                Err(RunError::Snow(error))
+            }
+            (Some((rank, words)), _, _) => Err(RunError::Rank {
+                rank,
+                ranks: self.exchange.size(),
+                message: words_to_text(&words[2..]),
+            }),
+        }
+    }
+
+    /// `error` with its particle named by key (its one-process index), and
+    /// that key (0 for a failure of the whole substep).
+    fn keyed(&self, error: &SimulationError) -> (u64, SimulationError) {
+        match error {
+            SimulationError::Unstable {
+                time,
+                step,
+                dt,
+                particle,
+                what,
+                position,
+                hint,
+            } => {
+                let key = self.keys[*particle];
+                let keyed = SimulationError::Unstable {
+                    time: *time,
+                    step: *step,
+                    dt: *dt,
+                    particle: key as usize,
+                    what,
+                    position: *position,
+                    hint: hint.clone(),
+                };
+                (key, keyed)
+            }
+            other => (0, SimulationError::SnapshotMismatch(other.to_string())),
+        }
+    }
+}
+
+/// The places of two lists, each sorted by key, merged into one sorted by
+/// key.
+fn merge_by_key(first: &[u32], second: &[u32], keys: &[u64]) -> Vec<u32> {
+    let mut merged = Vec::with_capacity(first.len() + second.len());
+    let (mut a, mut b) = (first.iter().peekable(), second.iter().peekable());
+    while let (Some(&&x), Some(&&y)) = (a.peek(), b.peek()) {
+        if keys[x as usize] < keys[y as usize] {
+            merged.push(x);
+            a.next();
+        } else {
+            merged.push(y);
+            b.next();
+        }
+    }
+    merged.extend(a);
+    merged.extend(b);
+    merged
+}
+
+/// What rank 0 sends each rank to start: the time, the substeps, the speed
+/// bounds and the slabs, then the rank's particles keyed by their place.
+fn parts_of(snapshot: &Snapshot, layout: &GridLayout, ranks: usize) -> Vec<Vec<u32>> {
+    let particles = &snapshot.particles;
+    let columns: Vec<u32> = particles
+        .position
+        .iter()
+        .map(|&x| layout.block_coord(block_key(layout, x)).x as u32)
+        .collect();
+    let mut histogram = vec![0u64; layout.blocks.x as usize];
+    for &column in &columns {
+        histogram[column as usize] += 1;
+    }
+    let slabs = Slabs::balanced(&histogram, ranks);
+    let mut header = Vec::new();
+    header.extend(split_u64(snapshot.time.to_bits()));
+    header.extend(split_u64(snapshot.steps));
+    header.push(snapshot.max_speed_squared.to_bits());
+    header.push(snapshot.max_wave_speed_squared.to_bits());
+    header.extend(slabs.to_words());
+    let mut parts = vec![header; ranks];
+    for (p, &column) in columns.iter().enumerate() {
+        crate::packing::pack(particles, p as u64, p, &mut parts[slabs.owner(column)]);
+    }
+    parts
+}
+
+/// A text as words: its length in bytes, then the bytes four to a word.
+fn text_to_words(text: &str) -> Vec<u32> {
+    let bytes = text.as_bytes();
+    let mut words = vec![bytes.len() as u32];
+    words.extend(bytes.chunks(4).map(|chunk| {
+        let mut word = [0u8; 4];
+        word[..chunk.len()].copy_from_slice(chunk);
+        u32::from_le_bytes(word)
+    }));
+    words
+}
+
+/// The text of [`text_to_words`].
+fn words_to_text(words: &[u32]) -> String {
+    let length = words[0] as usize;
+    let bytes: Vec<u8> = words[1..].iter().flat_map(|w| w.to_le_bytes()).collect();
+    String::from_utf8_lossy(&bytes[..length.min(bytes.len())]).into_owned()
+}

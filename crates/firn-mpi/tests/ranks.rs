@@ -1,0 +1,144 @@
+//! A run split between ranks (here threads of one process, exchanging as
+//! MPI ranks would) gives the one process's bits for 1, 2, 3 and 4 ranks,
+//! both transfer schemes, with wind; every particle is kept exactly once.
+
+use std::path::Path;
+use std::thread;
+
+use firn_core::Scene;
+use firn_core::scene::{Transfer, Wind};
+use firn_mpi::{Exchange, RankSnow, ThreadRanks};
+use firn_mpm::{Particles, Simulation, Snapshot};
+
+fn crossing(transfer: Transfer, wind: bool) -> Scene {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/crossing.toml");
+    let mut scene = Scene::load(&path).unwrap();
+    scene.solver.transfer = transfer;
+    if wind {
+        scene.wind = Some(Wind::uniform(glam::Vec3::new(-1.0, 0.3, 0.0), 15.0));
+    }
+    scene
+}
+
+/// Every attribute's bits, in array order.
+fn bits(particles: &Particles) -> Vec<u32> {
+    let mut all = Vec::new();
+    let vectors = [&particles.position, &particles.velocity];
+    for vector in vectors {
+        all.extend(vector.iter().flat_map(|v| v.to_array()).map(f32::to_bits));
+    }
+    for matrices in [
+        &particles.elastic,
+        &particles.stress,
+        &particles.velocity_gradient,
+    ] {
+        all.extend(
+            matrices
+                .iter()
+                .flat_map(|m| m.to_cols_array())
+                .map(f32::to_bits),
+        );
+    }
+    for scalars in [&particles.mass, &particles.volume0, &particles.plastic_j] {
+        all.extend(scalars.iter().map(|s| s.to_bits()));
+    }
+    all
+}
+
+/// The whole state after each of `frames` frames, split between `ranks`
+/// ranks, and each rank's traffic.
+fn split_run(
+    scene: &Scene,
+    ranks: usize,
+    frames: u32,
+) -> (Vec<Snapshot>, Vec<firn_mpi::RankTraffic>) {
+    let initial = Snapshot::initial(scene).unwrap();
+    let handles: Vec<_> = ThreadRanks::group(ranks)
+        .into_iter()
+        .map(|exchange| {
+            let scene = scene.clone();
+            let snapshot = (exchange.rank() == 0).then(|| initial.clone());
+            thread::spawn(move || {
+                let fps = scene.time.fps;
+                let mut rank = RankSnow::scatter(exchange, scene, snapshot);
+                let mut states = Vec::new();
+                for frame in 1..=frames {
+                    rank.advance_to(f64::from(frame) / fps).unwrap();
+                    states.extend(rank.gather());
+                }
+                (states, rank.traffic())
+            })
+        })
+        .collect();
+    let mut results: Vec<_> = handles.into_iter().map(|h| h.join().unwrap()).collect();
+    let traffic = results.iter().map(|(_, t)| *t).collect();
+    (std::mem::take(&mut results[0].0), traffic)
+}
+
+fn one_process(scene: &Scene, frames: u32) -> Vec<Snapshot> {
+    let mut simulation = Simulation::new(scene.clone()).unwrap();
+    (1..=frames)
+        .map(|frame| {
+            simulation
+                .advance_to(f64::from(frame) / scene.time.fps)
+                .unwrap();
+            simulation.snapshot()
+        })
+        .collect()
+}
+
+fn assert_same_bits(scene: &Scene, frames: u32, label: &str) {
+    let reference = one_process(scene, frames);
+    let initial_mass: f64 = reference[0]
+        .particles
+        .mass
+        .iter()
+        .map(|&m| f64::from(m))
+        .sum();
+    for ranks in 1..=4 {
+        let (states, traffic) = split_run(scene, ranks, frames);
+        assert_eq!(states.len(), reference.len());
+        for (frame, (split, whole)) in states.iter().zip(&reference).enumerate() {
+            assert_eq!(split.particles.len(), whole.particles.len());
+            let mass: f64 = split.particles.mass.iter().map(|&m| f64::from(m)).sum();
+            assert_eq!(mass, initial_mass, "{label}: mass changed");
+            assert_eq!(
+                split.steps,
+                whole.steps,
+                "{label}, {ranks} ranks, frame {}",
+                frame + 1
+            );
+            assert!(
+                bits(&split.particles) == bits(&whole.particles),
+                "{label}: {ranks} ranks differ from one process in frame {}",
+                frame + 1
+            );
+            assert_eq!(
+                split.max_speed_squared.to_bits(),
+                whole.max_speed_squared.to_bits()
+            );
+        }
+        if ranks > 1 {
+            let migrated: u64 = traffic.iter().map(|t| t.migrated).sum();
+            assert!(
+                migrated > 0,
+                "{label}: no particle crossed a slab boundary with {ranks} ranks"
+            );
+            // The balls meet in the middle: the slabs must follow them.
+            assert!(
+                traffic.iter().all(|t| t.rebalances > 0),
+                "{label}: the slabs never moved"
+            );
+        }
+    }
+}
+
+#[test]
+fn split_runs_give_the_one_process_bits_with_pic_flip() {
+    assert_same_bits(&crossing(Transfer::PicFlip, false), 4, "pic-flip");
+}
+
+#[test]
+fn split_runs_give_the_one_process_bits_with_apic_and_wind() {
+    assert_same_bits(&crossing(Transfer::Apic, true), 3, "apic with wind");
+}
