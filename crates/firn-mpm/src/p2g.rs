@@ -30,34 +30,142 @@ use crate::local_nodes::{CUBIC_SPAN, LocalNodes, QUADRATIC_SPAN, at};
 use crate::particles::Particles;
 
 /// Steps 1 and 3 for PIC/FLIP: mass, momentum and elastic force on the
-/// grid, summed per block in [`LocalNodes`].
-pub fn scatter_pic_flip(grid: &mut Grid, bins: &Bins, particles: &Particles) {
+/// grid, summed per block in [`LocalNodes`]. Each block runs compiled for
+/// the instruction set ([`Isa::run`]); every instruction set gives the same
+/// bits ([`PicFlipStencil`]).
+pub fn scatter_pic_flip(grid: &mut Grid, bins: &Bins, particles: &Particles, simd: Simd) {
     let (table, nodes) = grid.parts_mut();
     let layout = table.layout;
-    let inverse_h = 1.0 / layout.cell_size;
+    let isa = Isa::of(simd);
     scatter_blocks_by_colour(nodes, bins, |block, writer| {
         let mut local = LocalNodes::<Node>::around(block.coord);
-        for &p in bins.particles_of(block) {
+        isa.run(PicFlipBlock {
+            layout,
+            particles,
+            block: bins.particles_of(block),
+            local: &mut local,
+        });
+        local.add_nodes_to(&table, writer);
+    });
+}
+
+/// One block's PIC/FLIP scatter, as a [`Kernel`] to compile per
+/// instruction set.
+struct PicFlipBlock<'a> {
+    layout: GridLayout,
+    particles: &'a Particles,
+    block: &'a [u32],
+    local: &'a mut LocalNodes<Node>,
+}
+
+impl Kernel for PicFlipBlock<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn run(self, isa: Isa) {
+        let particles = self.particles;
+        let inverse_h = 1.0 / self.layout.cell_size;
+        for &p in self.block {
             let p = p as usize;
-            let weights = cubic_weights(layout.to_grid(particles.position[p]));
+            let weights = cubic_weights(self.layout.to_grid(particles.position[p]));
             let mass = particles.mass[p];
-            let momentum_mass = (particles.velocity[p] * mass).extend(mass);
-            let stress = particles.stress[p];
-            let window = local.window_mut::<4, CUBIC_SPAN>(weights.base);
-            for i in 0..4 {
-                for j in 0..4 {
-                    for k in 0..4 {
-                        let sum = &mut window[at(i, j, k)];
-                        let w = weights.weight(i, j, k);
-                        let force = -(stress * (weights.gradient(i, j, k) * inverse_h));
-                        sum.velocity_mass += momentum_mass * w;
-                        sum.velocity_new += force.extend(0.0);
-                    }
+            let stencil = PicFlipStencil {
+                momentum_mass: (particles.velocity[p] * mass).extend(mass),
+                stress: particles.stress[p],
+                inverse_h,
+            };
+            let window = self.local.window_mut::<4, CUBIC_SPAN>(weights.base);
+            stencil.add_to(isa.avx2(), &weights, window);
+        }
+    }
+}
+
+/// What one particle adds to its 4x4x4 stencil: node (i, j, k) gets
+/// w_ijk (m_p v_p, m_p) and the force −τ_p ∇w_ijk / h (eq. 31-33, 40).
+///
+/// Eight nodes at a time (two stencil rows along z) are computed in SIMD
+/// lanes, each lane doing the IEEE operations that
+/// [`StencilWeights::weight`], [`StencilWeights::gradient`] and glam's
+/// `Mat3 * Vec3` do for its node, in the same order, so the sums have the
+/// bits of the scalar form whatever the instruction set.
+struct PicFlipStencil {
+    /// (m_p v_p, m_p).
+    momentum_mass: Vec4,
+    /// τ_p, V_p^0 included.
+    stress: Mat3,
+    /// 1 / h.
+    inverse_h: f32,
+}
+
+impl PicFlipStencil {
+    /// Adds the particle's terms to its stencil `window`.
+    #[inline(always)]
+    fn add_to(
+        &self,
+        avx2: Option<Avx2>,
+        weights: &StencilWeights<4>,
+        window: &mut [Node; CUBIC_SPAN],
+    ) {
+        type Lanes = F32s<8>;
+        let (values, slopes) = (&weights.values, &weights.slopes);
+        // Lane l is node (i, j0 + l / 4, l % 4) of rows j0 and j0 + 1.
+        let along_z = |f: &dyn Fn(usize) -> f32| F32s(std::array::from_fn(|l| f(l % 4)));
+        let (wz, sz) = (along_z(&|k| values[k].z), along_z(&|k| slopes[k].z));
+        let splat = Lanes::splat;
+        let [m_x, m_y, m_z, m_w] = self.momentum_mass.to_array().map(splat);
+        let columns = [self.stress.x_axis, self.stress.y_axis, self.stress.z_axis];
+        let [c0, c1, c2] = columns.map(|c| c.to_array().map(splat));
+        let inverse_h = splat(self.inverse_h);
+        for i in 0..4 {
+            let (wx, sx) = (splat(values[i].x), splat(slopes[i].x));
+            for j0 in [0, 2] {
+                let along_y =
+                    |f: &dyn Fn(usize) -> f32| F32s(std::array::from_fn(|l| f(j0 + l / 4)));
+                let (wy, sy) = (along_y(&|j| values[j].y), along_y(&|j| slopes[j].y));
+                let wxy = wx * wy;
+                let weight = wxy * wz;
+                let gradient = [
+                    sx * wy * wz * inverse_h,
+                    wx * sy * wz * inverse_h,
+                    wxy * sz * inverse_h,
+                ];
+                let force =
+                    |r: usize| -(c0[r] * gradient[0] + c1[r] * gradient[1] + c2[r] * gradient[2]);
+                let terms = [
+                    m_x * weight,
+                    m_y * weight,
+                    m_z * weight,
+                    m_w * weight,
+                    force(0),
+                    force(1),
+                    force(2),
+                    splat(0.0),
+                ];
+                let rows = rows_of(avx2, &terms);
+                for (l, row) in rows.iter().enumerate() {
+                    add_row(avx2, &mut window[at(i, j0 + l / 4, l % 4)], row);
                 }
             }
         }
-        local.add_nodes_to(&table, writer);
-    });
+    }
+}
+
+/// Adds a row of eight floats to `node`: (momentum, mass) then (force, 0),
+/// in one 256-bit register given `avx2` (the same additions lane by lane).
+#[inline(always)]
+fn add_row(avx2: Option<Avx2>, node: &mut Node, row: &[f32; 8]) {
+    let (momentum_mass, force) = (Vec4::from_slice(&row[..4]), Vec4::from_slice(&row[4..]));
+    match avx2 {
+        #[cfg(target_arch = "x86_64")]
+        Some(avx2) => {
+            let sums =
+                avx2.pair(node.velocity_mass, node.velocity_new) + avx2.pair(momentum_mass, force);
+            [node.velocity_mass, node.velocity_new] = sums.halves();
+        }
+        _ => {
+            node.velocity_mass += momentum_mass;
+            node.velocity_new += force;
+        }
+    }
 }
 
 /// Steps 1 and 3 for APIC: mass and affine momentum including the force

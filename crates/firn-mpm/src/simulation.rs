@@ -421,7 +421,9 @@ impl Simulation {
         clock.lap(&mut self.profile.binning);
         let transfer_scheme = self.scene.solver.transfer;
         match transfer_scheme {
-            Transfer::PicFlip => p2g::scatter_pic_flip(&mut self.grid, &self.bins, &self.particles),
+            Transfer::PicFlip => {
+                p2g::scatter_pic_flip(&mut self.grid, &self.bins, &self.particles, self.simd)
+            }
             Transfer::Apic => {
                 p2g::scatter_apic(&mut self.grid, &self.bins, &self.particles, dt, self.simd)
             }

@@ -191,7 +191,7 @@ impl Setup {
         bins.rebuild(&self.layout, &particles.position);
         grid.allocate(bins.active_blocks());
         match self.transfer() {
-            Transfer::PicFlip => p2g::scatter_pic_flip(&mut grid, &bins, particles),
+            Transfer::PicFlip => p2g::scatter_pic_flip(&mut grid, &bins, particles, Simd::detect()),
             Transfer::Apic => p2g::scatter_apic(&mut grid, &bins, particles, DT, Simd::detect()),
         }
         (grid, bins)

@@ -83,7 +83,7 @@ fn round_trip(transfer_scheme: Transfer) {
     grid.allocate(bins.active_blocks());
     // No stress and Δt = 0: a pure transfer, no forces, no motion.
     match transfer_scheme {
-        Transfer::PicFlip => p2g::scatter_pic_flip(&mut grid, &bins, &particles),
+        Transfer::PicFlip => p2g::scatter_pic_flip(&mut grid, &bins, &particles, preferred_simd()),
         Transfer::Apic => p2g::scatter_apic(&mut grid, &bins, &particles, 0.0, preferred_simd()),
     }
     let forces = if apic {
