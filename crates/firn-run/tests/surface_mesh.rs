@@ -175,3 +175,64 @@ fn ply_and_obj_read_back_as_the_written_mesh() {
     assert_eq!(ply.diagnostics, clean);
     assert!(Path::new(&folder.path().join("mesh")).is_dir());
 }
+
+#[test]
+fn a_surface_picture_shows_the_snow_where_the_points_picture_does() {
+    let mut scene = scene();
+    scene.render.styles = vec![
+        firn_core::scene::RenderStyle::Points,
+        firn_core::scene::RenderStyle::Surface,
+    ];
+    scene.render.size = [96, 64];
+    scene.render.color_by = firn_core::scene::ColorBy::Uniform;
+    let (folder, bare) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    for path in [folder.path(), bare.path()] {
+        RunDirectory::new(path)
+            .create_image_folders(&scene)
+            .unwrap();
+    }
+    let mut solver = Solver::new(scene.clone(), &Placement::Cpu).unwrap();
+    let HostState::Snow(simulation) = solver.host().unwrap() else {
+        panic!("a snow scene");
+    };
+    let particles = simulation.particles();
+    let frame = firn_render::scene_view::FrameParticles {
+        positions: &particles.position,
+        masses: Some(&particles.mass),
+        values: None,
+        trails: None,
+        surface: None,
+    };
+    let names = firn_run::pictures::render_frame(&scene, folder.path(), 0, 0.0, frame).unwrap();
+    let empty = firn_render::scene_view::FrameParticles {
+        positions: &[],
+        masses: Some(&[]),
+        values: None,
+        trails: None,
+        surface: None,
+    };
+    firn_run::pictures::render_frame(&scene, bare.path(), 0, 0.0, empty).unwrap();
+    let covered = |name: &String| -> Vec<bool> {
+        let drawn = image::open(folder.path().join(name)).unwrap().to_rgb8();
+        let stage = image::open(bare.path().join(name)).unwrap().to_rgb8();
+        drawn
+            .pixels()
+            .zip(stage.pixels())
+            .map(|(a, b)| a != b)
+            .collect()
+    };
+    let (points, surface) = (covered(&names[0]), covered(&names[1]));
+    let both = points
+        .iter()
+        .zip(&surface)
+        .filter(|(p, s)| **p && **s)
+        .count();
+    let either = points
+        .iter()
+        .zip(&surface)
+        .filter(|(p, s)| **p || **s)
+        .count();
+    let overlap = both as f64 / either as f64;
+    assert!(both > 100, "the snow covers {both} pixels in both pictures");
+    assert!(overlap > 0.8, "points and surface overlap by {overlap:.3}");
+}
