@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 use firn_core::Scene;
-use firn_core::scene::{Bytes, Domain, FlowSettings, Shape, TimeStep};
+use firn_core::scene::{Bytes, CacheFormat, Domain, FlowSettings, Shape, TimeStep};
 use firn_gpu::snow::MemoryEstimate;
 use firn_mpm::grid::GridLayout;
 use firn_run::Budget;
@@ -143,6 +143,15 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
         scene.time.duration
     );
     println!("output      {}", scene.output.directory.display());
+    if scene.output.formats.contains(&CacheFormat::Mesh) {
+        let mesh = &scene.output.mesh;
+        println!(
+            "mesh        voxel {} m, {} smoothing pass(es), surface at {} of the rest density",
+            mesh.voxel_size_for(scene.domain.cell_size),
+            mesh.smoothing,
+            mesh.iso
+        );
+    }
     Ok(())
 }
 

@@ -534,6 +534,7 @@ mod tests {
             masses: Some(&masses),
             values: None,
             trails: None,
+            surface: None,
         };
         let measures = Measures::of(frame);
         assert_eq!(measures.particles, 2);

@@ -58,6 +58,8 @@ pub enum StyleArg {
     Billboards,
     /// Fading ribbons through recent positions (flow scenes).
     Trails,
+    /// The snow's reconstructed surface, shaded like the colliders.
+    Surface,
 }
 
 /// Colour quantities on the command line.
@@ -156,6 +158,7 @@ fn render_style(style: StyleArg) -> RenderStyle {
         StyleArg::Volume => RenderStyle::Volume,
         StyleArg::Billboards => RenderStyle::Billboards,
         StyleArg::Trails => RenderStyle::Trails,
+        StyleArg::Surface => RenderStyle::Surface,
     }
 }
 
@@ -238,6 +241,7 @@ fn render_cached_frame(
         masses: cached.masses(),
         values: values.as_deref(),
         trails: None,
+        surface: None,
     };
     render_frame(scene, run.path(), record.index, record.time, frame)
         .map_err(|error| Failure::Failed(format!("error: {error}")))

@@ -502,6 +502,24 @@ fn vdb_volumes_in_a_flow_scene() {
 }
 
 #[test]
+fn surface_meshes_and_pictures_in_a_flow_scene() {
+    let err = error(&format!(
+        "{HEAD}{EMITTER}\n[output]\nformats = [\"mesh\"]\n"
+    ));
+    check(
+        &err,
+        18,
+        12,
+        Some("output.formats[0]"),
+        "remove \"mesh\" from formats",
+    );
+    let err = error(&format!(
+        "{HEAD}{EMITTER}\n[render]\nstyles = [\"points\", \"surface\"]\n"
+    ));
+    check(&err, 18, 21, Some("render.styles[1]"), "\"trails\"");
+}
+
+#[test]
 fn flow_scenes_built_in_code_are_checked_too() {
     let mut scene = load(&format!("{HEAD}{EMITTER}"));
     scene.validate().unwrap();

@@ -594,6 +594,28 @@ fn unknown_vdb_key_is_located() {
 }
 
 #[test]
+fn mesh_iso_must_be_a_share_of_the_rest_density() {
+    let err = error(&format!(
+        "{HEAD}{SPHERE}\n[output]\nformats = [\"mesh\"]\nmesh = {{ iso = 1.5 }}\n"
+    ));
+    check(&err, 16, 16, Some("output.mesh.iso"), "iso = 0.5");
+    assert!(err.message.contains("between 0 and 1"), "{err}");
+}
+
+#[test]
+fn mesh_smoothing_and_voxels_are_bounded() {
+    let err = error(&format!("{HEAD}{SPHERE}\n[output.mesh]\nsmoothing = 40\n"));
+    check(&err, 15, 13, Some("output.mesh.smoothing"), "smoothing = 1");
+    let err = error(&format!(
+        "{HEAD}{SPHERE}\n[output.mesh]\nvoxel_size = 0.0\n"
+    ));
+    check(&err, 15, 14, Some("output.mesh.voxel_size"), "cell_size");
+    let err = error(&format!("{HEAD}{SPHERE}\n[output.mesh]\nisovalue = 0.5\n"));
+    assert_eq!(err.line, Some(15), "{err}");
+    assert!(err.message.contains("isovalue"), "{err}");
+}
+
+#[test]
 fn syntax_error() {
     let err = error("format = 1\n[domain\nmax = [1.0, 1.0, 1.0]\n");
     check(&err, 2, 8, None, "TOML syntax");

@@ -264,6 +264,7 @@ vdb = { voxel_size = 0.02, level_set = true }
     );
     assert_eq!(scene.output.vdb.voxel_size, Some(0.02));
     assert!(scene.output.vdb.level_set);
+    assert_eq!(scene.output.mesh, firn_core::scene::MeshSettings::default());
     assert_eq!(
         scene.output.attributes,
         vec![Attribute::Mass, Attribute::Material, Attribute::ElasticJ]

@@ -2,7 +2,8 @@
 //!
 //! Everything a run leaves on disk goes through this crate: per-frame particle
 //! caches (binary PLY for Blender/Houdini, VTK PolyData plus a `.pvd` time
-//! series for ParaView), per-frame OpenVDB volumes (Blender, Houdini), a USD stage of the
+//! series for ParaView), per-frame OpenVDB volumes (Blender, Houdini), the snow's surface as
+//! PLY and OBJ meshes, a USD stage of the
 //! whole run (Houdini, Omniverse, Blender), the
 //! run manifest that records what was produced, and binary checkpoints for
 //! resuming. Every file is written atomically, so a
@@ -21,6 +22,7 @@ pub mod checkpoint;
 pub mod error;
 pub mod frame;
 pub mod manifest;
+pub mod mesh;
 pub mod ply;
 pub mod usd;
 pub mod vdb;
@@ -32,6 +34,7 @@ pub use checkpoint::Checkpoint;
 pub use error::IoError;
 pub use frame::{Attribute, AttributeValues, FrameData, FrameError};
 pub use manifest::{FrameRecord, MANIFEST_FILE, Manifest, RunStatus, SolverFrameStats};
+pub use mesh::{MeshData, write_mesh_obj, write_mesh_ply};
 pub use ply::{PlyCloud, PlyColumn, PlyValues, parse_ply, read_ply, write_ply};
 pub use usd::{UsdShape, UsdStage, write_usd_frame};
 pub use vdb::{FloatGrid, GridClass, Leaf, write_vdb};

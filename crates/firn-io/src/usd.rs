@@ -8,8 +8,8 @@
 //! A run's particles are a `UsdGeomPoints` prim, `/World/<name>`, with
 //! `points`, `velocities`, `extent` and one primvar per other cached
 //! attribute, all time-sampled at the frame index as time code; its
-//! colliders are `Mesh` (planes), `Cube` (boxes) and `Sphere` prims moved by
-//! a time-sampled `xformOp:translate`. Rewriting one file with every frame
+//! colliders are `Mesh` (planes and mesh colliders), `Cube` (boxes) and
+//! `Sphere` prims moved by a time-sampled `xformOp:translate`. Rewriting one file with every frame
 //! would cost the whole run's data at each frame, so the samples are split
 //! into USD *value clips*, one layer per frame ([`clip_name`]), which the
 //! small stage file ([`STAGE_FILE`]) lists by a template: a frame writes its
@@ -56,7 +56,7 @@ pub struct UsdStage {
 }
 
 /// A collider's shape about its reference point (the prim's translate).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum UsdShape {
     /// A square of half edge `half_size` through the point, facing `normal`.
     Plane {
@@ -74,6 +74,14 @@ pub enum UsdShape {
     Box {
         /// Edge lengths in metres.
         size: Vec3,
+    },
+    /// A triangle mesh (a mesh collider's file, placed).
+    Mesh {
+        /// Vertex positions in metres, about the reference point.
+        points: Vec<Vec3>,
+        /// Triangles as indices into `points`, counter-clockwise seen from
+        /// outside.
+        triangles: Vec<[u32; 3]>,
     },
 }
 
@@ -189,8 +197,9 @@ pub fn encode_usd_stage(stage: &UsdStage, frame: &FrameData) -> String {
 
 /// A collider prim, its translate left to the clips.
 fn push_collider(text: &mut String, index: usize, shape: &UsdShape) {
-    let (kind, body, scaled) = match *shape {
-        UsdShape::Plane { normal, half_size } => ("Mesh", plane_mesh(normal, half_size), false),
+    let (kind, body, scaled) = match shape {
+        UsdShape::Plane { normal, half_size } => ("Mesh", plane_mesh(*normal, *half_size), false),
+        UsdShape::Mesh { points, triangles } => ("Mesh", triangle_mesh(points, triangles), false),
         UsdShape::Sphere { radius } => (
             "Sphere",
             format!("        double radius = {radius}\n"),
@@ -221,6 +230,17 @@ fn plane_mesh(normal: Vec3, half_size: f32) -> String {
         "        int[] faceVertexCounts = [4]\n        int[] faceVertexIndices = [0, 1, 2, 3]\n        \
          point3f[] points = [{}]\n        uniform token subdivisionScheme = \"none\"\n",
         corners.join(", ")
+    )
+}
+
+/// A triangle mesh's topology and points, as a `Mesh` prim's body.
+fn triangle_mesh(points: &[Vec3], triangles: &[[u32; 3]]) -> String {
+    let counts = vec!["3"; triangles.len()].join(", ");
+    let indices = list(triangles.iter().flatten());
+    format!(
+        "        int[] faceVertexCounts = [{counts}]\n        int[] faceVertexIndices = {indices}\n        \
+         point3f[] points = {}\n        uniform token subdivisionScheme = \"none\"\n",
+        vectors(points)
     )
 }
 

@@ -10,6 +10,8 @@
 //!   the bluish ramp.
 //! - `volume` (the thesis' future work, chapter 7): a density grid
 //!   ray-marched with Beer-Lambert extinction and single scattering.
+//! - `surface`: the snow's reconstructed surface mesh, rasterised and shaded
+//!   like the colliders.
 //!
 //! Every style renders 2x2 samples per pixel and averages them (anti-aliasing).
 
@@ -22,6 +24,7 @@ pub mod points;
 pub mod ramp;
 pub mod scene_view;
 pub mod stage;
+pub mod surface;
 pub mod trails;
 pub mod volume;
 pub mod wireframe;
@@ -30,6 +33,7 @@ use std::borrow::Cow;
 
 pub use camera::CameraView;
 pub use firn_core::scene::RenderStyle;
+use firn_mesh::TriangleMesh;
 use glam::Vec3;
 use image::RgbImage;
 pub use legend::Legend;
@@ -62,6 +66,9 @@ pub struct ParticleLayer<'a> {
     pub trails: Option<Trails<'a>>,
     /// Draw trails along a uniform cubic B-spline through the positions.
     pub smooth_trails: bool,
+    /// The snow's surface (`surface`; without one that style shows the
+    /// stage only).
+    pub surface: Option<&'a TriangleMesh>,
 }
 
 /// Everything one image shows.
@@ -85,10 +92,12 @@ pub fn render(picture: &Picture<'_>) -> RgbImage {
         RenderStyle::Volume => render_volume(picture),
         RenderStyle::Points => render_points(picture),
         RenderStyle::Billboards | RenderStyle::Trails => render_additive(picture),
+        RenderStyle::Surface => render_surface(picture),
     };
-    // The volume look is not coloured by a quantity, so it has no legend.
+    // The volume and surface looks are not coloured by a quantity, so they
+    // have no legend.
     if let Some(legend) = &picture.legend
-        && picture.style != RenderStyle::Volume
+        && !matches!(picture.style, RenderStyle::Volume | RenderStyle::Surface)
     {
         legend::draw_legend(&mut image, legend);
     }
@@ -116,6 +125,14 @@ fn render_points(picture: &Picture<'_>) -> RgbImage {
         particles.radius,
         &picture.stage.light,
     );
+    film.resolve(SUPERSAMPLING)
+}
+
+fn render_surface(picture: &Picture<'_>) -> RgbImage {
+    let (mut film, camera) = staged_film(picture);
+    if let Some(mesh) = picture.particles.surface {
+        surface::draw_surface(&mut film, &camera, mesh, &picture.stage);
+    }
     film.resolve(SUPERSAMPLING)
 }
 

@@ -5,6 +5,7 @@ use std::borrow::Cow;
 
 use firn_core::Scene;
 use firn_core::scene::{ColliderGeometry, ColorBy, RenderStyle};
+use firn_mesh::TriangleMesh;
 use glam::Vec3;
 
 use crate::camera::{CameraView, automatic_framing};
@@ -33,6 +34,8 @@ pub struct FrameParticles<'a> {
     pub values: Option<&'a [f32]>,
     /// Recent positions per particle, for the `trails` style.
     pub trails: Option<Trails<'a>>,
+    /// The snow's reconstructed surface, for the `surface` style.
+    pub surface: Option<&'a TriangleMesh>,
 }
 
 /// The picture of `scene` at simulated time `time` in `style`, at the
@@ -77,6 +80,7 @@ pub fn scene_picture<'a>(
             ),
             trails: particles.trails,
             smooth_trails: scene.render.smooth_trails,
+            surface: particles.surface,
         },
         legend,
     }
@@ -150,8 +154,8 @@ pub fn particle_spacing(scene: &Scene) -> f32 {
     }
 }
 
-/// Mass of one particle of the first material at the given spacing.
-fn uniform_mass(scene: &Scene, spacing: f32) -> f32 {
+/// Mass of one particle of the densest material at the given spacing.
+pub fn uniform_mass(scene: &Scene, spacing: f32) -> f32 {
     reference_density(scene) * spacing.powi(3)
 }
 

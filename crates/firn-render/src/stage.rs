@@ -192,6 +192,20 @@ impl Stage {
         }
     }
 
+    /// The colour of a fully lit solid point with `normal` and `albedo`, seen
+    /// along the unit ray `direction`: the colliders' shading, for other
+    /// solids (the snow's surface).
+    pub fn shade_solid(&self, normal: Vec3, direction: Vec3, albedo: Vec3, shininess: f32) -> Vec3 {
+        let hit = SurfaceHit {
+            distance: 0.0,
+            normal,
+            albedo,
+            shininess,
+            is_ground: false,
+        };
+        self.shade(&hit, direction, 1.0)
+    }
+
     /// Blinn-Phong: ambient + diffuse + specular, the key light scaled by `light_fraction`.
     fn shade(&self, hit: &SurfaceHit, direction: Vec3, light_fraction: f32) -> Vec3 {
         let light = &self.light;

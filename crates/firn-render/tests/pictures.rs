@@ -48,6 +48,7 @@ fn picture<'a>(positions: &'a [Vec3], coloring: Coloring<'a>, style: RenderStyle
             look: SnowLook::for_density(400.0, 0.012),
             trails: None,
             smooth_trails: false,
+            surface: None,
         },
         legend: None,
     }
@@ -222,8 +223,14 @@ fn the_same_picture_renders_to_the_same_bytes_on_any_thread_count() {
             high: 0.3,
         },
     };
-    for style in [RenderStyle::Points, RenderStyle::Volume] {
-        let picture = picture(&positions, coloring, style);
+    let mesh = sphere_mesh(Vec3::ZERO, 0.3, 24, 48);
+    for style in [
+        RenderStyle::Points,
+        RenderStyle::Volume,
+        RenderStyle::Surface,
+    ] {
+        let mut picture = picture(&positions, coloring, style);
+        picture.particles.surface = Some(&mesh);
         let first = render(&picture);
         let second = render(&picture);
         let single = rayon::ThreadPoolBuilder::new()
@@ -345,4 +352,91 @@ fn a_cube_mesh_collider_looks_like_the_box_it_is_shaped_as() {
         silhouette_mismatch * 20 < covered,
         "{silhouette_mismatch} of {covered} pixels differ in coverage"
     );
+}
+
+/// A closed latitude-longitude sphere mesh, counter-clockwise from outside.
+fn sphere_mesh(center: Vec3, radius: f32, rings: u32, segments: u32) -> firn_mesh::TriangleMesh {
+    let mut vertices = vec![center + Vec3::Y * radius, center - Vec3::Y * radius];
+    for ring in 1..rings {
+        let polar = std::f32::consts::PI * ring as f32 / rings as f32;
+        for segment in 0..segments {
+            let azimuth = std::f32::consts::TAU * segment as f32 / segments as f32;
+            let direction = Vec3::new(
+                polar.sin() * azimuth.cos(),
+                polar.cos(),
+                -polar.sin() * azimuth.sin(),
+            );
+            vertices.push(center + direction * radius);
+        }
+    }
+    let at = |ring: u32, segment: u32| 2 + (ring - 1) * segments + segment % segments;
+    let mut triangles = Vec::new();
+    for segment in 0..segments {
+        triangles.push([0, at(1, segment), at(1, segment + 1)]);
+        triangles.push([1, at(rings - 1, segment + 1), at(rings - 1, segment)]);
+        for ring in 1..rings - 1 {
+            let (a, b) = (at(ring, segment), at(ring, segment + 1));
+            let (c, d) = (at(ring + 1, segment), at(ring + 1, segment + 1));
+            triangles.push([a, c, d]);
+            triangles.push([a, d, b]);
+        }
+    }
+    firn_mesh::TriangleMesh {
+        vertices,
+        triangles,
+    }
+}
+
+#[test]
+fn a_surface_appears_where_its_projection_says_lit_from_the_light() {
+    let center = Vec3::new(-0.2, 0.1, 0.0);
+    let radius = 0.3;
+    let mesh = sphere_mesh(center, radius, 48, 96);
+    assert!(mesh.signed_volume() > 0.0, "the test sphere faces outwards");
+    let mut picture = picture(&[], Coloring::Uniform(Vec3::ONE), RenderStyle::Surface);
+    picture.particles.surface = Some(&mesh);
+    let image = render(&picture);
+    let projected = camera().project(center).expect("in front");
+    let distance_to_eye = (camera().eye - center).length();
+    let silhouette = radius * distance_to_eye / (distance_to_eye.powi(2) - radius.powi(2)).sqrt()
+        * projected.scale;
+    let stage = Stage::default();
+    let mut covered = 0;
+    for (x, y, pixel) in image.enumerate_pixels() {
+        let distance = (Vec2::new(x as f32 + 0.5, y as f32 + 0.5) - projected.pixel).length();
+        if distance < silhouette - 1.5 {
+            assert_ne!(pixel.0, sky_pixel(&stage, y), "inside at ({x}, {y})");
+            covered += 1;
+        } else if distance > silhouette + 1.5 {
+            assert_eq!(pixel.0, sky_pixel(&stage, y), "outside at ({x}, {y})");
+        }
+    }
+    assert!(covered > 500, "the surface covers {covered} pixels");
+    // The light comes from above, left and in front: the top of the ball
+    // is brighter than its bottom.
+    let brightness = |offset: Vec2| {
+        let pixel = projected.pixel + offset * silhouette;
+        let [r, g, b] = image.get_pixel(pixel.x as u32, pixel.y as u32).0;
+        u32::from(r) + u32::from(g) + u32::from(b)
+    };
+    let (top, bottom) = (
+        brightness(Vec2::new(0.0, -0.7)),
+        brightness(Vec2::new(0.0, 0.7)),
+    );
+    assert!(top > bottom + 100, "top {top}, bottom {bottom}");
+}
+
+#[test]
+fn the_surface_style_without_a_surface_shows_the_stage() {
+    let bare = render(&picture(
+        &[],
+        Coloring::Uniform(Vec3::ONE),
+        RenderStyle::Points,
+    ));
+    let surface = render(&picture(
+        &[],
+        Coloring::Uniform(Vec3::ONE),
+        RenderStyle::Surface,
+    ));
+    assert_eq!(bare, surface);
 }

@@ -1,18 +1,21 @@
 //! A frame's caches: the scene's `[output] attributes` in each of its
 //! `[output] formats` (binary PLY, VTK PolyData), the ParaView collection
 //! (PVD) that lists the VTK frames by time, a snow frame's OpenVDB
-//! volumes (`vdb`, see [`crate::volumes`]) and the run's USD stage (`usd`,
-//! see [`crate::usd_stage`]).
+//! volumes (`vdb`, see [`crate::volumes`]), a snow frame's surface mesh
+//! (`mesh`, PLY and OBJ, see [`crate::surface`]) and the run's USD stage
+//! (`usd`, see [`crate::usd_stage`]).
 
 use firn_core::scene::{Attribute as SceneAttribute, CacheFormat, Scene};
 use firn_io::{
-    Attribute, FloatGrid, FrameData, IoError, PvdCollection, write_ply, write_usd_frame, write_vdb,
-    write_vtp,
+    Attribute, FloatGrid, FrameData, IoError, MeshData, PvdCollection, write_mesh_obj,
+    write_mesh_ply, write_ply, write_usd_frame, write_vdb, write_vtp,
 };
+use firn_mesh::TriangleMesh;
 use firn_mpm::{Particles, Simulation};
 
 use crate::run_dir::RunDirectory;
 use crate::simulation::HostState;
+use crate::surface::scene_surface;
 use crate::usd_stage::{collider_positions, usd_stage};
 use crate::volumes::snow_volumes;
 
@@ -31,7 +34,7 @@ pub fn write_frame(
             let frame = FrameData::new(index, flow.time(), flow.positions())
                 .with_attribute(Attribute::vector("velocity", flow.velocities()))
                 .with_attribute(Attribute::scalar("age", flow.ages()));
-            write_caches(flow.scene(), &frame, &[], run, pvd)
+            write_caches(flow.scene(), &frame, &Volumes::default(), run, pvd)
         }
     }
 }
@@ -70,12 +73,26 @@ fn write_snow_frame(
     for attribute in wanted {
         frame = frame.with_attribute(attribute_data(*attribute, particles, &derived));
     }
-    let volumes = if scene.output.formats.contains(&CacheFormat::Vdb) {
-        scene_volumes(scene, particles)
-    } else {
-        Vec::new()
+    let formats = &scene.output.formats;
+    let volumes = Volumes {
+        grids: if formats.contains(&CacheFormat::Vdb) {
+            scene_volumes(scene, particles)
+        } else {
+            Vec::new()
+        },
+        surface: formats
+            .contains(&CacheFormat::Mesh)
+            .then(|| scene_surface(scene, &particles.position, &particles.mass)),
     };
     write_caches(scene, &frame, &volumes, run, pvd)
+}
+
+/// What a snow frame's particles are turned into: the OpenVDB grids
+/// (`vdb`) and the surface mesh (`mesh`), each made only when written.
+#[derive(Default)]
+struct Volumes {
+    grids: Vec<FloatGrid>,
+    surface: Option<TriangleMesh>,
 }
 
 /// The OpenVDB grids of a snow frame, as the scene's `[output.vdb]` asks.
@@ -96,11 +113,11 @@ fn scene_volumes(scene: &Scene, particles: &Particles) -> Vec<FloatGrid> {
 }
 
 /// Writes `frame` in each of `scene`'s formats into `run` (`volumes` for
-/// `vdb`); returns the files' paths relative to the run directory.
+/// `vdb` and `mesh`); returns the files' paths relative to the run directory.
 fn write_caches(
     scene: &Scene,
     frame: &FrameData,
-    volumes: &[FloatGrid],
+    volumes: &Volumes,
     run: &RunDirectory,
     pvd: &mut PvdCollection,
 ) -> Result<Vec<String>, IoError> {
@@ -116,7 +133,24 @@ fn write_caches(
                 pvd.push(frame.time, name.clone());
                 pvd.write(&run.collection_path())?;
             }
-            CacheFormat::Vdb => write_vdb(&path, volumes)?,
+            CacheFormat::Vdb => write_vdb(&path, &volumes.grids)?,
+            CacheFormat::Mesh => {
+                let surface = volumes.surface.as_ref().map_or(
+                    MeshData {
+                        vertices: &[],
+                        triangles: &[],
+                    },
+                    |mesh| MeshData {
+                        vertices: &mesh.vertices,
+                        triangles: &mesh.triangles,
+                    },
+                );
+                write_mesh_ply(&path, surface)?;
+                let obj = RunDirectory::mesh_obj_name(frame.index);
+                write_mesh_obj(&run.path().join(&obj), surface)?;
+                files.extend([name, obj]);
+                continue;
+            }
             CacheFormat::Usd => write_usd_frame(
                 run.path(),
                 &usd_stage(scene, frame.index),

@@ -13,7 +13,9 @@
 //!   step it, read its particles, change its parameters, take its state,
 //!   and measure it ([`SolverOptions`], phase times, memory);
 //! - [`checkpoint`]: the snow and flow checkpoint files;
-//! - [`caches`]: a frame's PLY and VTK caches and the PVD collection;
+//! - [`caches`]: a frame's PLY, VTK, VDB, mesh and USD caches and the PVD
+//!   collection;
+//! - [`surface`]: the snow's surface as a closed triangle mesh;
 //! - [`run_dir`]: [`RunDirectory`], the layout of a run's folder, written
 //!   and read back;
 //! - [`recording`]: [`Recording`], a run in progress: its solver, its
@@ -31,6 +33,7 @@ pub mod pictures;
 pub mod recording;
 pub mod run_dir;
 pub mod simulation;
+pub mod surface;
 pub mod usd_stage;
 pub mod volumes;
 

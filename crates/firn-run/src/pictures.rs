@@ -6,13 +6,16 @@
 use std::path::{Path, PathBuf};
 
 use firn_core::Scene;
+use firn_core::scene::RenderStyle;
+use firn_mesh::TriangleMesh;
 use firn_render::output::{find_ffmpeg, write_gif, write_mp4, write_png};
-use firn_render::scene_view::{FrameParticles, scene_picture};
+use firn_render::scene_view::{FrameParticles, particle_spacing, scene_picture, uniform_mass};
 use firn_render::trails::Trails;
 
 use crate::RunDirectory;
 use crate::recording::FrameToPicture;
 use crate::simulation::HostParticles;
+use crate::surface::scene_surface;
 
 /// The renderer's view of a simulation's particles.
 pub fn frame_particles<'a>(particles: &'a HostParticles<'a>) -> FrameParticles<'a> {
@@ -25,11 +28,14 @@ pub fn frame_particles<'a>(particles: &'a HostParticles<'a>) -> FrameParticles<'
             capacity: rings.capacity,
             lengths: &rings.lengths,
         }),
+        surface: None,
     }
 }
 
 /// Renders frame `index` at `time` in every style of the scene and writes the
-/// PNGs; returns their paths relative to `directory`.
+/// PNGs; returns their paths relative to `directory`. The `surface` style
+/// draws `particles.surface`, or the surface reconstructed from the
+/// particles as the `mesh` format would.
 pub fn render_frame(
     scene: &Scene,
     directory: &Path,
@@ -37,6 +43,13 @@ pub fn render_frame(
     time: f64,
     particles: FrameParticles<'_>,
 ) -> Result<Vec<String>, String> {
+    let reconstructed = (particles.surface.is_none()
+        && scene.render.styles.contains(&RenderStyle::Surface))
+    .then(|| particles_surface(scene, &particles));
+    let particles = FrameParticles {
+        surface: particles.surface.or(reconstructed.as_ref()),
+        ..particles
+    };
     let mut written = Vec::new();
     for &style in &scene.render.styles {
         let picture = scene_picture(scene, time, style, particles, None);
@@ -46,6 +59,19 @@ pub fn render_frame(
         written.push(name);
     }
     Ok(written)
+}
+
+/// The snow's surface from `particles` (uniform masses where they carry
+/// none), with the scene's `[output.mesh]` settings.
+fn particles_surface(scene: &Scene, particles: &FrameParticles<'_>) -> TriangleMesh {
+    match particles.masses {
+        Some(masses) => scene_surface(scene, particles.positions, masses),
+        None => {
+            let mass = uniform_mass(scene, particle_spacing(scene));
+            let masses = vec![mass; particles.positions.len()];
+            scene_surface(scene, particles.positions, &masses)
+        }
+    }
 }
 
 /// Writes each style's animation over `frames` (frame indices in order, all

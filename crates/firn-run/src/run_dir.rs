@@ -100,9 +100,16 @@ impl RunDirectory {
             CacheFormat::Ply => "ply",
             CacheFormat::Vtk => "vtp",
             CacheFormat::Vdb => "vdb",
+            CacheFormat::Mesh => "ply",
             CacheFormat::Usd => return firn_io::usd::clip_name(index),
         };
         format!("{}/frame_{index:05}.{extension}", cache_folder(format))
+    }
+
+    /// Path of frame `index`'s surface mesh as OBJ (the `mesh` format also
+    /// writes [`RunDirectory::cache_name`], the PLY), relative to the folder.
+    pub fn mesh_obj_name(index: u32) -> String {
+        format!("{}/frame_{index:05}.obj", cache_folder(CacheFormat::Mesh))
     }
 
     /// Path of frame `index`'s picture in `style`, relative to the folder.
@@ -203,6 +210,7 @@ pub fn style_name(style: RenderStyle) -> &'static str {
         RenderStyle::Volume => "volume",
         RenderStyle::Billboards => "billboards",
         RenderStyle::Trails => "trails",
+        RenderStyle::Surface => "surface",
     }
 }
 
@@ -212,6 +220,7 @@ fn cache_folder(format: CacheFormat) -> &'static str {
         CacheFormat::Ply => "ply",
         CacheFormat::Vtk => "vtk",
         CacheFormat::Vdb => "vdb",
+        CacheFormat::Mesh => "mesh",
         CacheFormat::Usd => firn_io::usd::CLIP_FOLDER,
     }
 }
@@ -239,6 +248,11 @@ mod tests {
             RunDirectory::cache_name(CacheFormat::Vdb, 4),
             "vdb/frame_00004.vdb"
         );
+        assert_eq!(
+            RunDirectory::cache_name(CacheFormat::Mesh, 4),
+            "mesh/frame_00004.ply"
+        );
+        assert_eq!(RunDirectory::mesh_obj_name(4), "mesh/frame_00004.obj");
         assert_eq!(
             RunDirectory::cache_name(CacheFormat::Usd, 7),
             "usd/frame.00007.usda"

@@ -2,7 +2,10 @@
 //! name and width, the frame rate and the colliders (see [`firn_io::usd`]).
 //!
 //! Planes are drawn as squares as wide as the domain's longest edge; mesh
-//! colliders are left out (their triangles stay in their own file).
+//! colliders as their file's triangles, placed as at time zero about the
+//! centre of their bounding box (read again from the file each time the
+//! stage is written, since the scene keeps only their distance field; a
+//! file that no longer reads gives an empty mesh).
 
 use firn_core::Scene;
 use firn_core::scene::ColliderGeometry;
@@ -20,17 +23,16 @@ pub fn usd_stage(scene: &Scene, last_frame: u32) -> UsdStage {
         colliders: scene
             .colliders
             .iter()
-            .filter_map(|collider| usd_shape(&collider.geometry, plane_half_size(scene)))
+            .map(|collider| usd_shape(&collider.geometry, plane_half_size(scene)))
             .collect(),
     }
 }
 
-/// The reference points at `time` of the colliders that [`usd_stage`] draws.
+/// The reference points of the colliders at `time`.
 pub fn collider_positions(scene: &Scene, time: f64) -> Vec<Vec3> {
     scene
         .colliders
         .iter()
-        .filter(|collider| !matches!(collider.geometry, ColliderGeometry::Mesh(_)))
         .map(|collider| {
             let start = collider.geometry.reference_point();
             collider.motion.state_at(start, time).0
@@ -68,11 +70,19 @@ fn plane_half_size(scene: &Scene) -> f32 {
 }
 
 /// The USD shape of a collider, about its reference point.
-fn usd_shape(geometry: &ColliderGeometry, half_size: f32) -> Option<UsdShape> {
+fn usd_shape(geometry: &ColliderGeometry, half_size: f32) -> UsdShape {
     match *geometry {
-        ColliderGeometry::HalfPlane { normal, .. } => Some(UsdShape::Plane { normal, half_size }),
-        ColliderGeometry::Sphere { radius, .. } => Some(UsdShape::Sphere { radius }),
-        ColliderGeometry::Box { size, .. } => Some(UsdShape::Box { size }),
-        ColliderGeometry::Mesh(_) => None,
+        ColliderGeometry::HalfPlane { normal, .. } => UsdShape::Plane { normal, half_size },
+        ColliderGeometry::Sphere { radius, .. } => UsdShape::Sphere { radius },
+        ColliderGeometry::Box { size, .. } => UsdShape::Box { size },
+        ColliderGeometry::Mesh(ref mesh) => {
+            let placed = mesh.placement.load().map(|placed| placed.mesh);
+            let placed = placed.unwrap_or_default();
+            let centre = mesh.placement.center;
+            UsdShape::Mesh {
+                points: placed.vertices.iter().map(|&v| v - centre).collect(),
+                triangles: placed.triangles,
+            }
+        }
     }
 }

@@ -1,17 +1,21 @@
-//! What the `vdb` and `usd` caches cost per frame at about 262k particles:
+//! What the `vdb`, `mesh` and `usd` caches cost per frame at about 262k particles:
 //! the time to make and encode a frame's file, and its size. Ignored by
 //! default (they sample a quarter of a million particles); docs/benchmarks.md
 //! gives the commands and the figures:
 //!
 //! `cargo test -p firn-run --test cache_cost vdb -- --ignored --nocapture`
 //! `cargo test -p firn-run --test cache_cost usd -- --ignored --nocapture`
+//! `cargo test -p firn-run --test cache_cost mesh -- --ignored --nocapture`
 
 use std::time::Instant;
 
 use firn_core::Scene;
+use firn_core::scene::MeshSettings;
+use firn_io::mesh::{encode_mesh_obj, encode_mesh_ply};
 use firn_io::vdb::encode_vdb;
-use firn_io::{Attribute, FrameData, write_usd_frame};
+use firn_io::{Attribute, FrameData, MeshData, write_usd_frame};
 use firn_mpm::Simulation;
+use firn_run::surface::snow_surface;
 use firn_run::usd_stage::{collider_positions, usd_stage};
 use firn_run::volumes::snow_volumes;
 
@@ -100,6 +104,48 @@ fn usd_cost_per_frame() {
             std::fs::metadata(folder.path().join("particles.usda"))
                 .unwrap()
                 .len()
+        );
+    }
+}
+
+#[test]
+#[ignore = "a quarter of a million particles: run with --ignored"]
+fn mesh_cost_per_frame() {
+    let scene = Scene::from_toml_str(SCENE, "cache-cost.toml").unwrap();
+    let simulation = Simulation::new(scene).unwrap();
+    let particles = simulation.particles();
+    println!("{} particles", particles.position.len());
+    // Frame 0 (the ball as sampled) three times: simulating further frames
+    // at this size takes minutes on a small machine.
+    for frame in 0..3 {
+        let start = Instant::now();
+        let mesh = snow_surface(
+            &particles.position,
+            &particles.mass,
+            simulation.scene().domain.min,
+            simulation.scene().domain.cell_size,
+            &MeshSettings::default(),
+            400.0,
+        );
+        let made = start.elapsed();
+        let data = MeshData {
+            vertices: &mesh.vertices,
+            triangles: &mesh.triangles,
+        };
+        let ply = encode_mesh_ply(data);
+        let with_ply = start.elapsed();
+        let obj = encode_mesh_obj(data);
+        let with_obj = start.elapsed();
+        println!(
+            "frame {frame}: surface {:.1} ms, + PLY {:.1} ms, + OBJ {:.1} ms; {} vertices, {} \
+             triangles; PLY {} bytes, OBJ {} bytes",
+            made.as_secs_f64() * 1e3,
+            (with_ply - made).as_secs_f64() * 1e3,
+            (with_obj - with_ply).as_secs_f64() * 1e3,
+            mesh.vertices.len(),
+            mesh.triangles.len(),
+            ply.len(),
+            obj.len()
         );
     }
 }

@@ -280,6 +280,7 @@ fn cpu_render(stage: &Stage, positions: &[Vec3], style: RenderStyle) -> image::R
             look: SnowLook::for_density(REST_DENSITY, 0.01),
             trails: None,
             smooth_trails: false,
+            surface: None,
         },
         legend: None,
     })

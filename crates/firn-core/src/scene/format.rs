@@ -34,8 +34,8 @@ use super::material::{Material, PRESET_NAMES};
 use super::mesh::{MeshBody, MeshCollider, MeshPlacement};
 use super::model::{
     self, Attribute, Body, CacheFormat, Collider, ColliderGeometry, Contact, ContactMode, Domain,
-    ImplicitSettings, Integrator, Keyframe, Motion, OutputSettings, Scene, Shape, SolverSettings,
-    TimeSettings, TimeStep, Transfer, VdbSettings,
+    ImplicitSettings, Integrator, Keyframe, MeshSettings, Motion, OutputSettings, Scene, Shape,
+    SolverSettings, TimeSettings, TimeStep, Transfer, VdbSettings,
 };
 use super::render::{Camera, CameraKey, ColorBy, Orbit, RenderSettings, RenderStyle};
 use super::sampling;
@@ -655,6 +655,8 @@ fn example(leaf: &str) -> Option<&'static str> {
         "vdb" => "vdb = { voxel_size = 0.02, level_set = true }",
         "voxel_size" => "voxel_size = 0.02",
         "level_set" => "level_set = true",
+        "smoothing" => "smoothing = 1",
+        "iso" => "iso = 0.5",
         "look_at" => "look_at = [1.0, 0.3, 1.0]",
         "fov" => "fov = 40.0",
         "orbit" => "orbit = 30.0",
@@ -905,6 +907,15 @@ struct RawOutput {
     attributes: Option<Vec<RawAttribute>>,
     checkpoint_every: Option<u32>,
     vdb: Option<RawVdb>,
+    mesh: Option<RawMesh>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMesh {
+    voxel_size: Option<f32>,
+    smoothing: Option<u32>,
+    iso: Option<f32>,
 }
 
 #[derive(Deserialize)]
@@ -952,6 +963,7 @@ enum RawFormat {
     Vtk,
     Vdb,
     Usd,
+    Mesh,
 }
 
 #[derive(Clone, Copy, Deserialize)]
@@ -1659,6 +1671,7 @@ fn resolve_output(raw: Option<RawOutput>, name: &str, kind: &SceneKind) -> Outpu
                 RawFormat::Vtk => CacheFormat::Vtk,
                 RawFormat::Vdb => CacheFormat::Vdb,
                 RawFormat::Usd => CacheFormat::Usd,
+                RawFormat::Mesh => CacheFormat::Mesh,
             })
             .collect()
     });
@@ -1683,6 +1696,11 @@ fn resolve_output(raw: Option<RawOutput>, name: &str, kind: &SceneKind) -> Outpu
         vdb: raw.vdb.map_or(defaults.vdb, |vdb| VdbSettings {
             voxel_size: vdb.voxel_size,
             level_set: vdb.level_set.unwrap_or(false),
+        }),
+        mesh: raw.mesh.map_or(defaults.mesh, |mesh| MeshSettings {
+            voxel_size: mesh.voxel_size,
+            smoothing: mesh.smoothing.unwrap_or(MeshSettings::DEFAULT_SMOOTHING),
+            iso: mesh.iso.unwrap_or(MeshSettings::DEFAULT_ISO),
         }),
     }
 }
@@ -1785,6 +1803,7 @@ fn check_scene(scene: &Scene) -> Check {
     }
     check_output(&scene.output)?;
     check_vdb(&scene.output.vdb, scene.domain.cell_size)?;
+    check_mesh(&scene.output.mesh, scene.domain.cell_size)?;
     check_camera(&scene.camera)?;
     check_render(&scene.render)
 }
@@ -2610,6 +2629,48 @@ fn check_vdb(vdb: &VdbSettings, cell_size: f32) -> Check {
         ),
         Num::from(voxel_size),
         hint,
+    )
+}
+
+/// Most `[output.mesh] smoothing` passes: beyond this the blur rounds the
+/// snow off by more than a few cells and costs more than the reconstruction.
+const MAX_MESH_SMOOTHING: u32 = 8;
+
+fn check_mesh(mesh: &MeshSettings, cell_size: f32) -> Check {
+    let path = KeyPath::of("output").key("mesh");
+    if let Some(voxel_size) = mesh.voxel_size {
+        let at = path.key("voxel_size");
+        let hint = format!(
+            "set the voxel edge in metres, e.g. voxel_size = {}, or remove the key to use \
+             domain.cell_size",
+            Num::from(cell_size)
+        );
+        positive(voxel_size, at.clone(), hint.clone())?;
+        let smallest = cell_size * MIN_VOXELS_PER_CELL;
+        ensure(
+            voxel_size >= smallest,
+            at,
+            &format!(
+                "at least a quarter of domain.cell_size ({})",
+                Num::from(smallest)
+            ),
+            Num::from(voxel_size),
+            hint,
+        )?;
+    }
+    ensure(
+        mesh.smoothing <= MAX_MESH_SMOOTHING,
+        path.key("smoothing"),
+        &format!("at most {MAX_MESH_SMOOTHING} passes"),
+        mesh.smoothing,
+        "use a few passes, e.g. smoothing = 1 (0 for none)".to_string(),
+    )?;
+    ensure(
+        mesh.iso > 0.0 && mesh.iso < 1.0,
+        path.key("iso"),
+        "a share of the rest density between 0 and 1 (exclusive)",
+        Num::from(mesh.iso),
+        "e.g. iso = 0.5: the surface lies where the snow is half as dense as at rest".to_string(),
     )
 }
 

@@ -750,6 +750,9 @@ pub enum CacheFormat {
     /// `usd/`): the particles as time-sampled points, and the colliders
     /// (Houdini, Omniverse, Blender).
     Usd,
+    /// The snow's surface as a closed triangle mesh per frame, in binary PLY
+    /// and OBJ (Blender, Houdini, MeshLab, ParaView); see [`MeshSettings`].
+    Mesh,
 }
 
 /// The `[output.vdb]` table: how the `vdb` format turns particles into
@@ -769,6 +772,44 @@ impl VdbSettings {
     }
 }
 
+/// The `[output.mesh]` table: how the `mesh` format reconstructs the snow's
+/// surface from its particles (the density on voxels, smoothed, and the
+/// closed surface where it crosses a share of the rest density).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MeshSettings {
+    /// Voxel edge length in metres; `None` uses the grid's `cell_size`.
+    pub voxel_size: Option<f32>,
+    /// Passes of a [1 2 1]/4 blur over the density along each axis before
+    /// the surface is taken (0: none); each pass rounds off features of
+    /// about a voxel.
+    pub smoothing: u32,
+    /// The surface is where the density crosses this share of the snow's
+    /// rest density (between 0 and 1, exclusive).
+    pub iso: f32,
+}
+
+impl MeshSettings {
+    /// Blur passes when the scene gives none.
+    pub const DEFAULT_SMOOTHING: u32 = 1;
+    /// Iso share of the rest density when the scene gives none.
+    pub const DEFAULT_ISO: f32 = 0.5;
+
+    /// The voxel edge length for a scene whose grid cells are `cell_size`.
+    pub fn voxel_size_for(&self, cell_size: f32) -> f32 {
+        self.voxel_size.unwrap_or(cell_size)
+    }
+}
+
+impl Default for MeshSettings {
+    fn default() -> MeshSettings {
+        MeshSettings {
+            voxel_size: None,
+            smoothing: MeshSettings::DEFAULT_SMOOTHING,
+            iso: MeshSettings::DEFAULT_ISO,
+        }
+    }
+}
+
 /// What to write, and where.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct OutputSettings {
@@ -782,6 +823,8 @@ pub struct OutputSettings {
     pub checkpoint_every: u32,
     /// How the `vdb` format makes its volumes.
     pub vdb: VdbSettings,
+    /// How the `mesh` format makes the snow's surface.
+    pub mesh: MeshSettings,
 }
 
 impl OutputSettings {
@@ -801,6 +844,7 @@ impl OutputSettings {
             attributes: OutputSettings::default_attributes(&SceneKind::Snow),
             checkpoint_every: OutputSettings::DEFAULT_CHECKPOINT_EVERY,
             vdb: VdbSettings::default(),
+            mesh: MeshSettings::default(),
         }
     }
 

@@ -66,6 +66,9 @@ pub enum RenderStyle {
     Billboards,
     /// Ribbons through each particle's recent positions, fading with age (seed 002).
     Trails,
+    /// The snow's reconstructed surface (the `mesh` format's triangles),
+    /// shaded like the colliders.
+    Surface,
 }
 
 /// The particle quantity mapped onto the colour ramp.

@@ -20,6 +20,7 @@ use crate::scene::flow::{
     FlowSettings, SceneKind,
 };
 use crate::scene::model::{Attribute, CacheFormat, Domain, Scene};
+use crate::scene::render::RenderStyle;
 use crate::scene::wind::Wind;
 
 /// Largest number of particle slots a flow scene may ask for (2^26).
@@ -518,17 +519,26 @@ pub(super) fn check_flow_scene(scene: &Scene, flow: &FlowSettings) -> Check {
     }
     check_flow(scene, flow)?;
     check_output(&scene.output)?;
-    if let Some(index) = scene
-        .output
-        .formats
-        .iter()
-        .position(|format| *format == CacheFormat::Vdb)
-    {
-        return Err(snow_only(
-            KeyPath::of("output").key("formats").index(index),
+    let mass_formats = [
+        (
+            CacheFormat::Vdb,
             "the \"vdb\" format (a volume of the snow's mass)",
             "remove \"vdb\" from formats: flow particles carry no mass to make a volume of",
-        ));
+        ),
+        (
+            CacheFormat::Mesh,
+            "the \"mesh\" format (the surface of the snow's mass)",
+            "remove \"mesh\" from formats: flow particles carry no mass to make a surface of",
+        ),
+    ];
+    for (format, what, hint) in mass_formats {
+        if let Some(index) = scene.output.formats.iter().position(|f| *f == format) {
+            return Err(snow_only(
+                KeyPath::of("output").key("formats").index(index),
+                what,
+                hint,
+            ));
+        }
     }
     let attributes = KeyPath::of("output").key("attributes");
     if let Some(index) = scene
@@ -545,6 +555,18 @@ pub(super) fn check_flow_scene(scene: &Scene, flow: &FlowSettings) -> Check {
         ));
     }
     check_camera(&scene.camera)?;
+    if let Some(index) = scene
+        .render
+        .styles
+        .iter()
+        .position(|style| *style == RenderStyle::Surface)
+    {
+        return Err(snow_only(
+            KeyPath::of("render").key("styles").index(index),
+            "the \"surface\" style (the snow's reconstructed surface)",
+            "draw a flow as \"points\", \"billboards\" or \"trails\"",
+        ));
+    }
     check_render(&scene.render)
 }
 
