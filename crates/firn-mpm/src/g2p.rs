@@ -569,27 +569,131 @@ impl Interpolation for PicFlipInterpolation<'_> {
         position: Vec3,
         velocity: Vec3,
     ) -> (Vec3, Mat3) {
-        let layout = self.grid.layout;
+        self.blend(PicFlipSums::of(None, local, self.grid, position), velocity)
+    }
+
+    #[inline(always)]
+    fn interpolate_pair(
+        &self,
+        local: &LocalNodes<Node>,
+        isa: Isa,
+        particles: [(Vec3, Vec3); 2],
+    ) -> [(Vec3, Mat3); 2] {
+        let avx2 = isa.avx2();
+        let result = |(position, velocity): (Vec3, Vec3)| {
+            self.blend(PicFlipSums::of(avx2, local, self.grid, position), velocity)
+        };
+        [result(particles[0]), result(particles[1])]
+    }
+}
+
+impl PicFlipInterpolation<'_> {
+    /// v_p = (1 − α) v_PIC + α (v_p + Δv_FLIP) (step 8) and ∇v_p (step 7)
+    /// from a particle's stencil sums.
+    #[inline(always)]
+    fn blend(&self, sums: PicFlipSums, velocity: Vec3) -> (Vec3, Mat3) {
+        let flip = self.flip;
+        let pic = sums.pic.truncate();
+        let change = sums.change.truncate();
+        let gradient = Mat3::from_cols(
+            sums.gradient[0].truncate(),
+            sums.gradient[1].truncate(),
+            sums.gradient[2].truncate(),
+        );
+        (pic * (1.0 - flip) + (velocity + change) * flip, gradient)
+    }
+}
+
+/// One particle's sums over its 4x4x4 stencil (eq. 41 and the PIC/FLIP
+/// blend): v_PIC = Σ w_ip v_i^{n+1}, Δv_FLIP = Σ w_ip (v_i^{n+1} − v_i) and
+/// ∇v_p = Σ v_i^{n+1} (∇w_ip)ᵀ by columns, each summed node by node in
+/// stencil order. The fourth lanes carry nothing that is read.
+struct PicFlipSums {
+    pic: Vec4,
+    change: Vec4,
+    gradient: [Vec4; 3],
+}
+
+impl PicFlipSums {
+    /// The sums of a particle at `position`, from the nodes around its
+    /// block. Given `avx2`, two of the five sums share a 256-bit register:
+    /// lane by lane the operations of the portable form, so the same bits.
+    #[inline(always)]
+    fn of(
+        avx2: Option<Avx2>,
+        local: &LocalNodes<Node>,
+        grid: &Grid,
+        position: Vec3,
+    ) -> PicFlipSums {
+        let layout = grid.layout;
         let inverse_h = 1.0 / layout.cell_size;
         let weights = cubic_weights(layout.to_grid(position));
         let window = local.window::<4, CUBIC_SPAN>(weights.base);
-        let mut pic = Vec3::ZERO;
-        let mut change = Vec3::ZERO;
-        let mut gradient = Mat3::ZERO;
-        for i in 0..4 {
-            for j in 0..4 {
-                for k in 0..4 {
-                    let node = &window[at(i, j, k)];
-                    let w = weights.weight(i, j, k);
-                    let grad_w = weights.gradient(i, j, k) * inverse_h;
-                    pic += node.velocity_new() * w;
-                    change += (node.velocity_new() - node.velocity()) * w;
-                    gradient += outer(node.velocity_new(), grad_w);
+        let (values, slopes) = (&weights.values, &weights.slopes);
+        // w_ijk and ∇w_ijk as StencilWeights::weight and ::gradient multiply.
+        let node_weights = |i: usize, j: usize, k: usize| {
+            let (wx, wy, wz) = (values[i].x, values[j].y, values[k].z);
+            let gradient = [
+                slopes[i].x * wy * wz * inverse_h,
+                wx * slopes[j].y * wz * inverse_h,
+                wx * wy * slopes[k].z * inverse_h,
+            ];
+            (wx * wy * wz, gradient)
+        };
+        match avx2 {
+            #[cfg(target_arch = "x86_64")]
+            Some(avx2) => {
+                let mut velocity_sums = avx2.zero_pair();
+                let mut gradient_xy = avx2.zero_pair();
+                let mut gradient_z = Vec4::ZERO;
+                for i in 0..4 {
+                    for j in 0..4 {
+                        for k in 0..4 {
+                            let node = &window[at(i, j, k)];
+                            let (w, g) = node_weights(i, j, k);
+                            let new = node.velocity_new;
+                            let change = new - node.velocity_mass;
+                            velocity_sums = velocity_sums
+                                + avx2.pair(new, change)
+                                    * avx2.pair(Vec4::splat(w), Vec4::splat(w));
+                            gradient_xy = gradient_xy
+                                + avx2.pair(new, new)
+                                    * avx2.pair(Vec4::splat(g[0]), Vec4::splat(g[1]));
+                            gradient_z += new * g[2];
+                        }
+                    }
+                }
+                let [pic, change] = velocity_sums.halves();
+                let [gradient_x, gradient_y] = gradient_xy.halves();
+                PicFlipSums {
+                    pic,
+                    change,
+                    gradient: [gradient_x, gradient_y, gradient_z],
                 }
             }
+            _ => {
+                let mut sums = PicFlipSums {
+                    pic: Vec4::ZERO,
+                    change: Vec4::ZERO,
+                    gradient: [Vec4::ZERO; 3],
+                };
+                for i in 0..4 {
+                    for j in 0..4 {
+                        for k in 0..4 {
+                            let node = &window[at(i, j, k)];
+                            let (w, g) = node_weights(i, j, k);
+                            let new = node.velocity_new;
+                            sums.pic += new * w;
+                            sums.change += (new - node.velocity_mass) * w;
+                            for (column, g) in sums.gradient.iter_mut().zip(g) {
+                                *column += new * g;
+                            }
+                        }
+                    }
+                }
+                sums
+            }
         }
-        let flip = self.flip;
-        (pic * (1.0 - flip) + (velocity + change) * flip, gradient)
     }
 }
 
@@ -761,10 +865,4 @@ impl StencilSums {
         );
         (velocity.truncate(), affine)
     }
-}
-
-/// The outer product a bᵀ.
-#[inline(always)]
-pub fn outer(a: Vec3, b: Vec3) -> Mat3 {
-    Mat3::from_cols(a * b.x, a * b.y, a * b.z)
 }
