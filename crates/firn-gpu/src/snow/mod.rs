@@ -364,6 +364,8 @@ impl GpuSnow {
             max_speed_squared: f32::from_bits(self.last.max_speed_bits),
             max_wave_speed_squared: f32::from_bits(self.last.max_wave_bits),
             particles,
+            drift: firn_mpm::Drift::default(),
+            escaped: firn_mpm::Escaped::default(),
         })
     }
 
