@@ -105,6 +105,17 @@ impl RunDirectory {
         format!("{}/frame_{index:05}.{extension}", cache_folder(format))
     }
 
+    /// Path of frame `index`'s drift particles (`[wind.spindrift]`) in
+    /// `format` (`ply` or `vtk`), relative to the folder:
+    /// `drift/frame_NNNNN.ply` or `.vtp`.
+    pub fn drift_cache_name(format: CacheFormat, index: u32) -> String {
+        let extension = match format {
+            CacheFormat::Vtk => "vtp",
+            _ => "ply",
+        };
+        format!("drift/frame_{index:05}.{extension}")
+    }
+
     /// Path of frame `index`'s picture in `style`, relative to the folder.
     pub fn image_name(style: RenderStyle, index: u32) -> String {
         format!("{}/frame_{index:05}.png", image_folder(style))
