@@ -83,6 +83,7 @@ fn measure(
         masses: Some(&particles.mass),
         values: Some(&densities),
         trails: None,
+        drift: None,
     };
     let picture = scene_picture(scene, simulation.time(), style, frame, Some(size));
     firn_render::render(&picture);

@@ -534,6 +534,7 @@ mod tests {
             masses: Some(&masses),
             values: None,
             trails: None,
+            drift: None,
         };
         let measures = Measures::of(frame);
         assert_eq!(measures.particles, 2);

@@ -78,7 +78,7 @@ impl Drift {
 
     /// Σ m_p over the drift, in f64, in particle order.
     pub fn total_mass(&self) -> f64 {
-        self.mass.iter().map(|&m| f64::from(m)).sum()
+        self.mass.iter().fold(0.0, |sum, &m| sum + f64::from(m))
     }
 
     /// Appends a particle.

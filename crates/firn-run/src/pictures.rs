@@ -25,6 +25,7 @@ pub fn frame_particles<'a>(particles: &'a HostParticles<'a>) -> FrameParticles<'
             capacity: rings.capacity,
             lengths: &rings.lengths,
         }),
+        drift: particles.drift,
     }
 }
 

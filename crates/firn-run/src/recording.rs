@@ -367,7 +367,7 @@ impl Recording {
         let snow = simulation.particles();
         let drift = simulation.drift();
         let escaped = simulation.escaped();
-        let snow_mass: f64 = snow.mass.iter().map(|&m| f64::from(m)).sum();
+        let snow_mass = snow.mass.iter().fold(0.0, |sum, &m| sum + f64::from(m));
         let drift_mass = drift.total_mass();
         Ok(Some(MassBalance {
             snow: snow_mass,

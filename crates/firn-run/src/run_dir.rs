@@ -158,12 +158,28 @@ impl RunDirectory {
         Ok(RecordedRun { manifest, scene })
     }
 
+    /// Reads the drift particles' positions (`[wind.spindrift]`) of the
+    /// frame `record` describes from its PLY cache; `None` where the frame
+    /// has none.
+    pub fn read_drift(&self, record: &FrameRecord) -> Result<Option<Vec<Vec3>>, ReadRunError> {
+        let Some(name) = record
+            .files
+            .iter()
+            .find(|file| file.starts_with("drift/") && file.ends_with(".ply"))
+        else {
+            return Ok(None);
+        };
+        let cloud = read_ply(&self.path.join(name))
+            .map_err(|source| ReadRunError::FrameCache { source })?;
+        Ok(cloud.positions())
+    }
+
     /// Reads the PLY cache of the frame `record` describes.
     pub fn read_frame(&self, record: &FrameRecord) -> Result<CachedFrame, ReadRunError> {
         let name = record
             .files
             .iter()
-            .find(|file| file.ends_with(".ply"))
+            .find(|file| file.ends_with(".ply") && !file.starts_with("drift/"))
             .ok_or_else(|| ReadRunError::NoPlyCache {
                 index: record.index,
                 directory: self.path.clone(),

@@ -282,6 +282,7 @@ fn cpu_render(stage: &Stage, positions: &[Vec3], style: RenderStyle) -> image::R
             smooth_trails: false,
         },
         legend: None,
+        drift: None,
     })
 }
 
