@@ -261,7 +261,7 @@ pub fn detach(step: &SpindriftStep, grid: &Grid, snow: &mut Particles, drift: &m
     let settings = step.settings;
     let dt = step.dt();
     let most_likely = 1.0 - exp(-settings.rate * dt);
-    if !(most_likely > 0.0) {
+    if most_likely <= 0.0 || most_likely.is_nan() {
         return 0;
     }
     let layout = grid.layout;
@@ -309,7 +309,7 @@ const SHELTERING_SHARE: f32 = 0.5;
 /// the lee, 1 on a face the wind meets and on open snow under the sky.
 fn surface_exposure(step: &SpindriftStep, grid: &Grid, node: IVec3, relative: Vec3) -> f32 {
     let own = grid.node_mass(node);
-    if !(own > 0.0) {
+    if own <= 0.0 || own.is_nan() {
         return 0.0;
     }
     let sheltering = SHELTERING_SHARE * own;
