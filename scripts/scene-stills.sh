@@ -28,6 +28,7 @@ stills=(
   "curl-noise-demo 60 trails"
   "snowball-crosswind 15 points"
   "smoke-pot 150 billboards"
+  "cornice 10 points"
 )
 
 wanted=("$@")

@@ -84,6 +84,7 @@ fn measure(
         values: Some(&densities),
         trails: None,
         surface: None,
+        drift: None,
     };
     let picture = scene_picture(scene, simulation.time(), style, frame, Some(size));
     firn_render::render(&picture);

@@ -116,6 +116,20 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
             wind.drag,
             wind.packed_density
         );
+        if let Some(spindrift) = &wind.spindrift {
+            let landing = if spindrift.settle {
+                "settles back into snow where it lands"
+            } else {
+                "rests as drift where it lands"
+            };
+            println!(
+                "spindrift   snow under {} kg/m3 lifts where the wind over it exceeds {} m/s, {} per second where fully exposed; drift falls at {} m/s and {landing}",
+                spindrift.loose_density,
+                spindrift.threshold_speed,
+                spindrift.rate,
+                spindrift.fall_speed
+            );
+        }
     }
     println!(
         "memory      about {} at the start (sparse grid near the bodies, bins and particles){}",

@@ -535,6 +535,7 @@ mod tests {
             values: None,
             trails: None,
             surface: None,
+            drift: None,
         };
         let measures = Measures::of(frame);
         assert_eq!(measures.particles, 2);

@@ -236,12 +236,16 @@ fn render_cached_frame(
             cached.path().display()
         ))
     })?;
+    let drift = run
+        .read_drift(record)
+        .map_err(|error| Failure::Failed(format!("error: {error}")))?;
     let frame = FrameParticles {
         positions: &positions,
         masses: cached.masses(),
         values: values.as_deref(),
         trails: None,
         surface: None,
+        drift: drift.as_deref(),
     };
     render_frame(scene, run.path(), record.index, record.time, frame)
         .map_err(|error| Failure::Failed(format!("error: {error}")))

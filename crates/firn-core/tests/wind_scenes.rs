@@ -1,7 +1,7 @@
 //! `[wind]` in snow scenes: defaults, the field keys shared with `[flow]`,
 //! and bad input located by line and key with a fix.
 
-use firn_core::scene::{FlowCurl, Wind};
+use firn_core::scene::{FlowCurl, Spindrift, Wind};
 use firn_core::{Scene, SceneError};
 use glam::Vec3;
 
@@ -207,4 +207,96 @@ fn a_wind_built_in_code_is_validated() {
         .build();
     let err = scene.expect_err("a NaN drag is refused");
     assert_eq!(err.key.as_deref(), Some("wind.drag"), "{err}");
+}
+
+#[test]
+fn spindrift_takes_its_defaults_and_reads_every_key() {
+    assert_eq!(
+        load(&format!("{SNOW}\n[wind]\n")).wind.unwrap().spindrift,
+        None
+    );
+    let scene = load(&format!("{SNOW}\n[wind]\n[wind.spindrift]\n"));
+    assert_eq!(scene.wind.unwrap().spindrift, Some(Spindrift::default()));
+    let scene = load(&format!(
+        "{SNOW}
+[wind]
+background_strength = 9.0
+
+[wind.spindrift]
+threshold_speed = 4.0
+loose_density = 180.0
+rate = 3.5
+fall_speed = 0.8
+settle = false
+"
+    ));
+    assert_eq!(
+        scene.wind.unwrap().spindrift,
+        Some(Spindrift {
+            threshold_speed: 4.0,
+            loose_density: 180.0,
+            rate: 3.5,
+            fall_speed: 0.8,
+            settle: false,
+        })
+    );
+}
+
+#[test]
+fn bad_spindrift_values_are_located() {
+    let table = format!("{SNOW}\n[wind]\n[wind.spindrift]\n");
+    let err = error(&format!("{table}threshold_speed = -2.0\n"));
+    check(
+        &err,
+        17,
+        "wind.spindrift.threshold_speed",
+        "0 or more",
+        "threshold_speed = 5",
+    );
+    let err = error(&format!("{table}loose_density = 0.0\n"));
+    check(
+        &err,
+        17,
+        "wind.spindrift.loose_density",
+        "greater than 0",
+        "loose_density = 250",
+    );
+    let err = error(&format!("{table}rate = -1.0\n"));
+    check(&err, 17, "wind.spindrift.rate", "0 or more", "rate = 2");
+    let err = error(&format!("{table}fall_speed = -0.5\n"));
+    check(
+        &err,
+        17,
+        "wind.spindrift.fall_speed",
+        "0 or more",
+        "fall_speed = 0.5",
+    );
+    let err = error(&format!("{table}lift = 2.0\n"));
+    assert_eq!(err.line, Some(17), "{err}");
+    assert!(err.message.contains("lift"), "{err}");
+}
+
+#[test]
+fn spindrift_is_a_key_of_the_wind_only() {
+    let flow = "format = 1
+kind = \"flow\"
+
+[domain]
+max = [10.0, 10.0, 10.0]
+
+[time]
+duration = 1.0
+
+[flow.spindrift]
+rate = 1.0
+
+[[flow.emitters]]
+shape = \"box\"
+center = [5.0, 5.0, 5.0]
+size = [1.0, 1.0, 1.0]
+count = 10
+";
+    let err = error(flow);
+    assert_eq!(err.key.as_deref(), Some("flow.spindrift"), "{err}");
+    assert!(err.message.contains("a key of [wind]"), "{err}");
 }

@@ -187,6 +187,51 @@ pub(crate) fn advance(
     }
 }
 
+/// Particles per parallel task of [`carry`].
+const CARRY_CHUNK: usize = 64 * MAX_LANES;
+
+/// Carries particles that follow the field without emitters or lifetimes
+/// (a snow scene's spindrift): one step of `integrator` from time `t0` to
+/// `t1` moves each of `positions`, and `velocities` receives its velocity
+/// over the step (its displacement over t1 − t0). In parallel, in the lanes
+/// of `simd` where the CPU has them; the bits depend neither on the thread
+/// count nor on the instruction set.
+pub fn carry(
+    simd: Simd,
+    field: &FlowField,
+    integrator: FlowIntegrator,
+    (t0, t1): (f64, f64),
+    positions: &mut [Vec3],
+    velocities: &mut [Vec3],
+) {
+    use rayon::prelude::*;
+    if positions.is_empty() {
+        return;
+    }
+    let stages = Stages::new(simd, field, t0, t1);
+    let dt = (t1 - t0) as f32;
+    let limits = Limits {
+        min: Vec3::NEG_INFINITY,
+        max: Vec3::INFINITY,
+        obstacles: &[],
+        flag_all: false,
+    };
+    positions
+        .par_chunks_mut(CARRY_CHUNK)
+        .zip(velocities.par_chunks_mut(CARRY_CHUNK))
+        .for_each(|(positions, velocities)| {
+            let ages = vec![0.0; positions.len()];
+            let lifetimes = vec![f32::INFINITY; positions.len()];
+            let chunk = Chunk {
+                positions,
+                velocities,
+                ages: &ages,
+                lifetimes: &lifetimes,
+            };
+            advance(&stages, integrator, dt, &limits, chunk, &mut Vec::new());
+        });
+}
+
 /// Evaluate the field at time `t` at `positions` into `velocities`.
 pub(crate) fn evaluate(
     simd: Simd,

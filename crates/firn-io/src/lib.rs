@@ -33,7 +33,9 @@ pub use atomic::{ensure_writable_dir, write_atomically};
 pub use checkpoint::Checkpoint;
 pub use error::IoError;
 pub use frame::{Attribute, AttributeValues, FrameData, FrameError};
-pub use manifest::{FrameRecord, MANIFEST_FILE, Manifest, RunStatus, SolverFrameStats};
+pub use manifest::{
+    FrameRecord, MANIFEST_FILE, Manifest, MassBalance, RunStatus, SolverFrameStats,
+};
 pub use mesh::{MeshData, write_mesh_obj, write_mesh_ply};
 pub use ply::{PlyCloud, PlyColumn, PlyValues, parse_ply, read_ply, write_ply};
 pub use usd::{UsdShape, UsdStage, write_usd_frame};

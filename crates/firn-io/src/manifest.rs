@@ -68,6 +68,32 @@ pub struct FrameRecord {
     /// explicit integrator).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub solver: Option<SolverFrameStats>,
+    /// Where the snow's mass is at the frame, with spindrift (absent
+    /// without it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mass: Option<MassBalance>,
+}
+
+/// Where a snow scene's mass is, with spindrift: in the snow, in the air
+/// (drift) or blown out of the domain. Each sum is in f64 in particle order;
+/// `total` is the three added: the scene's mass at every frame, to the
+/// rounding of those sums (each particle keeps its mass bit for bit).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct MassBalance {
+    /// Σ m_p of the snow particles, kg.
+    pub snow: f64,
+    /// Σ m_p of the drift particles, kg.
+    pub drift: f64,
+    /// Σ m_p of the drift that left the domain, kg.
+    pub escaped: f64,
+    /// snow + drift + escaped, kg.
+    pub total: f64,
+    /// Snow particles.
+    pub snow_particles: u64,
+    /// Drift particles.
+    pub drift_particles: u64,
+    /// Drift particles that left the domain.
+    pub escaped_particles: u64,
 }
 
 /// What the semi-implicit velocity solve did during one frame.
@@ -160,6 +186,7 @@ mod tests {
                 final_residual: 1e-4,
                 unconverged: 0,
             }),
+            mass: None,
         }
     }
 

@@ -247,6 +247,9 @@ impl<E: Exchange> RankSnow<E> {
             max_speed_squared,
             max_wave_speed_squared,
             particles: all.particles,
+            // Refused under MPI (`driver::refusal`): no scene split here has drift.
+            drift: Default::default(),
+            escaped: Default::default(),
         })
     }
 

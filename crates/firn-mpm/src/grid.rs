@@ -328,6 +328,20 @@ impl Grid {
         }
     }
 
+    /// The mass at node `node`: 0 outside the grid and where its block has
+    /// no storage.
+    pub fn node_mass(&self, node: IVec3) -> f32 {
+        let layout = &self.layout;
+        let block: IVec3 = node >> 2;
+        if block.cmplt(IVec3::ZERO).any() || block.cmpge(layout.blocks.as_ivec3()).any() {
+            return 0.0;
+        }
+        match self.page_table().slot(layout.block_index(block)) {
+            Some(slot) => self.nodes[slot * BLOCK_NODES + GridLayout::local_index(node)].mass(),
+            None => 0.0,
+        }
+    }
+
     /// The page table, for looking nodes up.
     pub fn page_table(&self) -> PageTable<'_> {
         PageTable {

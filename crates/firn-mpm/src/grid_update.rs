@@ -95,17 +95,7 @@ struct NodeAir {
 fn air_at_nodes(grid: &Grid, step: &NodeStep, wind: WindStep) -> Vec<NodeAir> {
     let table = grid.page_table();
     let nodes = &grid.nodes;
-    let blocks = table.layout.blocks.as_ivec3();
-    let mass_at = |node: IVec3| -> f32 {
-        let block: IVec3 = node >> 2;
-        if block.cmplt(IVec3::ZERO).any() || block.cmpge(blocks).any() {
-            return 0.0;
-        }
-        match table.slot(table.layout.block_index(block)) {
-            Some(slot) => nodes[slot * BLOCK_NODES + GridLayout::local_index(node)].mass(),
-            None => 0.0,
-        }
-    };
+    let mass_at = |node: IVec3| grid.node_mass(node);
     let mut air = vec![NodeAir::default(); nodes.len()];
     air.par_chunks_mut(BLOCK_NODES)
         .zip(nodes.par_chunks(BLOCK_NODES))

@@ -33,9 +33,11 @@ pub mod particles;
 pub mod profile;
 pub mod reference;
 pub mod simulation;
+pub mod spindrift;
 pub mod wind;
 
 pub use implicit::SolverStats;
 pub use particles::{Particles, PermuteBuffers};
 pub use profile::PhaseTimes;
 pub use simulation::{Diagnostics, Simulation, SimulationError, Snapshot};
+pub use spindrift::{Drift, Escaped};

@@ -46,6 +46,70 @@ impl Particles {
         self.mass[p] / (j * self.volume0[p])
     }
 
+    /// Appends an undeformed particle at rest in its own frame: F_E = I,
+    /// J_P = 1, no stress and no velocity gradient, with initial volume
+    /// `volume0` (snow that settles out of the air, [`crate::spindrift`]).
+    pub fn push_undeformed(
+        &mut self,
+        position: Vec3,
+        velocity: Vec3,
+        mass: f32,
+        volume0: f32,
+        material: u16,
+    ) {
+        self.position.push(position);
+        self.velocity.push(velocity);
+        self.mass.push(mass);
+        self.volume0.push(volume0);
+        self.elastic.push(Mat3::IDENTITY);
+        self.plastic_j.push(1.0);
+        self.stress.push(Mat3::ZERO);
+        self.velocity_gradient.push(Mat3::ZERO);
+        self.material.push(material);
+    }
+
+    /// Appends every particle of `other`, in its order.
+    pub fn append(&mut self, mut other: Particles) {
+        self.position.append(&mut other.position);
+        self.velocity.append(&mut other.velocity);
+        self.mass.append(&mut other.mass);
+        self.volume0.append(&mut other.volume0);
+        self.elastic.append(&mut other.elastic);
+        self.plastic_j.append(&mut other.plastic_j);
+        self.stress.append(&mut other.stress);
+        self.velocity_gradient.append(&mut other.velocity_gradient);
+        self.material.append(&mut other.material);
+    }
+
+    /// Removes the particles at `sorted` (ascending indices), keeping the
+    /// others in their order.
+    pub fn remove_sorted(&mut self, sorted: &[usize]) {
+        fn remove<T: Copy>(values: &mut Vec<T>, sorted: &[usize]) {
+            let mut removed = sorted.iter().peekable();
+            let mut index = 0;
+            values.retain(|_| {
+                let keep = removed.peek() != Some(&&index);
+                if !keep {
+                    removed.next();
+                }
+                index += 1;
+                keep
+            });
+        }
+        if sorted.is_empty() {
+            return;
+        }
+        remove(&mut self.position, sorted);
+        remove(&mut self.velocity, sorted);
+        remove(&mut self.mass, sorted);
+        remove(&mut self.volume0, sorted);
+        remove(&mut self.elastic, sorted);
+        remove(&mut self.plastic_j, sorted);
+        remove(&mut self.stress, sorted);
+        remove(&mut self.velocity_gradient, sorted);
+        remove(&mut self.material, sorted);
+    }
+
     /// Bytes held per particle (for memory estimates).
     pub fn bytes_per_particle() -> usize {
         let vectors = 2 * std::mem::size_of::<Vec3>();

@@ -11,7 +11,7 @@ use glam::{DVec3, Mat3, Vec3};
 
 use crate::binning::Bins;
 use crate::constitutive::{MaterialConstants, max_wave_speed_squared};
-use crate::contact::{ColliderSet, Colliders};
+use crate::contact::{ColliderSet, Colliders, PlacedCollider};
 use crate::g2p::{
     GatherStats, ParticleProblem, ProblemKind, UpdateContext, gather_apic, gather_pic_flip,
     preferred_simd,
@@ -22,6 +22,7 @@ use crate::implicit::{ImplicitSolver, ImplicitStep, SolverStats};
 use crate::p2g;
 use crate::particles::{Particles, PermuteBuffers};
 use crate::profile::{PhaseClock, PhaseTimes};
+use crate::spindrift::{self, Drift, Escaped, SpindriftStep};
 use crate::wind::AirDrag;
 
 /// Particles are physically reordered by block every this many substeps, so
@@ -110,6 +111,10 @@ pub struct Snapshot {
     pub max_wave_speed_squared: f32,
     /// All particle attributes, in their current order.
     pub particles: Particles,
+    /// Snow the wind carries (`[wind.spindrift]`), in its current order.
+    pub drift: Drift,
+    /// Drift the wind carried out of the domain.
+    pub escaped: Escaped,
 }
 
 impl Snapshot {
@@ -151,6 +156,8 @@ impl Snapshot {
                 &particles.plastic_j,
             ),
             particles,
+            drift: Drift::default(),
+            escaped: Escaped::default(),
         })
     }
 }
@@ -219,6 +226,12 @@ pub struct Simulation {
     owned: Option<usize>,
     /// The bins of the own particles alone, which the gather visits.
     owned_bins: Bins,
+    /// Snow the wind carries (`[wind.spindrift]`).
+    drift: Drift,
+    /// ρ₀ of each material, for spindrift's loose-snow test.
+    material_densities: Vec<f32>,
+    /// Drift the wind carried out of the domain.
+    escaped: Escaped,
 }
 
 impl Simulation {
@@ -259,8 +272,21 @@ impl Simulation {
                 "a particle refers to an unknown material".into(),
             ));
         }
+        if !snapshot.drift.is_consistent()
+            || snapshot
+                .drift
+                .material
+                .iter()
+                .any(|&m| m as usize >= scene.materials.len())
+        {
+            return Err(SimulationError::SnapshotMismatch(
+                "the drift arrays differ in length or refer to an unknown material".into(),
+            ));
+        }
         let mut simulation =
             Simulation::with_particles(scene, particles, snapshot.time, snapshot.steps);
+        simulation.drift = snapshot.drift;
+        simulation.escaped = snapshot.escaped;
         simulation.stats = GatherStats {
             max_speed_squared: snapshot.max_speed_squared,
             max_wave_speed_squared: snapshot.max_wave_speed_squared,
@@ -294,6 +320,9 @@ impl Simulation {
             wind_impulse: DVec3::ZERO,
             owned: None,
             owned_bins: Bins::default(),
+            drift: Drift::default(),
+            escaped: Escaped::default(),
+            material_densities: scene.materials.iter().map(|m| m.density).collect(),
             scene,
         }
     }
@@ -502,6 +531,9 @@ impl Simulation {
             ),
         };
         clock.lap(&mut self.profile.gather);
+        if stats.problem.is_none() {
+            self.blow_spindrift(&colliders, dt);
+        }
         clear_grid(&mut self.grid);
         clock.lap(&mut self.profile.clear);
         if let Some(problem) = stats.problem {
@@ -512,6 +544,35 @@ impl Simulation {
         self.stats = stats;
         self.wind_impulse += wind_impulse;
         Ok(dt)
+    }
+
+    /// Spindrift at the end of a substep of length `dt`, while the grid
+    /// still holds its node masses ([`crate::spindrift`]): the drift moves
+    /// and lands, then loose surface snow lifts. `placed` are the colliders
+    /// at the end of the substep, the scene's first.
+    fn blow_spindrift(&mut self, placed: &[PlacedCollider], dt: f32) {
+        let (Some(drag), Some(wind)) = (self.wind.as_ref(), self.scene.wind.as_ref()) else {
+            return;
+        };
+        let Some(settings) = wind.spindrift.as_ref() else {
+            return;
+        };
+        let step = SpindriftStep {
+            settings,
+            drag,
+            colliders: &placed[..self.scene.colliders.len()],
+            domain: &self.scene.domain,
+            gravity: self.scene.solver.gravity,
+            interval: (self.time, self.time + f64::from(dt)),
+            substep: self.steps,
+            seed: wind.field.seed,
+            integrator: wind.field.integrator,
+            material_densities: &self.material_densities,
+        };
+        let mut landed = Particles::default();
+        spindrift::carry(&step, &mut self.drift, &mut self.escaped, &mut landed);
+        spindrift::detach(&step, &self.grid, &mut self.particles, &mut self.drift);
+        self.particles.append(landed);
     }
 
     /// Chooses the instruction set of the batched particle update
@@ -669,6 +730,8 @@ impl Simulation {
             max_speed_squared: self.stats.max_speed_squared,
             max_wave_speed_squared: self.stats.max_wave_speed_squared,
             particles: self.particles.clone(),
+            drift: self.drift.clone(),
+            escaped: self.escaped,
         }
     }
 
@@ -703,6 +766,16 @@ impl Simulation {
     /// nodes of m_i Δv_i (equation W3 of [`firn_core::scene::wind`]).
     pub fn wind_impulse(&self) -> DVec3 {
         self.wind_impulse
+    }
+
+    /// The snow the wind carries (`[wind.spindrift]`; empty without).
+    pub fn drift(&self) -> &Drift {
+        &self.drift
+    }
+
+    /// The drift the wind carried out of the domain so far.
+    pub fn escaped(&self) -> Escaped {
+        self.escaped
     }
 
     /// Grid geometry.

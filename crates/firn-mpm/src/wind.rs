@@ -65,10 +65,9 @@ impl AirDrag {
     /// The rate k_i = c_d A_i / m_i of equation W3 at node `node` of mass
     /// `mass` moving at `velocity` in air moving at `wind`, with
     /// A_i = h² φ_i (1 − φ_up) (W2): φ = min(1, m / (ρ_packed h³)) is the
-    /// node's share of a packed cell, and φ_up the same share of the nodes
-    /// upwind, one node against each axis component of the relative wind
-    /// u = v_w − v, weighted by |u_a| / |u|₁. `mass_at` gives the mass of any
-    /// node (0 where the grid holds none).
+    /// node's share of a packed cell, and 1 − φ_up the exposure of
+    /// [`AirDrag::exposure`] against ρ_packed h³. `mass_at` gives the mass of
+    /// any node (0 where the grid holds none).
     pub fn rate(
         &self,
         node: IVec3,
@@ -77,27 +76,58 @@ impl AirDrag {
         wind: Vec3,
         mass_at: impl Fn(IVec3) -> f32,
     ) -> f32 {
-        let relative = wind - velocity;
+        if self.node_drag == 0.0 {
+            return 0.0;
+        }
+        match self.exposure(node, wind - velocity, self.packed_mass, mass_at) {
+            Some(exposure) => self.node_drag * exposure / mass.max(self.packed_mass),
+            None => 0.0,
+        }
+    }
+
+    /// The exposure 1 − φ_up of node `node` to the relative wind `relative`
+    /// (equation W2), in [0, 1]: φ_up is the share min(1, m / `full_mass`)
+    /// of the nodes upwind, one node against each axis component u_a of the
+    /// relative wind, weighted by |u_a| / |u|₁. The drag measures shares
+    /// against a packed cell, ρ_packed h³; spindrift against the node's own
+    /// mass. `None` in still air (u = 0). `mass_at` gives the mass of any
+    /// node.
+    pub fn exposure(
+        &self,
+        node: IVec3,
+        relative: Vec3,
+        full_mass: f32,
+        mass_at: impl Fn(IVec3) -> f32,
+    ) -> Option<f32> {
         let weights = relative.abs();
         let total = weights.x + weights.y + weights.z;
-        if self.node_drag == 0.0 || total <= 0.0 {
-            return 0.0;
+        if total <= 0.0 {
+            return None;
         }
         let mut upwind = 0.0;
         for axis in 0..3 {
             if weights[axis] > 0.0 {
                 let mut step = IVec3::ZERO;
                 step[axis] = if relative[axis] > 0.0 { -1 } else { 1 };
-                upwind += weights[axis] * self.share_of_packed(mass_at(node + step));
+                upwind += weights[axis] * (mass_at(node + step) / full_mass).min(1.0);
             }
         }
-        let exposure = 1.0 - upwind / total;
-        self.node_drag * exposure.max(0.0) / mass.max(self.packed_mass)
+        Some((1.0 - upwind / total).max(0.0))
     }
 
-    /// φ = min(1, m / (ρ_packed h³)): a node's share of a packed cell.
-    fn share_of_packed(&self, mass: f32) -> f32 {
-        (mass / self.packed_mass).min(1.0)
+    /// ρ_packed h³: the mass of a packed cell (W2).
+    pub fn packed_mass(&self) -> f32 {
+        self.packed_mass
+    }
+
+    /// The air's field.
+    pub fn field(&self) -> &FlowField {
+        &self.field
+    }
+
+    /// The instruction set of the field's batches.
+    pub fn simd(&self) -> Simd {
+        self.simd
     }
 }
 

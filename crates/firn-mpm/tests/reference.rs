@@ -413,6 +413,8 @@ fn whole_substeps_match_the_reference() {
             max_speed_squared: 0.0,
             max_wave_speed_squared: 0.0,
             particles: particles.clone(),
+            drift: Default::default(),
+            escaped: Default::default(),
         };
         let mut fast = Simulation::from_snapshot(scene, snapshot).unwrap();
         let mut plain = particles;

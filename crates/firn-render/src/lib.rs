@@ -71,6 +71,18 @@ pub struct ParticleLayer<'a> {
     pub surface: Option<&'a TriangleMesh>,
 }
 
+/// Particles drawn over a picture's own in the flow's look (seed 002's
+/// billboards): a snow scene's spindrift, in the air beside the snow.
+#[derive(Clone, Copy, Debug)]
+pub struct DriftLayer<'a> {
+    /// Positions.
+    pub positions: &'a [Vec3],
+    /// Sprite radius in metres.
+    pub radius: f32,
+    /// Colour each sprite adds at its centre (before the additive intensity).
+    pub color: Vec3,
+}
+
 /// Everything one image shows.
 #[derive(Clone, Debug)]
 pub struct Picture<'a> {
@@ -84,6 +96,8 @@ pub struct Picture<'a> {
     pub particles: ParticleLayer<'a>,
     /// A colour legend, if wanted.
     pub legend: Option<Legend>,
+    /// Drift particles drawn as billboards over the others, in every style.
+    pub drift: Option<DriftLayer<'a>>,
 }
 
 /// Renders `picture` to an 8-bit sRGB image.
@@ -125,7 +139,23 @@ fn render_points(picture: &Picture<'_>) -> RgbImage {
         particles.radius,
         &picture.stage.light,
     );
-    film.resolve(SUPERSAMPLING)
+    finish(film, &camera, picture, SUPERSAMPLING)
+}
+
+/// Adds the picture's drift onto `film` (a supersampled `factor` times)
+/// and resolves it to the output image.
+fn finish(mut film: Film, camera: &CameraView, picture: &Picture<'_>, factor: u32) -> RgbImage {
+    if let Some(drift) = &picture.drift {
+        billboards::draw_billboards(
+            &mut film,
+            camera,
+            drift.positions,
+            &Coloring::Uniform(drift.color),
+            drift.radius,
+            ADDITIVE_INTENSITY,
+        );
+    }
+    film.resolve(factor)
 }
 
 fn render_surface(picture: &Picture<'_>) -> RgbImage {
@@ -164,7 +194,7 @@ fn render_additive(picture: &Picture<'_>) -> RgbImage {
             ADDITIVE_INTENSITY,
         ),
     }
-    film.resolve(SUPERSAMPLING)
+    finish(film, &camera, picture, SUPERSAMPLING)
 }
 
 fn render_volume(picture: &Picture<'_>) -> RgbImage {
@@ -182,7 +212,7 @@ fn render_volume(picture: &Picture<'_>) -> RgbImage {
     picture.stage.draw(&mut film, &camera, &shadow);
     draw_container(&mut film, &camera, &picture.stage, factor as f32);
     volume::draw_volume(&mut film, &camera, &grid, &particles.look, &light);
-    film.resolve(factor)
+    finish(film, &camera, picture, factor)
 }
 
 /// Draws the container's edges `scale` times the nominal width (in samples).

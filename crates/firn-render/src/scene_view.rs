@@ -14,13 +14,20 @@ use crate::ramp::{Coloring, ValueRange, ramp};
 use crate::stage::Stage;
 use crate::trails::Trails;
 use crate::volume::SnowLook;
-use crate::{ParticleLayer, Picture};
+use crate::{DriftLayer, ParticleLayer, Picture};
 
 /// Snow's sprite radius relative to the particle spacing: a little over half,
 /// so neighbouring sprites overlap into a closed surface.
 const RADIUS_PER_SPACING: f32 = 0.6;
 /// Mean free path of light in snow at its rest density, in particle spacings.
 const MEAN_FREE_PATH_SPACINGS: f32 = 0.6;
+
+/// Drift sprites' radius relative to the snow's sprites: the flow's
+/// billboards are twice the points' radius.
+const DRIFT_RADIUS_PER_SPRITE: f32 = 2.0;
+/// The colour drift sprites add: a cold white, so that blown snow glows
+/// against the sky and the shaded snow.
+const DRIFT_COLOR: Vec3 = Vec3::new(0.85, 0.92, 1.0);
 
 /// One frame's particles, as the renderer needs them.
 #[derive(Clone, Copy, Debug)]
@@ -36,6 +43,9 @@ pub struct FrameParticles<'a> {
     pub trails: Option<Trails<'a>>,
     /// The snow's reconstructed surface, for the `surface` style.
     pub surface: Option<&'a TriangleMesh>,
+    /// A snow scene's drift particles (`[wind.spindrift]`), drawn in the
+    /// flow's look over the snow.
+    pub drift: Option<&'a [Vec3]>,
 }
 
 /// The picture of `scene` at simulated time `time` in `style`, at the
@@ -83,6 +93,11 @@ pub fn scene_picture<'a>(
             surface: particles.surface,
         },
         legend,
+        drift: particles.drift.map(|positions| DriftLayer {
+            positions,
+            radius: DRIFT_RADIUS_PER_SPRITE * sprite_radius(scene),
+            color: DRIFT_COLOR,
+        }),
     }
 }
 

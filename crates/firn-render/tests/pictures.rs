@@ -5,7 +5,8 @@ use std::borrow::Cow;
 use firn_render::film::encode_srgb;
 use firn_render::ramp::ramp;
 use firn_render::{
-    CameraView, Coloring, ParticleLayer, Picture, RenderStyle, SnowLook, Stage, ValueRange, render,
+    CameraView, Coloring, DriftLayer, ParticleLayer, Picture, RenderStyle, SnowLook, Stage,
+    ValueRange, render,
 };
 use glam::{Vec2, Vec3};
 use image::RgbImage;
@@ -51,6 +52,7 @@ fn picture<'a>(positions: &'a [Vec3], coloring: Coloring<'a>, style: RenderStyle
             surface: None,
         },
         legend: None,
+        drift: None,
     }
 }
 
@@ -439,4 +441,39 @@ fn the_surface_style_without_a_surface_shows_the_stage() {
         RenderStyle::Surface,
     ));
     assert_eq!(bare, surface);
+}
+
+#[test]
+fn drift_glows_over_the_snow_in_every_style_and_only_where_it_is() {
+    let snow = ball(Vec3::new(-0.3, 0.0, 0.0), 0.15, 0.02);
+    let drift_at = Vec3::new(0.35, 0.1, 0.0);
+    let drift = vec![drift_at; 3];
+    for style in [RenderStyle::Points, RenderStyle::Volume] {
+        let plain = picture(&snow, Coloring::Uniform(Vec3::splat(0.8)), style);
+        let blown = Picture {
+            drift: Some(DriftLayer {
+                positions: &drift,
+                radius: 0.03,
+                color: Vec3::ONE,
+            }),
+            ..plain.clone()
+        };
+        let (before, after) = (render(&plain), render(&blown));
+        let projected = camera().project(drift_at).expect("in front");
+        let (x, y) = (projected.pixel.x as u32, projected.pixel.y as u32);
+        let brightness = |image: &RgbImage, x: u32, y: u32| -> u32 {
+            image.get_pixel(x, y).0.iter().map(|&c| u32::from(c)).sum()
+        };
+        assert!(
+            brightness(&after, x, y) > brightness(&before, x, y) + 60,
+            "{style:?}: the drift does not show at its place"
+        );
+        let reach = 0.03 * projected.scale + 2.0;
+        for (px, py, pixel) in after.enumerate_pixels() {
+            let distance = (Vec2::new(px as f32 + 0.5, py as f32 + 0.5) - projected.pixel).length();
+            if distance > reach {
+                assert_eq!(pixel, before.get_pixel(px, py), "{style:?} at ({px}, {py})");
+            }
+        }
+    }
 }

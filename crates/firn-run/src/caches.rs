@@ -3,7 +3,8 @@
 //! (PVD) that lists the VTK frames by time, a snow frame's OpenVDB
 //! volumes (`vdb`, see [`crate::volumes`]), a snow frame's surface mesh
 //! (`mesh`, PLY and OBJ, see [`crate::surface`]) and the run's USD stage
-//! (`usd`, see [`crate::usd_stage`]).
+//! (`usd`, see [`crate::usd_stage`]). A snow scene with spindrift writes its drift
+//! particles beside the snow, in `drift/` (PLY and VTK).
 
 use firn_core::scene::{Attribute as SceneAttribute, CacheFormat, Scene};
 use firn_io::{
@@ -84,7 +85,45 @@ fn write_snow_frame(
             .contains(&CacheFormat::Mesh)
             .then(|| scene_surface(scene, &particles.position, &particles.mass)),
     };
-    write_caches(scene, &frame, &volumes, run, pvd)
+    let mut files = write_caches(scene, &frame, &volumes, run, pvd)?;
+    if scene
+        .wind
+        .as_ref()
+        .is_some_and(|wind| wind.spindrift.is_some())
+    {
+        files.extend(write_drift_frame(simulation, index, run)?);
+    }
+    Ok(files)
+}
+
+/// Writes a snow frame's drift (`[wind.spindrift]`) beside its snow, in
+/// `drift/` as PLY and VTK PolyData for the scene's `ply` and `vtk` formats,
+/// with each particle's velocity and mass; returns the files' paths
+/// relative to the run directory.
+fn write_drift_frame(
+    simulation: &Simulation,
+    index: u32,
+    run: &RunDirectory,
+) -> Result<Vec<String>, IoError> {
+    let drift = simulation.drift();
+    let frame = FrameData::new(index, simulation.time(), &drift.position)
+        .with_attribute(Attribute::vector("velocity", &drift.velocity))
+        .with_attribute(Attribute::scalar("mass", &drift.mass));
+    let mut files = Vec::new();
+    for &format in &simulation.scene().output.formats {
+        let name = match format {
+            CacheFormat::Ply | CacheFormat::Vtk => RunDirectory::drift_cache_name(format, index),
+            CacheFormat::Vdb | CacheFormat::Usd | CacheFormat::Mesh => continue,
+        };
+        let path = run.path().join(&name);
+        firn_io::ensure_writable_dir(path.parent().unwrap_or(run.path()))?;
+        match format {
+            CacheFormat::Ply => write_ply(&path, &frame)?,
+            _ => write_vtp(&path, &frame)?,
+        }
+        files.push(name);
+    }
+    Ok(files)
 }
 
 /// What a snow frame's particles are turned into: the OpenVDB grids

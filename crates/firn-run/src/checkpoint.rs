@@ -1,7 +1,9 @@
 //! Checkpoint files: a solver's complete state after a frame, with the
 //! resolved scene it was simulating, in firn-io's checkpoint format (JSON
 //! metadata and named raw arrays). A snow checkpoint holds the particle
-//! arrays and the counters as bits; a flow checkpoint its snapshot's arrays.
+//! arrays and the counters as bits, and its spindrift (the drift arrays and
+//! the escaped tally; a checkpoint written before spindrift existed has
+//! none and reads as no drift); a flow checkpoint its snapshot's arrays.
 //! Either resumes on either backend.
 
 use std::path::Path;
@@ -10,7 +12,7 @@ use firn_core::Scene;
 use firn_core::scene::SceneKind;
 use firn_flow::FlowSnapshot;
 use firn_io::{Checkpoint, IoError};
-use firn_mpm::{Particles, Snapshot};
+use firn_mpm::{Drift, Escaped, Particles, Snapshot};
 
 use crate::error::CheckpointError;
 use crate::simulation::SolverState;
@@ -172,6 +174,8 @@ fn snow_checkpoint(snapshot: &Snapshot, frame: u32, scene_json: &serde_json::Val
         "steps": snapshot.steps,
         "max_speed_squared_bits": snapshot.max_speed_squared.to_bits(),
         "max_wave_speed_squared_bits": snapshot.max_wave_speed_squared.to_bits(),
+        "escaped_count": snapshot.escaped.count,
+        "escaped_mass_bits": snapshot.escaped.mass.to_bits(),
         "scene": scene_json,
     }));
     let p = &snapshot.particles;
@@ -184,6 +188,12 @@ fn snow_checkpoint(snapshot: &Snapshot, frame: u32, scene_json: &serde_json::Val
     checkpoint.push_array("stress", &p.stress);
     checkpoint.push_array("velocity_gradient", &p.velocity_gradient);
     checkpoint.push_array("material", &p.material);
+    let drift = &snapshot.drift;
+    checkpoint.push_array("drift_position", &drift.position);
+    checkpoint.push_array("drift_velocity", &drift.velocity);
+    checkpoint.push_array("drift_mass", &drift.mass);
+    checkpoint.push_array("drift_volume", &drift.volume);
+    checkpoint.push_array("drift_material", &drift.material);
     checkpoint
 }
 
@@ -258,6 +268,7 @@ fn read_snow(checkpoint: &Checkpoint, path: &Path) -> Result<SavedCheckpoint, Ch
         material: checkpoint.array("material")?,
     };
     let counter = |name| counter(checkpoint, path, name);
+    let (drift, escaped) = read_drift(checkpoint, path)?;
     Ok(SavedCheckpoint {
         frame: frame(checkpoint, path)?,
         scene_json: saved_scene(checkpoint),
@@ -267,8 +278,30 @@ fn read_snow(checkpoint: &Checkpoint, path: &Path) -> Result<SavedCheckpoint, Ch
             max_speed_squared: f32::from_bits(counter("max_speed_squared_bits")? as u32),
             max_wave_speed_squared: f32::from_bits(counter("max_wave_speed_squared_bits")? as u32),
             particles,
+            drift,
+            escaped,
         }),
     })
+}
+
+/// The spindrift of a snow checkpoint: none in one written before
+/// spindrift existed (without the drift arrays), else all of it.
+fn read_drift(checkpoint: &Checkpoint, path: &Path) -> Result<(Drift, Escaped), CheckpointError> {
+    if checkpoint.array_bytes("drift_position").is_err() {
+        return Ok((Drift::default(), Escaped::default()));
+    }
+    let drift = Drift {
+        position: checkpoint.array("drift_position")?,
+        velocity: checkpoint.array("drift_velocity")?,
+        mass: checkpoint.array("drift_mass")?,
+        volume: checkpoint.array("drift_volume")?,
+        material: checkpoint.array("drift_material")?,
+    };
+    let escaped = Escaped {
+        count: counter(checkpoint, path, "escaped_count")?,
+        mass: f64::from_bits(counter(checkpoint, path, "escaped_mass_bits")?),
+    };
+    Ok((drift, escaped))
 }
 
 /// Reads a checkpoint written by [`flow_checkpoint`].

@@ -29,6 +29,7 @@ pub fn frame_particles<'a>(particles: &'a HostParticles<'a>) -> FrameParticles<'
             lengths: &rings.lengths,
         }),
         surface: None,
+        drift: particles.drift,
     }
 }
 

@@ -13,7 +13,7 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use firn_core::Scene;
-use firn_io::{FrameRecord, Manifest, PvdCollection, RunStatus, SolverFrameStats};
+use firn_io::{FrameRecord, Manifest, MassBalance, PvdCollection, RunStatus, SolverFrameStats};
 use firn_mpm::SolverStats;
 
 use crate::backend::Placement;
@@ -21,7 +21,7 @@ use crate::caches;
 use crate::checkpoint::{self, same_physics, scene_json};
 use crate::error::{ResumeError, RunError};
 use crate::run_dir::RunDirectory;
-use crate::simulation::{HostParticles, Solver};
+use crate::simulation::{HostParticles, HostState, Solver};
 
 /// A run in progress: its solver, where it writes, and what it wrote.
 pub struct Recording {
@@ -324,6 +324,7 @@ impl Recording {
         let particles = self.solver.particle_count().max(1) as f64;
         let wall_seconds = wall.as_secs_f64();
         let solver = self.frame_solver_stats();
+        let mass = self.mass_balance().map_err(|error| self.fail(error))?;
         self.manifest.record_frame(FrameRecord {
             index,
             time: self.solver.time(),
@@ -337,6 +338,7 @@ impl Recording {
             files,
             images,
             solver,
+            mass,
         });
         self.frame = index;
         let every = self.solver.scene().output.checkpoint_every;
@@ -367,6 +369,35 @@ impl Recording {
         };
         let images = observer.pictures(&frame).map_err(RunError::Pictures)?;
         Ok((files, images))
+    }
+
+    /// Where the snow's mass is now, for a scene with spindrift.
+    fn mass_balance(&mut self) -> Result<Option<MassBalance>, RunError> {
+        let HostState::Snow(simulation) = self.solver.host()? else {
+            return Ok(None);
+        };
+        let spindrift = simulation
+            .scene()
+            .wind
+            .as_ref()
+            .is_some_and(|wind| wind.spindrift.is_some());
+        if !spindrift {
+            return Ok(None);
+        }
+        let snow = simulation.particles();
+        let drift = simulation.drift();
+        let escaped = simulation.escaped();
+        let snow_mass = snow.mass.iter().fold(0.0, |sum, &m| sum + f64::from(m));
+        let drift_mass = drift.total_mass();
+        Ok(Some(MassBalance {
+            snow: snow_mass,
+            drift: drift_mass,
+            escaped: escaped.mass,
+            total: snow_mass + drift_mass + escaped.mass,
+            snow_particles: snow.len() as u64,
+            drift_particles: drift.len() as u64,
+            escaped_particles: escaped.count,
+        }))
     }
 
     /// The solver's work since the previous frame, if it runs a

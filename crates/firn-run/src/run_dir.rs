@@ -112,6 +112,17 @@ impl RunDirectory {
         format!("{}/frame_{index:05}.obj", cache_folder(CacheFormat::Mesh))
     }
 
+    /// Path of frame `index`'s drift particles (`[wind.spindrift]`) in
+    /// `format` (`ply` or `vtk`), relative to the folder:
+    /// `drift/frame_NNNNN.ply` or `.vtp`.
+    pub fn drift_cache_name(format: CacheFormat, index: u32) -> String {
+        let extension = match format {
+            CacheFormat::Vtk => "vtp",
+            _ => "ply",
+        };
+        format!("drift/frame_{index:05}.{extension}")
+    }
+
     /// Path of frame `index`'s picture in `style`, relative to the folder.
     pub fn image_name(style: RenderStyle, index: u32) -> String {
         format!("{}/frame_{index:05}.png", image_folder(style))
@@ -154,12 +165,28 @@ impl RunDirectory {
         Ok(RecordedRun { manifest, scene })
     }
 
+    /// Reads the drift particles' positions (`[wind.spindrift]`) of the
+    /// frame `record` describes from its PLY cache; `None` where the frame
+    /// has none.
+    pub fn read_drift(&self, record: &FrameRecord) -> Result<Option<Vec<Vec3>>, ReadRunError> {
+        let Some(name) = record
+            .files
+            .iter()
+            .find(|file| file.starts_with("drift/") && file.ends_with(".ply"))
+        else {
+            return Ok(None);
+        };
+        let cloud = read_ply(&self.path.join(name))
+            .map_err(|source| ReadRunError::FrameCache { source })?;
+        Ok(cloud.positions())
+    }
+
     /// Reads the PLY cache of the frame `record` describes.
     pub fn read_frame(&self, record: &FrameRecord) -> Result<CachedFrame, ReadRunError> {
         let name = record
             .files
             .iter()
-            .find(|file| file.ends_with(".ply"))
+            .find(|file| file.ends_with(".ply") && !file.starts_with("drift/"))
             .ok_or_else(|| ReadRunError::NoPlyCache {
                 index: record.index,
                 directory: self.path.clone(),

@@ -102,6 +102,8 @@ pub struct HostParticles<'a> {
     pub values: Option<Vec<f32>>,
     /// The flow's trails, if it keeps them.
     pub trails: Option<TrailRings>,
+    /// Snow's drift particles, with spindrift (`[wind.spindrift]`).
+    pub drift: Option<&'a [Vec3]>,
 }
 
 /// A flow's trails, flattened: per particle a ring of `capacity` recent
@@ -562,6 +564,12 @@ impl<'a> HostState<'a> {
                     masses: Some(&particles.mass),
                     values: simulation.color_values(color_by),
                     trails: None,
+                    drift: simulation
+                        .scene()
+                        .wind
+                        .as_ref()
+                        .and_then(|wind| wind.spindrift.as_ref())
+                        .map(|_| simulation.drift().position.as_slice()),
                 }
             }
             HostState::Flow(flow) => HostParticles {
@@ -577,6 +585,7 @@ impl<'a> HostState<'a> {
                         lengths,
                     }
                 }),
+                drift: None,
             },
         }
     }

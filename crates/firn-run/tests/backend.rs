@@ -2,7 +2,7 @@
 
 mod common;
 
-use firn_core::scene::{Backend, ImplicitSettings, Integrator};
+use firn_core::scene::{Backend, ImplicitSettings, Integrator, Spindrift, Wind};
 use firn_run::backend::gpu_supports;
 use firn_run::choose_backend;
 
@@ -42,4 +42,21 @@ fn a_semi_implicit_scene_is_not_for_the_gpu() {
             "{note}"
         );
     }
+}
+
+#[test]
+fn a_scene_with_spindrift_is_not_for_the_gpu() {
+    let mut scene = common::slab();
+    scene.wind = Some(Wind::uniform(glam::Vec3::X, 8.0));
+    assert!(gpu_supports(&scene).is_ok(), "wind alone runs on the GPU");
+    scene.wind.as_mut().unwrap().spindrift = Some(Spindrift::default());
+    let why = gpu_supports(&scene).expect_err("spindrift is CPU only");
+    let message = why.to_string();
+    assert!(message.contains("[wind.spindrift]"), "{message}");
+    assert!(message.contains("--backend cpu"), "{message}");
+    scene.compute.backend = Backend::Gpu;
+    assert!(choose_backend(&scene).is_err());
+    scene.compute.backend = Backend::Auto;
+    let chosen = choose_backend(&scene).expect("auto falls back to the CPU");
+    assert_eq!(chosen.placement.name(), "cpu");
 }

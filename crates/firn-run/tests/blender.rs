@@ -98,6 +98,7 @@ fn firn_coverage(scene: &Scene, time: f64, mesh: &firn_mesh::TriangleMesh) -> Ve
             surface,
         },
         legend: None,
+        drift: None,
     };
     let empty = render(&picture(None));
     let snow = render(&picture(Some(mesh)));

@@ -8,7 +8,7 @@ use std::ops::ControlFlow;
 use std::path::Path;
 
 use firn_core::Scene;
-use firn_core::scene::ColorBy;
+use firn_core::scene::{ColorBy, Spindrift, Wind};
 use firn_io::RunStatus;
 use firn_run::error::{ReadRunError, ResumeError};
 use firn_run::recording::{FrameToPicture, Observer, Progress};
@@ -257,4 +257,103 @@ fn a_flow_frame_caches_its_velocities_and_ages() {
     assert_eq!(cached.positions().as_deref(), Some(particles.positions));
     assert_eq!(cached.color_values(ColorBy::Speed), Ok(particles.values));
     assert_eq!(cached.color_values(ColorBy::Density), Err("density"));
+}
+
+/// The slab as loose powder in a gale with spindrift.
+fn blown_slab() -> Scene {
+    let mut scene = common::slab();
+    scene.materials[0].density = 100.0;
+    scene.wind = Some(Wind {
+        spindrift: Some(Spindrift {
+            rate: 20.0,
+            ..Spindrift::default()
+        }),
+        ..Wind::uniform(glam::Vec3::X, 8.0)
+    });
+    scene
+}
+
+#[test]
+fn a_resumed_run_with_spindrift_writes_the_same_bytes_and_keeps_the_mass() {
+    let (whole, parts) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let scene = blown_slab();
+    let last = scene.time.frame_count();
+    let mut notes = Notes::default();
+    start(scene.clone(), whole.path(), &mut notes)
+        .run_to(last, &mut notes)
+        .unwrap();
+    start(scene.clone(), parts.path(), &mut notes)
+        .run_to(3, &mut notes)
+        .unwrap();
+    let mut resumed = Recording::resume(scene, RunDirectory::new(parts.path()), &Placement::Cpu)
+        .expect("the run resumes");
+    resumed.run_to(last, &mut notes).unwrap();
+    for file in [
+        format!("ply/frame_{last:05}.ply"),
+        format!("drift/frame_{last:05}.ply"),
+        format!("drift/frame_{last:05}.vtp"),
+        "checkpoint.firnckpt".into(),
+    ] {
+        let read = |folder: &Path| std::fs::read(folder.join(&file)).unwrap();
+        assert!(read(whole.path()) == read(parts.path()), "{file} differs");
+    }
+    let manifest = RunDirectory::new(parts.path()).read().unwrap().manifest;
+    let balances: Vec<_> = manifest
+        .frames
+        .iter()
+        .map(|frame| frame.mass.expect("a mass balance per frame"))
+        .collect();
+    let start_mass = balances[0].snow;
+    assert_eq!(balances[0].drift_particles, 0);
+    // Each sum is taken in particle order and read back from JSON, so the
+    // totals agree to rounding (the exact multiset test is firn-mpm's).
+    for balance in &balances {
+        assert!(
+            (balance.total - start_mass).abs() <= 1e-12 * start_mass,
+            "{balance:?} against {start_mass}"
+        );
+        let sum = balance.snow + balance.drift + balance.escaped;
+        assert!((sum - balance.total).abs() <= 1e-12 * start_mass);
+        assert_eq!(
+            balance.snow_particles + balance.drift_particles + balance.escaped_particles,
+            balances[0].snow_particles
+        );
+    }
+    let end = balances.last().unwrap();
+    assert!(end.drift_particles > 0, "nothing drifts: {end:?}");
+    assert!(
+        manifest.frames[last as usize]
+            .files
+            .contains(&format!("drift/frame_{last:05}.ply"))
+    );
+    let drift =
+        firn_io::read_ply(&parts.path().join(format!("drift/frame_{last:05}.ply"))).unwrap();
+    assert_eq!(
+        drift.floats("mass").unwrap().len() as u64,
+        end.drift_particles
+    );
+}
+
+#[test]
+fn a_snow_checkpoint_without_drift_still_loads() {
+    let folder = tempfile::tempdir().unwrap();
+    let scene = common::slab();
+    let mut notes = Notes::default();
+    start(scene.clone(), folder.path(), &mut notes)
+        .run_to(2, &mut notes)
+        .unwrap();
+    let path = RunDirectory::new(folder.path()).checkpoint_path();
+    let mut checkpoint = firn_io::Checkpoint::read(&path).unwrap();
+    checkpoint
+        .arrays
+        .retain(|(name, _)| !name.starts_with("drift_"));
+    if let Some(meta) = checkpoint.meta.as_object_mut() {
+        meta.remove("escaped_count");
+        meta.remove("escaped_mass_bits");
+    }
+    checkpoint.write(&path).unwrap();
+    let mut resumed = Recording::resume(scene, RunDirectory::new(folder.path()), &Placement::Cpu)
+        .expect("a checkpoint from before spindrift resumes");
+    assert_eq!(resumed.frame(), 2);
+    resumed.run_to(3, &mut notes).unwrap();
 }

@@ -202,6 +202,7 @@ fn a_surface_picture_shows_the_snow_where_the_points_picture_does() {
         values: None,
         trails: None,
         surface: None,
+        drift: None,
     };
     let names = firn_run::pictures::render_frame(&scene, folder.path(), 0, 0.0, frame).unwrap();
     let empty = firn_render::scene_view::FrameParticles {
@@ -210,6 +211,7 @@ fn a_surface_picture_shows_the_snow_where_the_points_picture_does() {
         values: None,
         trails: None,
         surface: None,
+        drift: None,
     };
     firn_run::pictures::render_frame(&scene, bare.path(), 0, 0.0, empty).unwrap();
     let covered = |name: &String| -> Vec<bool> {

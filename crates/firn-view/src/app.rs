@@ -372,6 +372,11 @@ impl Running {
                 .map_or(EMPTY, ParticleSource::Device),
             (Content::Playback(playback), None) => playback.source().unwrap_or(EMPTY),
         };
+        let drift = match (self.session.content(), &host) {
+            (_, Some(host)) => host.drift,
+            (Content::Playback(playback), None) => playback.drift(),
+            (Content::Live(_), None) => None,
+        };
         let stage = scene_stage(scene, time);
         let frame = DrawFrame {
             view: self.camera.view_setup(
@@ -384,6 +389,7 @@ impl Running {
             particles,
             stage: &stage,
             point_radius: sprite_radius(scene),
+            drift,
         };
         self.renderer
             .draw(&context.device, &context.queue, encoder, view, &frame);

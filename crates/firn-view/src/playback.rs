@@ -29,6 +29,7 @@ struct LoadedFrame {
     color_by: ColorBy,
     positions: Vec<Vec3>,
     values: Option<Vec<f32>>,
+    drift: Option<Vec<Vec3>>,
 }
 
 impl Playback {
@@ -92,11 +93,16 @@ impl Playback {
                 cached.path().display()
             )
         })?;
+        let drift = self
+            .run
+            .read_drift(&self.frames[index])
+            .map_err(|error| error.to_string())?;
         self.loaded = Some(LoadedFrame {
             index,
             color_by,
             positions,
             values,
+            drift,
         });
         Ok(())
     }
@@ -106,6 +112,12 @@ impl Playback {
         self.loaded
             .as_ref()
             .map_or(0, |frame| frame.positions.len())
+    }
+
+    /// The loaded frame's drift particles (`[wind.spindrift]`), if it has
+    /// any.
+    pub fn drift(&self) -> Option<&[Vec3]> {
+        self.loaded.as_ref()?.drift.as_deref()
     }
 
     /// The loaded frame's particles for the renderer.

@@ -121,6 +121,7 @@ fn frame<'a>(
         particles,
         stage,
         point_radius: 0.012,
+        drift: None,
     }
 }
 
@@ -283,6 +284,7 @@ fn cpu_render(stage: &Stage, positions: &[Vec3], style: RenderStyle) -> image::R
             surface: None,
         },
         legend: None,
+        drift: None,
     })
 }
 
@@ -766,4 +768,32 @@ fn a_mesh_collider_is_drawn_where_its_centre_is_now() {
         distance(there_before, sky_at(&stage, FRONT.pixel(start).y as u32)) <= 1,
         "nothing where it started"
     );
+}
+
+#[test]
+fn drift_glows_over_the_snow_as_billboards() {
+    let Some(context) = context() else { return };
+    let stage = stage(Vec::new());
+    let snow = ball(Vec3::new(0.35, 0.5, 0.5), 0.12, 0.02);
+    let drift_at = Vec3::new(0.75, 0.6, 0.5);
+    let drift = vec![drift_at; 4];
+    let particles = ParticleSource::Host {
+        positions: &snow,
+        values: None,
+        trails: None,
+    };
+    let plain = frame(&stage, DrawStyle::Points, ColorBy::Uniform, particles);
+    let blown = DrawFrame {
+        drift: Some(&drift),
+        ..plain
+    };
+    let (before, after) = (render(&context, &plain), render(&context, &blown));
+    save(&after, "drift");
+    let at = FRONT.pixel(drift_at);
+    assert!(
+        brightness_at(&after, at) > brightness_at(&before, at) + 60,
+        "the drift does not glow at {at}"
+    );
+    let snow_at = FRONT.pixel(Vec3::new(0.35, 0.5, 0.5));
+    assert_eq!(rgb_at(&after, snow_at), rgb_at(&before, snow_at));
 }

@@ -32,4 +32,4 @@ pub use material::Material;
 pub use mesh::{MeshBody, MeshCollider, MeshPlacement};
 pub use model::*;
 pub use render::*;
-pub use wind::Wind;
+pub use wind::{Spindrift, Wind};

@@ -176,6 +176,16 @@ impl GpuSnow {
                 fix: "run with --backend cpu, or set integrator = \"explicit\" in [solver]".into(),
             });
         }
+        if scene
+            .wind
+            .as_ref()
+            .is_some_and(|wind| wind.spindrift.is_some())
+        {
+            return Err(GpuError::Unsupported {
+                what: "spindrift ([wind.spindrift]) is not yet on the GPU".into(),
+                fix: "run with --backend cpu, or remove the [wind.spindrift] table".into(),
+            });
+        }
         if let Some(wind) = &scene.wind
             && wind.field.obstacles.len() > MAX_WIND_OBSTACLES
         {
@@ -364,6 +374,8 @@ impl GpuSnow {
             max_speed_squared: f32::from_bits(self.last.max_speed_bits),
             max_wave_speed_squared: f32::from_bits(self.last.max_wave_bits),
             particles,
+            drift: firn_mpm::Drift::default(),
+            escaped: firn_mpm::Escaped::default(),
         })
     }
 

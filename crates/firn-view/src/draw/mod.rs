@@ -96,6 +96,9 @@ pub struct DrawFrame<'a> {
     pub stage: &'a Stage,
     /// Sprite radius in metres.
     pub point_radius: f32,
+    /// A snow scene's drift particles (`[wind.spindrift]`), drawn in the
+    /// flow's look, as additive billboards, over the snow.
+    pub drift: Option<&'a [Vec3]>,
 }
 
 /// The pipelines and buffers that draw frames of one scene.
@@ -106,6 +109,10 @@ pub struct SceneRenderer {
     solids: Solids,
     wireframe: Wireframe,
     particles: Particles,
+    /// The drift's frame uniforms (its own colouring and sprite size).
+    drift_frame: FrameBindings,
+    /// The drift particles' pipelines and buffers.
+    drift: Particles,
     /// The scene's domain: the box of colour by position when the stage has
     /// no container.
     domain: (Vec3, Vec3),
@@ -125,7 +132,10 @@ impl SceneRenderer {
         };
         let frame = FrameBindings::new(device);
         let layout = frame.layout();
+        let drift_frame = FrameBindings::new(device);
         SceneRenderer {
+            drift: Particles::new(device, target, drift_frame.layout()),
+            drift_frame,
             depth: DepthTarget::new(device, [1, 1]),
             backdrop: Backdrop::new(device, target, layout),
             solids: Solids::new(device, target, layout, scene),
@@ -138,7 +148,8 @@ impl SceneRenderer {
 
     /// Records the drawing of `frame` into `target` (cleared first): the
     /// device's colour values of the particles (a compute pass), then the
-    /// backdrop, colliders, container and particles (one render pass).
+    /// backdrop, colliders, container, particles and drift (one render
+    /// pass).
     /// Uniforms are written through `queue`, so submit `encoder` before
     /// drawing the next frame.
     pub fn draw(
@@ -154,6 +165,25 @@ impl SceneRenderer {
             .prepare(device, queue, encoder, frame, self.domain);
         self.frame
             .write(queue, &frame.view, frame.stage, look.coloring, look.sprites);
+        let drift = frame.drift.map(|positions| DrawFrame {
+            style: DrawStyle::Billboards,
+            color_by: ColorBy::Uniform,
+            range: None,
+            particles: ParticleSource::Host {
+                positions,
+                values: None,
+                trails: None,
+            },
+            drift: None,
+            ..*frame
+        });
+        if let Some(drift) = &drift {
+            let look = self
+                .drift
+                .prepare(device, queue, encoder, drift, self.domain);
+            self.drift_frame
+                .write(queue, &drift.view, drift.stage, look.coloring, look.sprites);
+        }
         self.solids.prepare(device, queue, frame.stage);
         self.wireframe.prepare(queue, frame.stage);
         let depth = self.depth.view_for(device, frame.view.size);
@@ -185,6 +215,9 @@ impl SceneRenderer {
         self.solids.draw(&mut pass, group);
         self.wireframe.draw(&mut pass, group);
         self.particles.draw(&mut pass, group);
+        if drift.is_some() {
+            self.drift.draw(&mut pass, self.drift_frame.group());
+        }
     }
 }
 

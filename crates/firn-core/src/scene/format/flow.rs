@@ -21,7 +21,7 @@ use crate::scene::flow::{
 };
 use crate::scene::model::{Attribute, CacheFormat, Domain, Scene};
 use crate::scene::render::RenderStyle;
-use crate::scene::wind::Wind;
+use crate::scene::wind::{Spindrift, Wind};
 
 /// Largest number of particle slots a flow scene may ask for (2^26).
 pub const MAX_FLOW_PARTICLES: u64 = 1 << 26;
@@ -60,6 +60,18 @@ pub(super) struct RawFlow {
     emitters: Option<Vec<RawEmitter>>,
     drag: Option<f32>,
     packed_density: Option<f32>,
+    spindrift: Option<RawSpindrift>,
+}
+
+/// The `[wind.spindrift]` table of a snow scene's wind.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawSpindrift {
+    threshold_speed: Option<f32>,
+    loose_density: Option<f32>,
+    rate: Option<f32>,
+    fall_speed: Option<f32>,
+    settle: Option<bool>,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, Deserialize)]
@@ -279,6 +291,7 @@ fn resolve_flow(raw: Option<RawFlow>, domain: &Domain) -> Result<FlowSettings, I
     for (key, given) in [
         ("drag", raw.drag.is_some()),
         ("packed_density", raw.packed_density.is_some()),
+        ("spindrift", raw.spindrift.is_some()),
     ] {
         if given {
             return Err(Issue::new(
@@ -344,11 +357,26 @@ pub(super) fn resolve_wind(raw: Option<RawFlow>, domain: &Domain) -> Result<Opti
         .packed_density
         .take()
         .unwrap_or(Wind::DEFAULT_PACKED_DENSITY);
+    let spindrift = raw.spindrift.take().map(resolve_spindrift);
     Ok(Some(Wind {
         field: resolve_field(raw, &path, domain)?,
         drag,
         packed_density,
+        spindrift,
     }))
+}
+
+/// The `[wind.spindrift]` table, with the defaults of [`Spindrift`] for the
+/// keys it leaves out.
+fn resolve_spindrift(raw: RawSpindrift) -> Spindrift {
+    let defaults = Spindrift::default();
+    Spindrift {
+        threshold_speed: raw.threshold_speed.unwrap_or(defaults.threshold_speed),
+        loose_density: raw.loose_density.unwrap_or(defaults.loose_density),
+        rate: raw.rate.unwrap_or(defaults.rate),
+        fall_speed: raw.fall_speed.unwrap_or(defaults.fall_speed),
+        settle: raw.settle.unwrap_or(defaults.settle),
+    }
 }
 
 /// The field keys shared by `[flow]` and `[wind]` (at `path`), with the
@@ -610,6 +638,49 @@ pub(super) fn check_wind(wind: &Wind) -> Check {
             "set the density in kg/m³ above which snow is sheltered inside, e.g. \
              packed_density = {}",
             Wind::DEFAULT_PACKED_DENSITY
+        ),
+    )?;
+    match &wind.spindrift {
+        Some(spindrift) => check_spindrift(&path.key("spindrift"), spindrift),
+        None => Ok(()),
+    }
+}
+
+/// The rules of `[wind.spindrift]`, at `path`.
+fn check_spindrift(path: &KeyPath, spindrift: &Spindrift) -> Check {
+    not_negative(
+        spindrift.threshold_speed,
+        path.key("threshold_speed"),
+        format!(
+            "set the relative wind speed in m/s above which loose surface snow lifts, e.g. \
+             threshold_speed = {}",
+            Spindrift::DEFAULT_THRESHOLD_SPEED
+        ),
+    )?;
+    positive(
+        spindrift.loose_density,
+        path.key("loose_density"),
+        format!(
+            "set the density in kg/m³ below which snow is loose enough to lift, e.g. \
+             loose_density = {}",
+            Spindrift::DEFAULT_LOOSE_DENSITY
+        ),
+    )?;
+    not_negative(
+        spindrift.rate,
+        path.key("rate"),
+        format!(
+            "set the detachments per second of an exposed loose particle, e.g. rate = {} \
+             (0: none lifts)",
+            Spindrift::DEFAULT_RATE
+        ),
+    )?;
+    not_negative(
+        spindrift.fall_speed,
+        path.key("fall_speed"),
+        format!(
+            "set the speed in m/s at which drift falls through still air, e.g. fall_speed = {}",
+            Spindrift::DEFAULT_FALL_SPEED
         ),
     )
 }
