@@ -142,3 +142,21 @@ fn split_runs_give_the_one_process_bits_with_pic_flip() {
 fn split_runs_give_the_one_process_bits_with_apic_and_wind() {
     assert_same_bits(&crossing(Transfer::Apic, true), 3, "apic with wind");
 }
+
+/// What does not run split yet is refused on several ranks with the table
+/// to change, and runs on one.
+#[test]
+fn spindrift_and_semi_implicit_are_refused_on_several_ranks() {
+    let mut drifting = crossing(Transfer::Apic, true);
+    if let Some(wind) = drifting.wind.as_mut() {
+        wind.spindrift = Some(firn_core::scene::Spindrift::default());
+    }
+    let message = firn_mpi::driver::refusal(&drifting, 2).expect("spindrift is refused");
+    assert!(message.contains("[wind.spindrift]"), "{message}");
+    assert!(message.contains("fix:"), "{message}");
+    assert_eq!(firn_mpi::driver::refusal(&drifting, 1), None);
+    assert_eq!(
+        firn_mpi::driver::refusal(&crossing(Transfer::Apic, true), 2),
+        None
+    );
+}

@@ -4,7 +4,6 @@
 //! back as the same mesh, and a run writes the same bytes every time and on
 //! any number of threads.
 
-use std::collections::HashMap;
 use std::path::Path;
 
 use firn_core::Scene;
@@ -51,21 +50,17 @@ fn scene() -> Scene {
     Scene::from_toml_str(SCENE, "mesh-ball.toml").expect("the scene is valid")
 }
 
-/// Each undirected edge with the number of triangles that run along it in
-/// each direction.
-fn edge_uses(mesh: &TriangleMesh) -> HashMap<(u32, u32), (u32, u32)> {
-    let mut uses = HashMap::new();
-    for &[a, b, c] in &mesh.triangles {
-        for (from, to) in [(a, b), (b, c), (c, a)] {
-            let entry = uses.entry((from.min(to), from.max(to))).or_insert((0, 0));
-            if from < to {
-                entry.0 += 1;
-            } else {
-                entry.1 += 1;
-            }
-        }
-    }
-    uses
+/// Asserts every edge of `mesh` is used by exactly two triangles, once in
+/// each direction: closed, manifold and consistently oriented.
+fn assert_closed(mesh: &TriangleMesh, what: &str) {
+    let diagnostics = MeshDiagnostics::of(mesh);
+    let open = diagnostics.boundary_edges
+        + diagnostics.non_manifold_edges
+        + diagnostics.inconsistently_oriented_edges;
+    assert_eq!(
+        open, 0,
+        "{what}: edges not shared once each way: {diagnostics:?}"
+    );
 }
 
 /// The surface of `solver`'s snow now, and the volume its mass fills at
@@ -94,14 +89,7 @@ fn the_surface_is_closed_outward_and_holds_the_snows_volume() {
             "{} triangles",
             mesh.triangles.len()
         );
-        let open: Vec<_> = edge_uses(&mesh)
-            .into_iter()
-            .filter(|&(_, uses)| uses != (1, 1))
-            .collect();
-        assert!(
-            open.is_empty(),
-            "frame {frame}: edges not shared once each way: {open:?}"
-        );
+        assert_closed(&mesh, &format!("frame {frame}"));
         let diagnostics = MeshDiagnostics::of(&mesh);
         assert_eq!(diagnostics.components, 1, "{diagnostics:?}");
         let volume = mesh.signed_volume();
