@@ -40,7 +40,7 @@ pub fn run(args: &RunArgs, mpi: &MpiRun) -> Result<(), Failure> {
         &described,
         |recording| {
             let stepper = RootStepper::start(exchange.clone(), recording.solver())?;
-            Ok(recording.with_stepper(Box::new(stepper)))
+            Ok(Some(Box::new(stepper)))
         },
     );
     let code = match &result {

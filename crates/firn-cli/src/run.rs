@@ -10,7 +10,7 @@ use std::time::Instant;
 use clap::Args;
 use firn_core::Scene;
 use firn_run::error::ResumeError;
-use firn_run::recording::{FrameToPicture, Observer, Progress};
+use firn_run::recording::{FrameToPicture, Observer, Progress, Stepper};
 use firn_run::{Budget, Placement, Recording, RunDirectory, RunError, Solver};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
@@ -73,7 +73,9 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
     }
     let placement = chosen.placement;
     let described = placement.describe();
-    record(&args, scene, scene_file, &placement, &described, Ok)
+    record(&args, scene, scene_file, &placement, &described, |_| {
+        Ok(None)
+    })
 }
 
 /// The scene of `args` with the command line's overrides applied, and the
@@ -100,14 +102,15 @@ pub(crate) fn scene_for(args: &RunArgs) -> Result<(Scene, Option<PathBuf>), Fail
 
 /// Records `scene` on `placement` (described as `described` in the start
 /// line) into its output directory, started or resumed as `args` say;
-/// `attach` may hand the recording a stepper before the first frame.
+/// `stepper_for` may give a stepper that advances the recording's solver
+/// (the ranks of a split run), made once the recording has started.
 pub(crate) fn record(
     args: &RunArgs,
     scene: Scene,
     scene_file: Option<PathBuf>,
     placement: &Placement,
     described: &str,
-    attach: impl FnOnce(Recording) -> Result<Recording, RunError>,
+    stepper_for: impl FnOnce(&Recording) -> Result<Option<Box<dyn Stepper>>, RunError>,
 ) -> Result<(), Failure> {
     // Before anything is written: a scene past the machine leaves no trace.
     Budget::of(&scene)
@@ -132,22 +135,24 @@ pub(crate) fn record(
         bar: None,
         log_lines: !args.quiet && !std::io::stderr().is_terminal(),
     };
-    let recording = if args.resume {
+    let mut recording = if args.resume {
         Recording::resume(scene, run, placement).map_err(resume_failure)?
     } else {
         let solver = Solver::new(scene, placement)
             .map_err(|error| Failure::BadInput(format!("error: {error}")))?;
         Recording::start(solver, run, scene_file, &mut terminal).map_err(failed)?
     };
-    let mut recording = attach(recording).map_err(failed)?;
+    let mut stepper = stepper_for(&recording).map_err(failed)?;
     if !args.quiet {
         announce(&recording, last_frame, described);
     }
     terminal.bar = Some(progress_bar(last_frame, recording.frame(), args.quiet));
     let started = Instant::now();
-    recording
-        .run_to(last_frame, &mut terminal)
-        .map_err(failed)?;
+    match stepper.as_deref_mut() {
+        Some(stepper) => recording.run_to_with(last_frame, &mut terminal, stepper),
+        None => recording.run_to(last_frame, &mut terminal),
+    }
+    .map_err(failed)?;
     terminal.clear_bar();
     warn_unconverged(&recording, args.quiet);
     println!(

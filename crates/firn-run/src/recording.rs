@@ -34,8 +34,6 @@ pub struct Recording {
     scene_json: serde_json::Value,
     /// The solver's running totals when the previous frame was recorded.
     solver_totals: Option<SolverStats>,
-    /// Who advances the solver, if not the solver itself.
-    stepper: Option<Box<dyn Stepper>>,
 }
 
 /// Who brings a recording's solver to the end of each frame, when the
@@ -150,7 +148,6 @@ impl Recording {
             frame: 0,
             scene_json,
             solver_totals: None,
-            stepper: None,
         };
         recording.record_frame(0, 0, Duration::ZERO, observer)?;
         Ok(recording)
@@ -193,14 +190,7 @@ impl Recording {
             frame: saved.frame,
             scene_json,
             solver_totals: None,
-            stepper: None,
         })
-    }
-
-    /// This recording with its solver advanced by `stepper` from now on.
-    pub fn with_stepper(mut self, stepper: Box<dyn Stepper>) -> Recording {
-        self.stepper = Some(stepper);
-        self
     }
 
     /// The solver.
@@ -229,6 +219,29 @@ impl Recording {
     /// that [`Recording::resume`] continues from there. [`Recording::frame`]
     /// says where it stopped.
     pub fn run_to(&mut self, last_frame: u32, observer: &mut dyn Observer) -> Result<(), RunError> {
+        self.run_frames(last_frame, observer, None)
+    }
+
+    /// [`Recording::run_to`] with the solver advanced by `stepper` (the
+    /// ranks of a split run) rather than by itself. The stepper is lent, not
+    /// kept, so that a recording stays `Send` while a stepper need not be
+    /// (an MPI communicator is not).
+    pub fn run_to_with(
+        &mut self,
+        last_frame: u32,
+        observer: &mut dyn Observer,
+        stepper: &mut dyn Stepper,
+    ) -> Result<(), RunError> {
+        self.run_frames(last_frame, observer, Some(stepper))
+    }
+
+    /// [`Recording::run_to`], advanced by `stepper` where there is one.
+    fn run_frames(
+        &mut self,
+        last_frame: u32,
+        observer: &mut dyn Observer,
+        mut stepper: Option<&mut dyn Stepper>,
+    ) -> Result<(), RunError> {
         let first_frame = self.frame;
         let started = Instant::now();
         let mut substeps_total = 0u64;
@@ -236,7 +249,7 @@ impl Recording {
             let frame = self.frame + 1;
             let frame_started = Instant::now();
             let substeps = self
-                .advance_to_frame(frame)
+                .advance_to_frame(frame, stepper.as_deref_mut())
                 .map_err(|error| self.fail(error))?;
             self.record_frame(frame, substeps, frame_started.elapsed(), observer)?;
             substeps_total += u64::from(substeps);
@@ -293,14 +306,18 @@ impl Recording {
 
     /// Advances the solver to the end of `frame` and brings its particles
     /// to the host; returns the substeps taken.
-    fn advance_to_frame(&mut self, frame: u32) -> Result<u32, RunError> {
+    fn advance_to_frame(
+        &mut self,
+        frame: u32,
+        stepper: Option<&mut (dyn Stepper + '_)>,
+    ) -> Result<u32, RunError> {
         let fps = self.solver.scene().time.fps;
         let stopped = |error| RunError::Stopped {
             frame,
             source: Box::new(error),
         };
         let until = frame as f64 / fps;
-        let substeps = match &mut self.stepper {
+        let substeps = match stepper {
             Some(stepper) => stepper.advance_to(&mut self.solver, until),
             None => self.solver.advance_to(until),
         }
