@@ -64,17 +64,8 @@ impl KeyedParticles {
 
     /// Keeps the first `count` particles.
     pub fn truncate(&mut self, count: usize) {
-        let particles = &mut self.particles;
         self.keys.truncate(count);
-        particles.position.truncate(count);
-        particles.velocity.truncate(count);
-        particles.mass.truncate(count);
-        particles.volume0.truncate(count);
-        particles.elastic.truncate(count);
-        particles.plastic_j.truncate(count);
-        particles.stress.truncate(count);
-        particles.velocity_gradient.truncate(count);
-        particles.material.truncate(count);
+        self.particles.truncate(count);
     }
 
     /// Appends all of `other`.

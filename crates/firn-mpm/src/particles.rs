@@ -46,6 +46,19 @@ impl Particles {
         self.mass[p] / (j * self.volume0[p])
     }
 
+    /// Keeps the first `count` particles.
+    pub fn truncate(&mut self, count: usize) {
+        self.position.truncate(count);
+        self.velocity.truncate(count);
+        self.mass.truncate(count);
+        self.volume0.truncate(count);
+        self.elastic.truncate(count);
+        self.plastic_j.truncate(count);
+        self.stress.truncate(count);
+        self.velocity_gradient.truncate(count);
+        self.material.truncate(count);
+    }
+
     /// Appends an undeformed particle at rest in its own frame: F_E = I,
     /// J_P = 1, no stress and no velocity gradient, with initial volume
     /// `volume0` (snow that settles out of the air, [`crate::spindrift`]).

@@ -2609,10 +2609,19 @@ fn check_output(output: &OutputSettings) -> Check {
 const MIN_VOXELS_PER_CELL: f32 = 0.25;
 
 fn check_vdb(vdb: &VdbSettings, cell_size: f32) -> Check {
-    let Some(voxel_size) = vdb.voxel_size else {
-        return Ok(());
-    };
-    let path = KeyPath::of("output").key("vdb").key("voxel_size");
+    match vdb.voxel_size {
+        Some(voxel_size) => check_voxel_size(
+            voxel_size,
+            KeyPath::of("output").key("vdb").key("voxel_size"),
+            cell_size,
+        ),
+        None => Ok(()),
+    }
+}
+
+/// An `[output.vdb]` or `[output.mesh]` `voxel_size` at `path`: positive
+/// and at least a quarter of the grid's cells.
+fn check_voxel_size(voxel_size: f32, path: KeyPath, cell_size: f32) -> Check {
     let hint = format!(
         "set the voxel edge in metres, e.g. voxel_size = {}, or remove the key to use \
          domain.cell_size",
@@ -2639,24 +2648,7 @@ const MAX_MESH_SMOOTHING: u32 = 8;
 fn check_mesh(mesh: &MeshSettings, cell_size: f32) -> Check {
     let path = KeyPath::of("output").key("mesh");
     if let Some(voxel_size) = mesh.voxel_size {
-        let at = path.key("voxel_size");
-        let hint = format!(
-            "set the voxel edge in metres, e.g. voxel_size = {}, or remove the key to use \
-             domain.cell_size",
-            Num::from(cell_size)
-        );
-        positive(voxel_size, at.clone(), hint.clone())?;
-        let smallest = cell_size * MIN_VOXELS_PER_CELL;
-        ensure(
-            voxel_size >= smallest,
-            at,
-            &format!(
-                "at least a quarter of domain.cell_size ({})",
-                Num::from(smallest)
-            ),
-            Num::from(voxel_size),
-            hint,
-        )?;
+        check_voxel_size(voxel_size, path.key("voxel_size"), cell_size)?;
     }
     ensure(
         mesh.smoothing <= MAX_MESH_SMOOTHING,
