@@ -163,7 +163,7 @@ fn render_surface(picture: &Picture<'_>) -> RgbImage {
     if let Some(mesh) = picture.particles.surface {
         surface::draw_surface(&mut film, &camera, mesh, &picture.stage);
     }
-    film.resolve(SUPERSAMPLING)
+    finish(film, &camera, picture, SUPERSAMPLING)
 }
 
 /// Brightness a billboard adds at its centre, and a ribbon at its newest end.

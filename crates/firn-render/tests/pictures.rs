@@ -448,7 +448,11 @@ fn drift_glows_over_the_snow_in_every_style_and_only_where_it_is() {
     let snow = ball(Vec3::new(-0.3, 0.0, 0.0), 0.15, 0.02);
     let drift_at = Vec3::new(0.35, 0.1, 0.0);
     let drift = vec![drift_at; 3];
-    for style in [RenderStyle::Points, RenderStyle::Volume] {
+    for style in [
+        RenderStyle::Points,
+        RenderStyle::Volume,
+        RenderStyle::Surface,
+    ] {
         let plain = picture(&snow, Coloring::Uniform(Vec3::splat(0.8)), style);
         let blown = Picture {
             drift: Some(DriftLayer {
