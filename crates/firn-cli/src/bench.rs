@@ -19,8 +19,8 @@ use firn_core::Material;
 use firn_core::math::lanes::Simd;
 use firn_core::scene::{
     Body, CacheFormat, Camera, Contact, ContactMode, Domain, ImplicitSettings, Integrator,
-    OutputSettings, RenderSettings, Scene, SceneKind, Shape, SolverSettings, TimeSettings,
-    TimeStep, Transfer,
+    OutputSettings, RenderSettings, Scene, SceneKind, SolverSettings, TimeSettings, TimeStep,
+    Transfer,
 };
 use firn_mpm::PhaseTimes;
 use firn_mpm::g2p::preferred_simd;
@@ -742,15 +742,9 @@ pub fn snowball_drop(particles: u32, grid: u32, transfer: Transfer) -> Scene {
             integrator: Integrator::Explicit,
         },
         materials: vec![Material::preset("snow").expect("the snow preset exists")],
-        bodies: vec![Body {
-            shape: Shape::Sphere {
-                center: Vec3::new(0.5, 0.6, 0.5),
-                radius,
-            },
-            velocity: Vec3::ZERO,
-            material: 0,
-            particles_per_cell,
-        }],
+        bodies: vec![
+            Body::sphere(Vec3::new(0.5, 0.6, 0.5), radius).particles_per_cell(particles_per_cell),
+        ],
         colliders: Vec::new(),
         output: OutputSettings {
             directory: PathBuf::from("out/bench"),

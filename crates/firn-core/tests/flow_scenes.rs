@@ -537,6 +537,7 @@ fn flow_scenes_built_in_code_are_checked_too() {
         velocity: Vec3::ZERO,
         material: 0,
         particles_per_cell: 8,
+        clumps: None,
     });
     let err = scene.validate().unwrap_err();
     assert_eq!(err.key.as_deref(), Some("bodies"), "{err}");

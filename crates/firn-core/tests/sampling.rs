@@ -191,9 +191,75 @@ fn particles_outside_the_domain_are_dropped() {
         velocity: Vec3::ZERO,
         material: 0,
         particles_per_cell: 8,
+        clumps: None,
     });
     assert!(scene.validate().is_err());
     let (positions, _) = sample_body(&scene, 1);
     assert_eq!(positions.len(), 8 * 16 * 16);
     assert!(positions.iter().all(|p| scene.domain.contains(*p)));
+}
+
+const CLUMPY_SPHERE: &str = r#"
+[[bodies]]
+shape = "sphere"
+center = [1.0, 1.0, 1.0]
+radius = 0.3
+clumps = { size = 0.15, contrast = 0.3 }
+"#;
+
+/// A clumpy body keeps its particles and their masses ρ0 s³, and gives each
+/// an initial plastic volume ratio J_P⁰ between e^−c (clump interiors) and
+/// e^c (seams), both of which occur.
+#[test]
+fn clumps_pack_the_same_particles_unevenly() {
+    let plain = sample_bodies(&scene(SPHERE, 3));
+    let clumpy = sample_bodies(&scene(CLUMPY_SPHERE, 3));
+    assert_eq!(
+        bits(&plain),
+        bits(&clumpy),
+        "clumps must not move particles"
+    );
+    assert!(plain.plastic_j.iter().all(|&j| j == 1.0));
+    let (low, high) = ((-0.3f32).exp(), 0.3f32.exp());
+    assert_eq!(plain.masses, clumpy.masses);
+    for &j in &clumpy.plastic_j {
+        assert!((low * 0.9999..=high * 1.0001).contains(&j), "J_P0 = {j}");
+    }
+    let packed = clumpy.plastic_j.iter().filter(|&&j| j < 0.8).count();
+    let loose = clumpy.plastic_j.iter().filter(|&&j| j > 1.2).count();
+    println!(
+        "{} particles: {packed} in clump interiors, {loose} on seams",
+        clumpy.len()
+    );
+    assert!(packed > clumpy.len() / 4 && loose > clumpy.len() / 50);
+}
+
+/// Clumps smaller than a grid cell, or a contrast out of range, are refused
+/// with the key and a fix.
+#[test]
+fn clumps_are_checked() {
+    let small = CLUMPY_SPHERE.replace("size = 0.15", "size = 0.01");
+    let text = format!(
+        "format = 1\n[domain]\nmax = [2.0, 2.0, 2.0]\ncell_size = 0.05\n[time]\nduration = 1.0\n{small}"
+    );
+    let error = Scene::from_toml_str(&text, "clumps.toml")
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("bodies[0].clumps.size"), "{error}");
+    assert!(error.contains("size = 0.1"), "{error}");
+    let strong = CLUMPY_SPHERE.replace("contrast = 0.3", "contrast = 2.0");
+    let text = text.replace(&small, &strong);
+    let error = Scene::from_toml_str(&text, "clumps.toml")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("bodies[0].clumps.contrast must be between 0 and 0.5"),
+        "{error}"
+    );
+    let no_size = CLUMPY_SPHERE.replace("size = 0.15, ", "");
+    let text = text.replace(&strong, &no_size);
+    let error = Scene::from_toml_str(&text, "clumps.toml")
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("clumps = { size = 0.05 }"), "{error}");
 }

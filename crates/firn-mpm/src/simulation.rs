@@ -134,12 +134,13 @@ impl Snapshot {
             mass: seeds.masses,
             volume0: vec![0.0; count],
             elastic: vec![Mat3::IDENTITY; count],
-            plastic_j: vec![1.0; count],
+            plastic_j: seeds.plastic_j,
             stress: vec![Mat3::ZERO; count],
             velocity_gradient: vec![Mat3::ZERO; count],
             material: seeds.materials,
         };
         estimate_volumes(scene, &mut particles);
+        pack_initially(&mut particles);
         let materials = MaterialConstants::of_each(&scene.materials);
         let max_speed_squared = particles
             .velocity
@@ -159,6 +160,20 @@ impl Snapshot {
             drift: Drift::default(),
             escaped: Escaped::default(),
         })
+    }
+}
+
+/// Particles that start compacted or loosened (J_P⁰ ≠ 1, a body with
+/// clumps, [`firn_core::scene::clumps`]): step 2 gave the volume V the
+/// particle fills, which it keeps (J_P⁰ V_p⁰ = V); its mass becomes
+/// m_p / J_P⁰, so its density m_p / (J_P V_p⁰) starts at the scattered
+/// density over J_P⁰. Without clumps J_P⁰ = 1 and no bit changes.
+fn pack_initially(particles: &mut Particles) {
+    let packing = particles.plastic_j.iter();
+    let state = particles.mass.iter_mut().zip(particles.volume0.iter_mut());
+    for ((mass, volume), plastic_j) in state.zip(packing) {
+        *mass /= plastic_j;
+        *volume /= plastic_j;
     }
 }
 

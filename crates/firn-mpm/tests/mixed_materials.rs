@@ -28,6 +28,7 @@ fn half_and_half(transfer: Transfer) -> Simulation {
         velocity: Vec3::ZERO,
         material,
         particles_per_cell: 8,
+        clumps: None,
     };
     let mut scene = common::scene_with(
         Shape::Sphere {

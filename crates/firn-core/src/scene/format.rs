@@ -27,6 +27,7 @@ use serde::Deserialize;
 use toml::Spanned;
 use toml::de::{DeTable, DeValue};
 
+use super::clumps::{Clumps, MAX_CONTRAST};
 use super::compute::{Backend, ComputeSettings};
 use super::estimate::{Bytes, CPU_BYTES_PER_PARTICLE, body_estimate};
 use super::flow::SceneKind;
@@ -54,6 +55,9 @@ pub const MAX_CELLS_PER_AXIS: u64 = 1024;
 /// solver's grid is sparse: the box costs a page table of 4 bytes per 4³
 /// block (64 MiB at 1024³), node storage follows the snow.
 pub const MAX_CELLS: u64 = 1 << 30;
+
+/// `clumps.contrast` when a body's `clumps` table gives none.
+pub const DEFAULT_CLUMP_CONTRAST: f32 = 0.15;
 
 /// Largest `particles_per_cell` a body may ask for.
 pub const MAX_PARTICLES_PER_CELL: u32 = 64;
@@ -636,6 +640,7 @@ fn example(leaf: &str) -> Option<&'static str> {
         "velocity" => "velocity = [0.0, 0.0, 0.0]",
         "material" => "material = \"snow\"",
         "particles_per_cell" => "particles_per_cell = 8",
+        "clumps" => "clumps = { size = 0.05, contrast = 0.15 }",
         "mesh" => "mesh = \"../assets/meshes/bunny.obj\"",
         "scale" => "scale = 2.0",
         "rotation" => "rotation = [0.0, 90.0, 0.0]",
@@ -845,6 +850,15 @@ struct RawBody {
     mesh: Option<String>,
     scale: Option<RawScale>,
     rotation: Option<[f32; 3]>,
+    clumps: Option<RawClumps>,
+}
+
+/// A body's `clumps = { size, contrast }`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawClumps {
+    size: Option<f32>,
+    contrast: Option<f32>,
 }
 
 /// A mesh's scale: one factor for all axes or one per axis.
@@ -1535,6 +1549,15 @@ fn resolve_body(
     }
     if let Some(count) = raw.particles_per_cell {
         body.particles_per_cell = count;
+    }
+    if let Some(clumps) = raw.clumps {
+        body.clumps = Some(Clumps {
+            size: clumps.size.ok_or_else(|| {
+                missing(path.key("clumps").key("size"), "the clump size in metres")
+                    .with_hint("add the clump diameter, e.g. clumps = { size = 0.05 }")
+            })?,
+            contrast: clumps.contrast.unwrap_or(DEFAULT_CLUMP_CONTRAST),
+        });
     }
     Ok(body)
 }
@@ -2245,6 +2268,9 @@ fn check_body(scene: &Scene, index: usize, body: &Body) -> Check {
         "use particles_per_cell = 8 (the usual value)".to_string(),
     )?;
     finite_vec(body.velocity, path.key("velocity"))?;
+    if let Some(clumps) = body.clumps {
+        check_clumps(&path.key("clumps"), clumps, scene.domain.cell_size)?;
+    }
     match body.shape {
         Shape::Sphere { center, radius } => {
             check_ball(&path, center, radius)?;
@@ -2281,6 +2307,28 @@ fn check_body(scene: &Scene, index: usize, body: &Body) -> Check {
         &scene.domain,
         "move or shrink the body so that it lies inside domain.min .. domain.max, or \
          enlarge the domain",
+    )
+}
+
+/// Clumps must be resolved by the grid and their contrast bounded.
+fn check_clumps(path: &KeyPath, clumps: Clumps, cell_size: f32) -> Check {
+    ensure(
+        clumps.size.is_finite() && clumps.size >= cell_size,
+        path.key("size"),
+        "at least domain.cell_size",
+        clumps.size,
+        format!(
+            "clumps smaller than a grid cell are not resolved: use size = {} or more \
+             (about 2 to 4 cells looks like hand-packed snow)",
+            2.0 * cell_size
+        ),
+    )?;
+    ensure(
+        (0.0..=MAX_CONTRAST).contains(&clumps.contrast),
+        path.key("contrast"),
+        &format!("between 0 and {MAX_CONTRAST}"),
+        clumps.contrast,
+        format!("use contrast = {DEFAULT_CLUMP_CONTRAST} (the default)"),
     )
 }
 

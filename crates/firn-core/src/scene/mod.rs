@@ -12,6 +12,7 @@
 //! the snow (`[wind]`).
 
 pub mod builder;
+pub mod clumps;
 pub mod compute;
 pub mod estimate;
 pub mod flow;
@@ -24,6 +25,7 @@ pub mod sampling;
 pub mod wind;
 
 pub use builder::SceneBuilder;
+pub use clumps::Clumps;
 pub use compute::*;
 pub use estimate::{BodyEstimate, Bytes, CPU_BYTES_PER_PARTICLE, FirstStep, WorkEstimate};
 pub use flow::*;

@@ -14,6 +14,7 @@ use std::path::PathBuf;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
+use super::clumps::Clumps;
 use super::compute::ComputeSettings;
 use super::flow::SceneKind;
 use super::material::Material;
@@ -361,6 +362,9 @@ pub struct Body {
     pub material: usize,
     /// Particles per grid cell (8 by default), placed on a jittered lattice.
     pub particles_per_cell: u32,
+    /// Uneven packing in clumps joined by looser seams (none by default).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clumps: Option<Clumps>,
 }
 
 impl Body {
@@ -375,6 +379,7 @@ impl Body {
             velocity: Vec3::ZERO,
             material: 0,
             particles_per_cell: Body::DEFAULT_PARTICLES_PER_CELL,
+            clumps: None,
         }
     }
 
@@ -420,6 +425,12 @@ impl Body {
     /// The same body with `count` particles per grid cell (1 to 64).
     pub fn particles_per_cell(mut self, count: u32) -> Body {
         self.particles_per_cell = count;
+        self
+    }
+
+    /// The same body packed in `clumps`.
+    pub fn clumps(mut self, clumps: Clumps) -> Body {
+        self.clumps = Some(clumps);
         self
     }
 }

@@ -5,7 +5,9 @@
 //! one candidate at a uniformly random point inside it (the cell centre plus a
 //! jitter in `[-s/2, s/2)³`); candidates inside the shape and inside the domain
 //! become particles. Each particle stands for one lattice cell of volume `s³`,
-//! so its mass is `ρ0 s³`.
+//! so its mass is `ρ0 s³`. A body packed in clumps ([`super::clumps`]) also
+//! gives each particle an initial plastic volume ratio J_P⁰; the solver's
+//! initial state packs it to the density ρ0 / J_P⁰ (mass `ρ0 s³ / J_P⁰`).
 //!
 //! The jitter comes from a PCG generator seeded from the scene seed and the
 //! body index, and the lattice is visited in a fixed z, y, x order, so the same
@@ -31,6 +33,8 @@ pub struct ParticleSeeds {
     pub velocities: Vec<Vec3>,
     /// Masses in kg.
     pub masses: Vec<f32>,
+    /// Initial plastic volume ratios J_P⁰ (1 unless the body has clumps).
+    pub plastic_j: Vec<f32>,
     /// Index into [`Scene::materials`] of each particle.
     pub materials: Vec<u16>,
 }
@@ -92,6 +96,15 @@ pub fn sample_bodies(scene: &Scene) -> ParticleSeeds {
             .velocities
             .extend(std::iter::repeat_n(body.velocity, count));
         seeds.masses.extend(std::iter::repeat_n(mass, count));
+        match body.clumps {
+            Some(clumps) => {
+                let seed = body_seed(scene.solver.seed, index);
+                let new = &seeds.positions[seeds.positions.len() - count..];
+                let packing = new.iter().map(|&x| clumps.plastic_j(seed, x));
+                seeds.plastic_j.extend(packing);
+            }
+            None => seeds.plastic_j.extend(std::iter::repeat_n(1.0, count)),
+        }
         let material = u16::try_from(body.material).expect("more than 65535 materials");
         seeds.materials.extend(std::iter::repeat_n(material, count));
     }

@@ -43,6 +43,7 @@ pub fn scene_with(body: Shape, velocity: Vec3, transfer: Transfer, cell_size: f3
             velocity,
             material: 0,
             particles_per_cell: 8,
+            clumps: None,
         }],
         colliders: Vec::<Collider>::new(),
         output: OutputSettings {
