@@ -141,8 +141,15 @@ fn the_gpu_draws_the_numbers_the_cpu_draws() {
     cpu.advance_to(dt).unwrap();
     gpu.advance_to(dt).unwrap();
     let state = gpu.snapshot().unwrap();
-    let (on_cpu, on_gpu) = (sorted_positions(cpu.drift()), sorted_positions(&state.drift));
-    eprintln!("one substep: {} lifted on the CPU, {} on the GPU", on_cpu.len(), on_gpu.len());
+    let (on_cpu, on_gpu) = (
+        sorted_positions(cpu.drift()),
+        sorted_positions(&state.drift),
+    );
+    eprintln!(
+        "one substep: {} lifted on the CPU, {} on the GPU",
+        on_cpu.len(),
+        on_gpu.len()
+    );
     assert!(on_cpu.len() > 10, "only {} particles lifted", on_cpu.len());
     assert_eq!(on_cpu, on_gpu, "the backends lifted different particles");
 }
@@ -255,8 +262,8 @@ fn drift_moves_downwind() {
     };
     let mut gpu = GpuSnow::new(context, slab(8.0, 5.0)).unwrap();
     let start = gpu.snapshot().unwrap();
-    let slab_x = start.particles.position.iter().map(|x| x.x).sum::<f32>()
-        / start.particles.len() as f32;
+    let slab_x =
+        start.particles.position.iter().map(|x| x.x).sum::<f32>() / start.particles.len() as f32;
     gpu.advance_to(0.06).unwrap();
     let state = gpu.snapshot().unwrap();
     assert!(!state.drift.is_empty(), "no drift in the air");

@@ -244,11 +244,9 @@ impl GpuSnow {
         self.substep
             .write_frame(&self.context, &self.params, &self.last);
         let spindrift = SpindriftParams::of(&self.scene, self.steps);
-        self.context.queue.write_buffer(
-            &self.buffers.spindrift,
-            0,
-            bytemuck::bytes_of(&spindrift),
-        );
+        self.context
+            .queue
+            .write_buffer(&self.buffers.spindrift, 0, bytemuck::bytes_of(&spindrift));
     }
 
     /// Substeps to record next: enough to reach the frame's end at the last Δt.
