@@ -124,7 +124,7 @@ const SNOW_LIBRARY: [Part; 5] = [
 
 /// The MPM substep, one file per stage in the order the substep runs them
 /// (`src/snow/substep.rs`): begin (Δt, stop conditions), binning, scatter,
-/// grid update, gather.
+/// grid update, gather, spindrift.
 pub const SNOW_STEP: Program = Program {
     name: "snow step",
     parts: &[
@@ -138,6 +138,7 @@ pub const SNOW_STEP: Program = Program {
         Part::Bindings(&StepBindings::TABLE),
         part!("snow/fixed_point.wgsl"),
         part!("flow/noise.wgsl"),
+        part!("flow/random.wgsl"),
         part!("snow/wind.wgsl"),
         part!("flow/field.wgsl"),
         part!("snow/begin_step.wgsl"),
@@ -145,6 +146,7 @@ pub const SNOW_STEP: Program = Program {
         part!("snow/p2g.wgsl"),
         part!("snow/grid_update.wgsl"),
         part!("snow/g2p.wgsl"),
+        part!("snow/spindrift.wgsl"),
     ],
 };
 

@@ -361,8 +361,9 @@ impl Running {
         let scene = self.session.scene();
         let time = self.session.time();
         let color_by = self.session.color_by();
+        let read_back = self.session.draws_read_back();
         let host: Option<HostParticles<'_>> = match self.session.content() {
-            Content::Live(live) if !live.on_gpu() => live.host_particles(color_by),
+            Content::Live(live) if !live.on_gpu() || read_back => live.host_particles(color_by),
             Content::Live(_) | Content::Playback(_) => None,
         };
         let particles = match (self.session.content(), &host) {

@@ -261,6 +261,7 @@ impl Session {
                 Content::Playback(_) => self.play_along(real),
             }
         }
+        self.read_back_drift();
         self.load_playback_frame();
         self.count_figures(substeps);
         substeps
@@ -301,7 +302,28 @@ impl Session {
                 self.playback_time = playback.frame_time(next);
             }
         }
+        self.read_back_drift();
         self.load_playback_frame();
+    }
+
+    /// Whether the live snow is drawn from a host copy read back from the
+    /// GPU: with spindrift, whose drift and escaped drift share the snow's
+    /// buffers on the device (`firn_gpu::GpuSnow::particle_arrays`).
+    pub fn draws_read_back(&self) -> bool {
+        self.on_gpu() && has_spindrift(self.scene())
+    }
+
+    /// Reads a live GPU run with spindrift back, so that its snow and its
+    /// drift are drawn apart ([`Session::draws_read_back`]).
+    fn read_back_drift(&mut self) {
+        if !self.draws_read_back() {
+            return;
+        }
+        if let Content::Live(live) = &mut self.content
+            && let Err(error) = live.host()
+        {
+            self.fail(error.to_string());
+        }
     }
 
     /// Starts the scene again (with the live parameters), or rewinds playback.
@@ -395,4 +417,12 @@ fn default_style(scene: &Scene) -> DrawStyle {
         Some(RenderStyle::Trails) => DrawStyle::Trails,
         _ => DrawStyle::Points,
     }
+}
+
+/// Whether `scene` blows spindrift off its snow (`[wind.spindrift]`).
+fn has_spindrift(scene: &Scene) -> bool {
+    scene
+        .wind
+        .as_ref()
+        .is_some_and(|wind| wind.spindrift.is_some())
 }

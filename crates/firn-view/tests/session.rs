@@ -189,3 +189,43 @@ fn pause_step_and_restart() {
     session.apply(Action::SetStyle(DrawStyle::Billboards));
     assert_eq!(session.style(), DrawStyle::Billboards);
 }
+
+/// A live run of powder in a gale with spindrift on the GPU is read back
+/// each frame, so its snow and its drift are drawn apart (the device
+/// buffers hold both).
+#[test]
+fn live_spindrift_on_the_gpu_draws_the_drift_apart() {
+    let Some(context) = firn_gpu::context_for_tests() else {
+        return;
+    };
+    let text = format!(
+        "{SLAB}\n[wind]\nbackground_direction = [1.0, 0.0, 0.0]\nbackground_strength = 8.0\n\
+         noise_share = 0.0\n[wind.spindrift]\nrate = 40.0\n"
+    )
+    .replace("preset = \"snow\"", "preset = \"snow\"\ndensity = 100.0");
+    let mut session = Session::live(scene(&text), Some(context)).unwrap();
+    assert!(session.draws_read_back());
+    let Content::Live(live) = session.content() else {
+        panic!("a live session")
+    };
+    let start = live.particle_count();
+    for _ in 0..4 {
+        session.apply(Action::Step);
+    }
+    let Content::Live(live) = session.content() else {
+        panic!("a live session")
+    };
+    let drawn = live
+        .host_particles(session.color_by())
+        .expect("read back from the GPU");
+    let drift = drawn
+        .drift
+        .expect("a scene with spindrift has a drift layer");
+    assert!(!drift.is_empty(), "no drift after {} s", session.time());
+    assert!(
+        drawn.positions.len() + drift.len() <= start,
+        "{} snow and {} drift particles of {start}",
+        drawn.positions.len(),
+        drift.len()
+    );
+}

@@ -13,8 +13,9 @@ struct Material {
     max_stretch: f32,
     // (lambda0 + 2 mu0) / rho0.
     wave_speed_squared: f32,
-    pad0: f32,
-    pad1: f32,
+    // rho0, kg/m^3 (spindrift's loose-snow test).
+    density: f32,
+    pad: f32,
 }
 
 // The particle's state after the plastic projection.

@@ -29,7 +29,7 @@ fn block_count() -> u32 {
 @compute @workgroup_size(64)
 fn bin_count(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
              @builtin(local_invocation_index) local: u32) {
-    let p = particle_index(group, groups, local);
+    let p = snow_particle_index(group, groups, local);
     if p == NO_PARTICLE {
         return;
     }
@@ -96,7 +96,7 @@ fn bin_offsets(@builtin(local_invocation_index) local: u32) {
 @compute @workgroup_size(64)
 fn bin_sort(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
             @builtin(local_invocation_index) local: u32) {
-    let p = particle_index(group, groups, local);
+    let p = snow_particle_index(group, groups, local);
     if p == NO_PARTICLE {
         return;
     }

@@ -135,7 +135,7 @@ fn publish_maxima(local: u32) {
 @compute @workgroup_size(64)
 fn gather_apic(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
                @builtin(local_invocation_index) local: u32) {
-    let p = particle_index(group, groups, local);
+    let p = snow_particle_index(group, groups, local);
     if p != NO_PARTICLE {
         update_particle(p, interpolate_apic(p));
     }
@@ -146,7 +146,7 @@ fn gather_apic(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups)
 @compute @workgroup_size(64)
 fn gather_pic_flip(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
                    @builtin(local_invocation_index) local: u32) {
-    let p = particle_index(group, groups, local);
+    let p = snow_particle_index(group, groups, local);
     if p != NO_PARTICLE {
         update_particle(p, interpolate_pic_flip(p));
     }

@@ -86,6 +86,16 @@ fn particle_index(group: vec3<u32>, groups: vec3<u32>, local: u32) -> u32 {
     return p;
 }
 
+// The snow particle a scatter, binning or gather invocation works on, if
+// any: drift and escaped particles (spindrift.wgsl's phases) are skipped.
+fn snow_particle_index(group: vec3<u32>, groups: vec3<u32>, local: u32) -> u32 {
+    let p = particle_index(group, groups, local);
+    if p == NO_PARTICLE || (plastic[p].material >> 16u) != PHASE_SNOW {
+        return NO_PARTICLE;
+    }
+    return p;
+}
+
 fn inside_grid(node: vec3<i32>) -> bool {
     return all(node >= vec3<i32>(0)) && all(node < vec3<i32>(params.dims.xyz));
 }

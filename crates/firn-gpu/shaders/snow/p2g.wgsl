@@ -47,7 +47,7 @@ fn impulse_stress(p: u32) -> mat3x3<f32> {
 @compute @workgroup_size(64)
 fn scatter_apic(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
                 @builtin(local_invocation_index) local: u32) {
-    let p = particle_index(group, groups, local);
+    let p = snow_particle_index(group, groups, local);
     if p == NO_PARTICLE {
         return;
     }
@@ -80,7 +80,7 @@ fn scatter_apic(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups
 @compute @workgroup_size(64)
 fn scatter_pic_flip(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
                     @builtin(local_invocation_index) local: u32) {
-    let p = particle_index(group, groups, local);
+    let p = snow_particle_index(group, groups, local);
     if p == NO_PARTICLE {
         return;
     }

@@ -22,10 +22,11 @@ struct WindParams {
     pad1: u32,
 }
 
-// The snow's noise coordinate of component c at the grid update's time (the
-// end of the substep, as for the colliders); the stage does not apply.
+// The snow's noise coordinate of component c at a stage of the substep: its
+// start, middle or end (the grid update's time, as for the colliders).
 fn noise_point(x: vec3<f32>, stage: u32, c: u32) -> vec3<f32> {
-    return x * field_constants.inv_length + wind.offsets[c].xyz + simulated_time() * wind.drift[c].xyz;
+    let time = simulated_time() - state.dt * (1.0 - 0.5 * f32(stage));
+    return x * field_constants.inv_length + wind.offsets[c].xyz + time * wind.drift[c].xyz;
 }
 
 // φ of the node at `cell`, 0 outside the grid.
@@ -62,7 +63,7 @@ fn drag_rate(cell: vec3<i32>, mass: f32, velocity: vec3<f32>, air: vec3<f32>) ->
 
 // v_i after Δt of drag: v_w + (v − v_w) exp(−k Δt) (W3).
 fn blown(cell: vec3<i32>, mass: f32, velocity: vec3<f32>, position: vec3<f32>) -> vec3<f32> {
-    let air = field_velocity(position, 0u);
+    let air = field_velocity(position, STAGE_END);
     let rate = drag_rate(cell, mass, velocity, air);
     if rate == 0.0 {
         return velocity;

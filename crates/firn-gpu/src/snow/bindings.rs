@@ -80,6 +80,9 @@ bind_group! {
         30 => obstacles: Uniform "array<Obstacle, 8>",
         /// The wind's drag and noise domains (`snow/wind.wgsl`).
         31 => wind: Uniform "WindParams",
+        /// Spindrift's settings and the frame's first substep index
+        /// (`snow/spindrift.wgsl`; zeroes without spindrift).
+        32 => spindrift: Uniform "SpindriftParams",
     }
 }
 

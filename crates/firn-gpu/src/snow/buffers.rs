@@ -24,13 +24,19 @@ pub struct ParticleBuffers {
     pub affine: wgpu::Buffer,
     /// V_p^0 τ_p.
     pub stress: wgpu::Buffer,
-    /// J_P and the material index.
+    /// J_P and the material word: the material index and the phase
+    /// (snow, drift, escaped; [`super::spindrift`]).
     pub plastic: wgpu::Buffer,
 }
 
 impl ParticleBuffers {
-    /// Uploads the particles.
-    pub fn upload(context: &GpuContext, particles: &Particles) -> ParticleBuffers {
+    /// Uploads the particles, each with its material word
+    /// ([`super::spindrift::material_word`]).
+    pub fn upload(
+        context: &GpuContext,
+        particles: &Particles,
+        material_words: &[u32],
+    ) -> ParticleBuffers {
         let n = particles.len();
         let matrices =
             |list: &[glam::Mat3]| list.iter().map(|&m| GpuMat3::from(m)).collect::<Vec<_>>();
@@ -43,7 +49,7 @@ impl ParticleBuffers {
         let plastic: Vec<GpuPlastic> = (0..n)
             .map(|p| GpuPlastic {
                 plastic_j: particles.plastic_j[p],
-                material: u32::from(particles.material[p]),
+                material: material_words[p],
             })
             .collect();
         ParticleBuffers {
@@ -136,6 +142,8 @@ pub struct SnowBuffers {
     pub binning: BinningBuffers,
     /// The wind's field and drag.
     pub wind: WindBuffers,
+    /// Spindrift's parameters (`SpindriftParams`).
+    pub spindrift: wgpu::Buffer,
 }
 
 impl SnowBuffers {
@@ -196,6 +204,7 @@ impl SnowBuffers {
             field_constants: &self.wind.field_constants,
             obstacles: &self.wind.obstacles,
             wind: &self.wind.params,
+            spindrift: &self.spindrift,
         }
     }
 }

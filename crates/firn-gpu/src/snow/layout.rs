@@ -51,7 +51,8 @@ pub struct GpuMaterial {
     pub min_stretch: f32,
     pub max_stretch: f32,
     pub wave_speed_squared: f32,
-    pub pad: [f32; 2],
+    pub density: f32,
+    pub pad: f32,
 }
 
 impl From<&MaterialConstants> for GpuMaterial {
@@ -63,7 +64,8 @@ impl From<&MaterialConstants> for GpuMaterial {
             min_stretch: constants.min_stretch,
             max_stretch: constants.max_stretch,
             wave_speed_squared: constants.wave_speed_squared,
-            pad: [0.0; 2],
+            density: 0.0,
+            pad: 0.0,
         }
     }
 }

@@ -19,7 +19,11 @@
 //!    ([`wind`], `[wind]` scenes) and grid collisions (steps 4 and 5);
 //! 6. `g2p`: grid to particle, the snow model (SVD, plastic clamp,
 //!    hardened stress), particle collisions and advection (steps 7 to 10),
-//!    with the maxima for the next Δt reduced per workgroup, then by atomics.
+//!    with the maxima for the next Δt reduced per workgroup, then by atomics;
+//! 7. `spindrift` (`[wind.spindrift]` scenes): loose surface snow lifts
+//!    into the wind, the drift moves, lands and escapes; the particles keep
+//!    one buffer, each with a phase (snow, drift, escaped) that the stages
+//!    above read to skip all but the snow.
 //!
 //! Step 6, the semi-implicit solve (`firn_mpm::implicit`), has no GPU stage
 //! yet. The physics the stages share is WGSL in `shaders/common/` (B-spline
@@ -42,6 +46,7 @@ mod grid_update;
 mod layout;
 mod memory;
 mod p2g;
+mod spindrift;
 mod substep;
 mod wind;
 
@@ -51,7 +56,7 @@ use firn_core::Scene;
 use firn_core::scene::{Integrator, Material, SceneKind, TimeStep, Transfer, Wind};
 use firn_mpm::constitutive::{MaterialConstants, max_wave_speed_squared};
 use firn_mpm::grid::GridLayout;
-use firn_mpm::{Particles, SimulationError, Snapshot};
+use firn_mpm::{Escaped, SimulationError, Snapshot};
 use glam::{Mat3, Vec3};
 
 use crate::buffers::{read_back, storage_buffer};
@@ -62,6 +67,7 @@ use binning::BinningBuffers;
 use buffers::{ColliderBuffers, GridBuffers, ParticleBuffers, SnowBuffers};
 use fixed_point::{QUANTITY_NAMES, Scales};
 use layout::{GpuMat3, GpuMaterial, GpuPlastic, NO_PARTICLE, Params, StepState, pack_colliders};
+use spindrift::{PHASE_SNOW, ReadBack, SpindriftParams, joined, split_phases};
 use substep::Substep;
 use wind::{MAX_WIND_OBSTACLES, WindBuffers};
 
@@ -85,7 +91,10 @@ pub struct GpuSnow {
     /// particles, grid and the binning's buffers.
     buffers: SnowBuffers,
     substep: Substep,
+    /// Particles in the buffers, snow, drift and escaped together.
     particle_count: usize,
+    /// The drift that had escaped when the run came to the GPU.
+    escaped_before: Escaped,
     time: f64,
     steps: u64,
     /// The last Δt and the maxima it came from, read back per batch.
@@ -108,24 +117,30 @@ impl GpuSnow {
         snapshot: Snapshot,
     ) -> Result<GpuSnow, GpuError> {
         GpuSnow::check_supported(&scene)?;
-        let estimate = MemoryEstimate::of(&scene, snapshot.particles.len() as u64);
+        let (particles, material_words) = joined(&snapshot.particles, &snapshot.drift);
+        let estimate = MemoryEstimate::of(&scene, particles.len() as u64);
         estimate.check_fits(&context)?;
         let constants = MaterialConstants::of_each(&scene.materials);
-        let materials = storage_buffer(&context, "materials", &gpu_materials(&constants));
+        let materials = storage_buffer(
+            &context,
+            "materials",
+            &gpu_materials(&constants, &scene.materials),
+        );
         let scales = Scales::of(&scene);
         let domain = &scene.domain;
         let layout = GridLayout::new(domain.min, domain.max, domain.cell_size);
-        let mut params = run_params(&scene, &layout, &scales, snapshot.particles.len());
+        let mut params = run_params(&scene, &layout, &scales, particles.len());
         params.flags[1] = context.limits.max_compute_workgroups_per_dimension;
         let all_colliders = firn_mpm::contact::ColliderSet::new(domain, &scene.colliders);
         let packed = pack_colliders(all_colliders.colliders());
         let buffers = SnowBuffers {
             materials,
             colliders: ColliderBuffers::upload(&context, &packed),
-            particles: ParticleBuffers::upload(&context, &snapshot.particles),
+            particles: ParticleBuffers::upload(&context, &particles, &material_words),
             grid: GridBuffers::new(&context, estimate.nodes, scene.solver.transfer),
             binning: BinningBuffers::new(&context, estimate.particles, estimate.nodes),
             wind: WindBuffers::upload(&context, &scene),
+            spindrift: spindrift::params_buffer(&context, &scene),
         };
         let state = StepState {
             max_speed_bits: snapshot.max_speed_squared.to_bits(),
@@ -134,11 +149,10 @@ impl GpuSnow {
             left_domain: NO_PARTICLE,
             ..StepState::default()
         };
-        let windy = scene.wind.is_some();
         let substep = Substep::new(
             &context,
             scene.solver.transfer,
-            windy,
+            stages_of(&scene),
             &params,
             &state,
             &buffers,
@@ -149,7 +163,8 @@ impl GpuSnow {
             params,
             buffers,
             substep,
-            particle_count: snapshot.particles.len(),
+            particle_count: particles.len(),
+            escaped_before: snapshot.escaped,
             time: snapshot.time,
             steps: snapshot.steps,
             last: StepState {
@@ -174,16 +189,6 @@ impl GpuSnow {
             return Err(GpuError::Unsupported {
                 what: "the semi-implicit integrator is not yet on the GPU".into(),
                 fix: "run with --backend cpu, or set integrator = \"explicit\" in [solver]".into(),
-            });
-        }
-        if scene
-            .wind
-            .as_ref()
-            .is_some_and(|wind| wind.spindrift.is_some())
-        {
-            return Err(GpuError::Unsupported {
-                what: "spindrift ([wind.spindrift]) is not yet on the GPU".into(),
-                fix: "run with --backend cpu, or remove the [wind.spindrift] table".into(),
             });
         }
         if let Some(wind) = &scene.wind
@@ -238,6 +243,10 @@ impl GpuSnow {
         self.last.running = 1;
         self.substep
             .write_frame(&self.context, &self.params, &self.last);
+        let spindrift = SpindriftParams::of(&self.scene, self.steps);
+        self.context
+            .queue
+            .write_buffer(&self.buffers.spindrift, 0, bytemuck::bytes_of(&spindrift));
     }
 
     /// Substeps to record next: enough to reach the frame's end at the last Δt.
@@ -341,8 +350,9 @@ impl GpuSnow {
         Ok(Vec3::new(x, y, z))
     }
 
-    /// Reads the particles back: the state to write a frame from or to
-    /// continue from, on either backend.
+    /// Reads the particles back, split by phase into the snow, the drift
+    /// and the escaped tally: the state to write a frame from or to continue
+    /// from, on either backend.
     pub fn snapshot(&self) -> Result<Snapshot, GpuError> {
         let n = self.particle_count;
         let b = &self.buffers.particles;
@@ -357,25 +367,26 @@ impl GpuSnow {
         let plastic = read_back::<GpuPlastic>(&self.context, &[(&b.plastic, n)])?.remove(0);
         let xyz = |v: &[f32; 4]| Vec3::new(v[0], v[1], v[2]);
         let to_mat3 = |list: &Vec<GpuMat3>| list.iter().map(|&m| Mat3::from(m)).collect::<Vec<_>>();
-        let particles = Particles {
+        let all = ReadBack {
             position: vectors[0].iter().map(xyz).collect(),
             velocity: vectors[1].iter().map(xyz).collect(),
             mass: vectors[0].iter().map(|v| v[3]).collect(),
-            volume0: vectors[1].iter().map(|v| v[3]).collect(),
+            volume: vectors[1].iter().map(|v| v[3]).collect(),
             elastic: to_mat3(&matrices[0]),
-            plastic_j: plastic.iter().map(|p| p.plastic_j).collect(),
+            affine: to_mat3(&matrices[1]),
             stress: to_mat3(&matrices[2]),
-            velocity_gradient: to_mat3(&matrices[1]),
-            material: plastic.iter().map(|p| p.material as u16).collect(),
+            plastic_j: plastic.iter().map(|p| p.plastic_j).collect(),
+            material_word: plastic.iter().map(|p| p.material).collect(),
         };
+        let (particles, drift, escaped) = split_phases(all, self.escaped_before);
         Ok(Snapshot {
             time: self.time,
             steps: self.steps,
             max_speed_squared: f32::from_bits(self.last.max_speed_bits),
             max_wave_speed_squared: f32::from_bits(self.last.max_wave_bits),
             particles,
-            drift: firn_mpm::Drift::default(),
-            escaped: firn_mpm::Escaped::default(),
+            drift,
+            escaped,
         })
     }
 
@@ -390,7 +401,7 @@ impl GpuSnow {
         let scene = firn_mpm::live::scene_with_materials(&self.scene, materials)?;
         let constants = MaterialConstants::of_each(&scene.materials);
         let wave_speed_squared = self.max_wave_speed_squared(&constants)?;
-        let gpu = gpu_materials(&constants);
+        let gpu = gpu_materials(&constants, &scene.materials);
         let queue = &self.context.queue;
         queue.write_buffer(&self.buffers.materials, 0, bytemuck::cast_slice(&gpu));
         self.substep
@@ -408,16 +419,17 @@ impl GpuSnow {
         let scene = firn_mpm::live::scene_with_wind(&self.scene, wind)?;
         GpuSnow::check_supported(&scene)?;
         self.buffers.wind.write(&self.context, &scene);
-        self.substep.set_windy(true);
+        self.substep.set_windy(stages_of(&scene));
         self.scene = scene;
         Ok(())
     }
 
-    /// The largest squared wave speed of the particles as they are, for
+    /// The largest squared wave speed of the snow particles as they are, for
     /// materials of `constants` (their J_P and materials read back).
     fn max_wave_speed_squared(&self, constants: &[MaterialConstants]) -> Result<f32, GpuError> {
         let buffers = [(&self.buffers.particles.plastic, self.particle_count)];
-        let plastic = read_back::<GpuPlastic>(&self.context, &buffers)?.remove(0);
+        let mut plastic = read_back::<GpuPlastic>(&self.context, &buffers)?.remove(0);
+        plastic.retain(|p| p.material >> 16 == PHASE_SNOW);
         let material: Vec<u16> = plastic.iter().map(|p| p.material as u16).collect();
         let plastic_j: Vec<f32> = plastic.iter().map(|p| p.plastic_j).collect();
         Ok(max_wave_speed_squared(constants, &material, &plastic_j))
@@ -427,7 +439,8 @@ impl GpuSnow {
     /// renderer on the same device (no copy): positions and masses share
     /// one `vec4` per particle, velocities and initial volumes another.
     /// They hold the state of the last [`GpuSnow::advance_to`] until the
-    /// next one.
+    /// next one. With spindrift they hold the drift and the escaped drift
+    /// too, in no particular place ([`GpuSnow::snapshot`] splits them).
     pub fn particle_arrays(&self) -> ParticleArrays<'_> {
         let array = |buffer, stride, offset| StridedArray {
             buffer,
@@ -479,9 +492,25 @@ impl GpuSnow {
     }
 }
 
-/// The materials' constants as the kernels read them.
-fn gpu_materials(constants: &[MaterialConstants]) -> Vec<GpuMaterial> {
-    constants.iter().map(GpuMaterial::from).collect()
+/// The materials' constants as the kernels read them, with their densities.
+fn gpu_materials(constants: &[MaterialConstants], materials: &[Material]) -> Vec<GpuMaterial> {
+    constants
+        .iter()
+        .zip(materials)
+        .map(|(constants, material)| GpuMaterial {
+            density: material.density,
+            ..GpuMaterial::from(constants)
+        })
+        .collect()
+}
+
+/// Which optional stages `scene` needs: the wind's drag, and spindrift.
+fn stages_of(scene: &Scene) -> (bool, bool) {
+    let wind = scene.wind.as_ref();
+    (
+        wind.is_some(),
+        wind.is_some_and(|wind| wind.spindrift.is_some()),
+    )
 }
 
 /// 32-bit words in a `T`: the stride of an array of `T` in a renderer's terms.

@@ -7,7 +7,8 @@
 //! 3. `binning.rs` (binned scatter only): the counting sort;
 //! 4. `p2g.rs`: the scatter, thesis steps 1 and 3;
 //! 5. `grid_update.rs`: steps 4 and 5;
-//! 6. `g2p.rs`: the gather, steps 7 to 10.
+//! 6. `g2p.rs`: the gather, steps 7 to 10;
+//! 7. `spindrift.rs` (`[wind.spindrift]` only): snow lifts, drift moves.
 //!
 //! [`Substep::run_batch`] records a batch of substeps in one submission and
 //! reads back the step state.
@@ -23,6 +24,7 @@ use super::g2p::G2p;
 use super::grid_update::GridUpdate;
 use super::layout::{Params, StepState};
 use super::p2g::{BinnedP2g, P2g, Scatter, binned_fits};
+use super::spindrift::SpindriftStage;
 use crate::buffers::{read_back, storage_buffer};
 use crate::context::GpuContext;
 use crate::dispatch::workgroups;
@@ -75,18 +77,19 @@ pub struct Substep {
     p2g: P2g,
     grid_update: GridUpdate,
     g2p: G2p,
+    spindrift: SpindriftStage,
     mode: Scatter,
     particle_groups: (u32, u32, u32),
     node_groups: (u32, u32, u32),
 }
 
 impl Substep {
-    /// Builds the stages of `transfer`, with the wind's drag when `windy`,
-    /// and binds every buffer.
+    /// Builds the stages of `transfer`, with the wind's drag when `windy`
+    /// and spindrift when `drifting`, and binds every buffer.
     pub fn new(
         context: &GpuContext,
         transfer: Transfer,
-        windy: bool,
+        (windy, drifting): (bool, bool),
         params: &Params,
         state: &StepState,
         buffers: &SnowBuffers,
@@ -130,6 +133,7 @@ impl Substep {
             binned,
             grid_update: GridUpdate::new(&program, windy),
             g2p: G2p::new(&program, transfer),
+            spindrift: SpindriftStage::new(&program, drifting),
             particle_groups: workgroups(params.dims[3], limit),
             node_groups: workgroups(buffers.grid.nodes as u32, limit),
             params: params_buffer,
@@ -204,9 +208,11 @@ impl Substep {
         Ok(state[0].first().copied().unwrap_or_else(StepState::zeroed))
     }
 
-    /// Records the wind's drag in the grid update from now on when `windy`.
-    pub fn set_windy(&mut self, windy: bool) {
+    /// Records the wind's drag in the grid update from now on when `windy`,
+    /// and spindrift when `drifting`.
+    pub fn set_windy(&mut self, (windy, drifting): (bool, bool)) {
         self.grid_update.set_windy(windy);
+        self.spindrift.set_enabled(drifting);
     }
 
     /// Records one substep, stage by stage.
@@ -232,5 +238,6 @@ impl Substep {
         let mut pass = compute_pass(encoder, "snow substep", &self.bind_group);
         self.grid_update.record(&mut pass, self.node_groups);
         self.g2p.record(&mut pass, self.particle_groups);
+        self.spindrift.record(&mut pass, self.particle_groups);
     }
 }
