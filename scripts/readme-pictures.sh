@@ -15,7 +15,7 @@ cargo run --release --quiet -- render "$out/run" --style points,volume --size 48
 mkdir -p docs/images
 for style in points volume; do
   cp "$out/run/images/$style.gif" "docs/images/snowball-wall-$style.gif"
-  cp "$out/run/images/$style/frame_00006.png" "docs/images/snowball-wall-$style-impact.png"
+  cp "$out/run/images/$style/frame_00004.png" "docs/images/snowball-wall-$style-impact.png"
 done
 cargo run --release --quiet -- run scenes/curl-noise-demo.toml --out "$out/flow" --frames 60 --quiet
 cp "$out/flow/images/trails/frame_00060.png" docs/images/curl-noise-demo-trails.png

@@ -14,7 +14,7 @@ trap 'rm -rf "$out"' EXIT
 
 # Scene name, the frame of its still, and the style to keep.
 stills=(
-  "snowball-wall 5 points"
+  "snowball-wall 12 points"
   "snowball-drop 15 volume"
   "snowball-wall-a 30 points"
   "snowball-wall-b 30 points"
