@@ -9,9 +9,10 @@
 //! end of a slice is padded), and every lane does the same operations, so a
 //! particle's new position does not depend on how particles are split among
 //! threads. On x86-64 CPUs with AVX-512 the lanes live in one 512-bit register
-//! (16 particles, `lanes_avx512`), with AVX2 in one 256-bit register (8,
-//! `lanes_avx2`); elsewhere the portable lanes of [`crate::lanes::F32s`] are
-//! used (8). The path is chosen at run time ([`Simd::detect`]); all give the
+//! (16 particles, `lanes_avx512`), with AVX2 in two 256-bit registers side
+//! by side (16, [`crate::lanes::Pair`] of `lanes_avx2`'s eight lanes, which
+//! lets the CPU overlap two chains of dependent operations); elsewhere the
+//! portable lanes of [`crate::lanes::F32s`] are used (8). The path is chosen at run time ([`Simd::detect`]); all give the
 //! same bits.
 
 use firn_core::scene::{FlowIntegrator, FlowObstacle};

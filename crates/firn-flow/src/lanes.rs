@@ -97,9 +97,11 @@ pub trait Real:
         Self::select(Self::int_eq(Self::int_and(bits, 1 << bit), 0), no, yes)
     }
 
-    /// Simplex noise and its gradient, [`crate::noise::simplex3`]. Lane types
-    /// keep it out of line (one copy per lane type and instruction set, called
-    /// three times per velocity), which keeps compile times short.
+    /// Simplex noise and its gradient, [`crate::noise::simplex3`]. The
+    /// portable and AVX-512 lane types keep it out of line (one copy per lane
+    /// type and instruction set, called three times per velocity), which keeps
+    /// compile times short; a [`Pair`] inlines it, as its three copies then
+    /// overlap (out of line, the AVX2 pair took 1.4 times as long).
     #[inline(always)]
     fn simplex(p: V3<Self>) -> (Self, V3<Self>) {
         crate::noise::simplex3(p)

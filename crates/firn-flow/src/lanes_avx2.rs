@@ -1,5 +1,7 @@
 //! Eight `f32` lanes in one AVX2 register: [`Real`] written with the x86
 //! intrinsics, so the noise and the curl compile to straight vector code.
+//! Batches are a [`Pair`] of them (16 particles), moved in and out of
+//! `Vec3`s by 3×8 transposes in registers.
 //!
 //! Every operation matches the portable [`F32s`](crate::lanes::F32s) lane
 //! by lane, bit for bit (the same IEEE operations; `min`/`max` with the
