@@ -1,6 +1,7 @@
 //! Numbers the field is evaluated in: one `f64` (the reference and test
 //! path), or `N` lanes of `f32` at once ([`F32s`], the portable path; the
-//! AVX2 and AVX-512 lane types implement the same trait with intrinsics).
+//! AVX2 and AVX-512 lane types implement the same trait with intrinsics), or
+//! a [`Pair`] of such lane values side by side.
 //!
 //! The noise and the curl are written once, generic over [`Real`], without
 //! branches on values: comparisons give masks and masks select, so each
@@ -331,9 +332,9 @@ impl<const N: usize> Real for F32s<N> {
     }
 }
 
-/// Implements [`Real`] for a bundle of several values of lane type `R` side by side, each
-/// operation done on all of them: independent chains of instructions for the
-/// CPU to overlap (the noise is a long chain of dependent operations, so one
+/// Implements [`Real`] for a bundle of several values of lane type `R` side
+/// by side, each operation done on all of them: independent chains of
+/// instructions for the CPU to overlap (the noise is a long chain of dependent operations, so one
 /// register's worth of particles leaves much of the CPU idle). Lane by lane
 /// the same operations as `R`, so the same bits. Written out field by field
 /// (no closures), so that all of it inlines into code compiled for an
@@ -475,8 +476,9 @@ macro_rules! bundle {
     };
 }
 
-/// Two values of lane type `R` side by side (see [`bundle!`]): twice the
-/// particles per batch, in two independent chains of instructions.
+/// Two values of lane type `R` side by side (see the `bundle!` macro): twice
+/// the particles per batch, in two independent chains of instructions (the
+/// AVX2 path's batches of 16).
 #[derive(Clone, Copy, Debug)]
 pub struct Pair<R>(pub R, pub R);
 
