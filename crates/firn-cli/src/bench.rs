@@ -102,8 +102,10 @@ pub struct BenchArgs {
     pub sweep: SweepArgs,
     /// The instruction set of the snow model's batched particle update, for
     /// the snowball, --scene and --sweep runs (default: the solver's own
-    /// choice, AVX2 where the CPU has it). All give the same bits; this
-    /// compares their speed.
+    /// choice, AVX2 where the CPU has it); with --flow, the one path the
+    /// analytic curl is timed on (default: every path the CPU has, and
+    /// central differences). All give the same bits; this compares their
+    /// speed.
     #[arg(long, value_enum, default_value = "auto")]
     pub simd: SimdChoice,
     /// Compute backend of the snowball and --scene runs (default: auto, or

@@ -5,6 +5,7 @@
 //! `--steps` timed ones (one RK2 step each: two velocity evaluations per
 //! particle), with the analytic curl and, for comparison, central differences;
 //! the analytic curl is also timed on every other SIMD path the CPU offers.
+//! `--simd PATH` times only the analytic curl on that path.
 
 use std::time::Instant;
 
@@ -14,7 +15,7 @@ use firn_run::{Placement, Solver, SolverOptions};
 use serde::Serialize;
 
 use crate::Failure;
-use crate::bench::{BenchArgs, failed};
+use crate::bench::{BenchArgs, SimdChoice, failed};
 
 /// One measured configuration.
 #[derive(Debug, Serialize)]
@@ -91,15 +92,25 @@ count = {particles}
 
 /// Runs every configuration and writes the JSON record.
 pub fn bench_flow(args: &BenchArgs) -> Result<(), Failure> {
+    let chosen = match args.simd {
+        SimdChoice::Auto => None,
+        choice => Some(choice.resolve()?),
+    };
     let detected = Simd::detect();
     let mut records = Vec::new();
     for &particles in &args.particles {
-        let mut runs = vec![("analytic", detected), ("finite-difference", detected)];
-        for simd in [Simd::Avx512, Simd::Avx2, Simd::Portable] {
-            if simd != detected && simd.is_available() {
-                runs.push(("analytic", simd));
+        let runs = match chosen {
+            Some(simd) => vec![("analytic", simd)],
+            None => {
+                let mut runs = vec![("analytic", detected), ("finite-difference", detected)];
+                for simd in [Simd::Avx512, Simd::Avx2, Simd::Portable] {
+                    if simd != detected && simd.is_available() {
+                        runs.push(("analytic", simd));
+                    }
+                }
+                runs
             }
-        }
+        };
         for (curl, simd) in runs {
             let record = measure(particles, curl, simd, args)?;
             println!(

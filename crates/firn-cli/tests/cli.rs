@@ -566,3 +566,36 @@ fn bench_simd_choices_are_recorded_and_agree_to_the_bit() {
         chosen["simd"]
     );
 }
+
+#[test]
+fn bench_flow_with_a_simd_path_times_only_that_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("bench.json");
+    let output = firn(&[
+        "bench",
+        "--flow",
+        "--simd",
+        "portable",
+        "--particles",
+        "2000",
+        "--steps",
+        "2",
+        "--warmup",
+        "1",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let stdout = text(&output.stdout);
+    let lines: Vec<&str> = stdout
+        .lines()
+        .filter(|line| line.starts_with("firn flow"))
+        .collect();
+    assert_eq!(lines.len(), 1, "{stdout}");
+    assert!(lines[0].contains("curl=analytic simd=portable"), "{stdout}");
+    let records: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(records.as_array().unwrap().len(), 1);
+    assert_eq!(records[0]["simd"], "portable");
+    assert_eq!(records[0]["curl"], "analytic");
+}

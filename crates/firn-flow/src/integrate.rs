@@ -9,9 +9,10 @@
 //! end of a slice is padded), and every lane does the same operations, so a
 //! particle's new position does not depend on how particles are split among
 //! threads. On x86-64 CPUs with AVX-512 the lanes live in one 512-bit register
-//! (16 particles, `lanes_avx512`), with AVX2 in one 256-bit register (8,
-//! `lanes_avx2`); elsewhere the portable lanes of [`crate::lanes::F32s`] are
-//! used (8). The path is chosen at run time ([`Simd::detect`]); all give the
+//! (16 particles, `lanes_avx512`), with AVX2 in two 256-bit registers side
+//! by side (16, [`crate::lanes::Pair`] of `lanes_avx2`'s eight lanes, which
+//! lets the CPU overlap two chains of dependent operations); elsewhere the
+//! portable lanes of [`crate::lanes::F32s`] are used (8). The path is chosen at run time ([`Simd::detect`]); all give the
 //! same bits.
 
 use firn_core::scene::{FlowIntegrator, FlowObstacle};
@@ -22,9 +23,9 @@ use firn_core::math::isa::Isa;
 use firn_core::math::isa::{Avx2, Avx512};
 
 use crate::field::{FlowField, Prepared, velocity_lanes};
-use crate::lanes::{F32s, Real, V3, add3, dot3, scale3, sub3};
+use crate::lanes::{F32s, Pair, Real, V3, add3, dot3, scale3, sub3};
 #[cfg(target_arch = "x86_64")]
-use crate::lanes_avx2::Avx8;
+use crate::lanes_avx2::{Avx8, Avx8x2};
 #[cfg(target_arch = "x86_64")]
 use crate::lanes_avx512::Avx16;
 
@@ -47,6 +48,32 @@ pub(crate) trait Batch: Real {
     /// The field velocity of the batch: a function of its own (not inlined
     /// into the integrators).
     fn velocity(prepared: &Prepared<Self>, x: V3<Self>) -> V3<Self>;
+    /// A whole batch of points (`WIDTH` of them) in lanes.
+    #[inline(always)]
+    fn load_points(points: &[Vec3]) -> V3<Self> {
+        let mut lanes = [[0.0f32; MAX_LANES]; 3];
+        for (i, x) in points.iter().enumerate() {
+            lanes[0][i] = x.x;
+            lanes[1][i] = x.y;
+            lanes[2][i] = x.z;
+        }
+        [
+            Self::load(&lanes[0]),
+            Self::load(&lanes[1]),
+            Self::load(&lanes[2]),
+        ]
+    }
+    /// The lanes of a batch into `out` (`WIDTH` points).
+    #[inline(always)]
+    fn store_points(value: V3<Self>, out: &mut [Vec3]) {
+        let mut lanes = [[0.0f32; MAX_LANES]; 3];
+        for (axis, lanes) in lanes.iter_mut().enumerate() {
+            value[axis].store(lanes);
+        }
+        for (i, slot) in out.iter_mut().enumerate() {
+            *slot = Vec3::new(lanes[0][i], lanes[1][i], lanes[2][i]);
+        }
+    }
 }
 
 impl Batch for F32s<LANES> {
@@ -68,21 +95,42 @@ impl Batch for F32s<LANES> {
 }
 
 #[cfg(target_arch = "x86_64")]
-impl Batch for Avx8 {
-    const WIDTH: usize = 8;
+impl Batch for Avx8x2 {
+    const WIDTH: usize = 16;
     #[inline(always)]
     fn load(lanes: &[f32; MAX_LANES]) -> Self {
-        let mut out = [0.0; 8];
-        out.copy_from_slice(&lanes[..8]);
-        Avx8::from_array(out)
+        let mut low = [0.0; 8];
+        let mut high = [0.0; 8];
+        low.copy_from_slice(&lanes[..8]);
+        high.copy_from_slice(&lanes[8..]);
+        Pair(Avx8::from_array(low), Avx8::from_array(high))
     }
     #[inline(always)]
     fn store(self, out: &mut [f32; MAX_LANES]) {
-        out[..8].copy_from_slice(&self.to_array());
+        out[..8].copy_from_slice(&self.0.to_array());
+        out[8..].copy_from_slice(&self.1.to_array());
     }
     #[inline(always)]
     fn velocity(prepared: &Prepared<Self>, x: V3<Self>) -> V3<Self> {
-        Avx8::velocity(prepared, x)
+        Avx8x2::velocity(prepared, x)
+    }
+    #[inline(always)]
+    fn load_points(points: &[Vec3]) -> V3<Self> {
+        let (low, high) = points.split_at(8);
+        let low = Avx8::load_points(low.try_into().expect("8 points"));
+        let high = Avx8::load_points(high.try_into().expect("8 points"));
+        [
+            Pair(low[0], high[0]),
+            Pair(low[1], high[1]),
+            Pair(low[2], high[2]),
+        ]
+    }
+    #[inline(always)]
+    fn store_points(value: V3<Self>, out: &mut [Vec3]) {
+        let (low, high) = out.split_at_mut(8);
+        let [x, y, z] = value;
+        Avx8::store_points([x.0, y.0, z.0], low.try_into().expect("8 points"));
+        Avx8::store_points([x.1, y.1, z.1], high.try_into().expect("8 points"));
     }
 }
 
@@ -142,7 +190,7 @@ pub(crate) struct Chunk<'a> {
 pub(crate) enum Stages {
     Portable(Box<StagesOf<F32s<LANES>>>),
     #[cfg(target_arch = "x86_64")]
-    Avx2(Avx2, Box<StagesOf<Avx8>>),
+    Avx2(Avx2, Box<StagesOf<Avx8x2>>),
     #[cfg(target_arch = "x86_64")]
     Avx512(Avx512, Box<StagesOf<Avx16>>),
 }
@@ -178,7 +226,7 @@ pub(crate) fn advance(
         Stages::Portable(stages) => advance_batches(stages, integrator, dt, limits, chunk, flagged),
         #[cfg(target_arch = "x86_64")]
         Stages::Avx2(avx2, stages) => {
-            Avx8::advance(*avx2, stages, integrator, dt, limits, chunk, flagged)
+            Avx8x2::advance(*avx2, stages, integrator, dt, limits, chunk, flagged)
         }
         #[cfg(target_arch = "x86_64")]
         Stages::Avx512(avx512, stages) => {
@@ -242,7 +290,9 @@ pub(crate) fn evaluate(
 ) {
     match Isa::of(simd) {
         #[cfg(target_arch = "x86_64")]
-        Isa::Avx2(avx2) => Avx8::evaluate(avx2, &field.prepare::<Avx8>(t), positions, velocities),
+        Isa::Avx2(avx2) => {
+            Avx8x2::evaluate(avx2, &field.prepare::<Avx8x2>(t), positions, velocities)
+        }
         #[cfg(target_arch = "x86_64")]
         Isa::Avx512(avx512) => {
             Avx16::evaluate(avx512, &field.prepare::<Avx16>(t), positions, velocities)
@@ -340,26 +390,26 @@ pub(crate) use entry_points;
 /// Load a batch starting at `start`, padding with the last particle.
 #[inline(always)]
 fn load<R: Batch>(positions: &[Vec3], start: usize) -> V3<R> {
-    let last = positions.len() - 1;
-    let mut lanes = [[0.0f32; MAX_LANES]; 3];
-    for i in 0..R::WIDTH {
-        let x = positions[(start + i).min(last)];
-        lanes[0][i] = x.x;
-        lanes[1][i] = x.y;
-        lanes[2][i] = x.z;
+    if let Some(batch) = positions.get(start..start + R::WIDTH) {
+        return R::load_points(batch);
     }
-    [R::load(&lanes[0]), R::load(&lanes[1]), R::load(&lanes[2])]
+    let last = positions.len() - 1;
+    let mut padded = [Vec3::ZERO; MAX_LANES];
+    for (i, slot) in padded.iter_mut().enumerate() {
+        *slot = positions[(start + i).min(last)];
+    }
+    R::load_points(&padded[..R::WIDTH])
 }
 
 /// Store the first `count` lanes of a batch at `start`.
 #[inline(always)]
 fn store<R: Batch>(out: &mut [Vec3], start: usize, count: usize, value: V3<R>) {
-    let mut lanes = [[0.0f32; MAX_LANES]; 3];
-    for (axis, lanes) in lanes.iter_mut().enumerate() {
-        value[axis].store(lanes);
-    }
-    for (i, slot) in out[start..start + count].iter_mut().enumerate() {
-        *slot = Vec3::new(lanes[0][i], lanes[1][i], lanes[2][i]);
+    if count == R::WIDTH {
+        R::store_points(value, &mut out[start..start + count]);
+    } else {
+        let mut padded = [Vec3::ZERO; MAX_LANES];
+        R::store_points(value, &mut padded[..R::WIDTH]);
+        out[start..start + count].copy_from_slice(&padded[..count]);
     }
 }
 

@@ -1,6 +1,7 @@
 //! Numbers the field is evaluated in: one `f64` (the reference and test
 //! path), or `N` lanes of `f32` at once ([`F32s`], the portable path; the
-//! AVX2 and AVX-512 lane types implement the same trait with intrinsics).
+//! AVX2 and AVX-512 lane types implement the same trait with intrinsics), or
+//! a [`Pair`] of such lane values side by side.
 //!
 //! The noise and the curl are written once, generic over [`Real`], without
 //! branches on values: comparisons give masks and masks select, so each
@@ -36,6 +37,8 @@ pub trait Real:
     type Mask: Copy;
     /// Per-lane 32-bit unsigned integer.
     type Int: Copy;
+    /// Numbers in one value (at most 32, the bits of [`Real::mask_bits`]).
+    const LANES: usize;
 
     /// The same value in every lane (rounded to the lane type).
     fn splat(value: f64) -> Self;
@@ -87,10 +90,19 @@ pub trait Real:
     fn int_select(mask: Self::Mask, yes: Self::Int, no: Self::Int) -> Self::Int;
     /// a == b.
     fn int_eq(a: Self::Int, b: u32) -> Self::Mask;
+    /// a > b, for a and b below 2³¹.
+    fn int_gt(a: Self::Int, b: u32) -> Self::Mask;
+    /// Per lane: `yes` where bit `bit` of `bits` is set, else `no`.
+    #[inline(always)]
+    fn select_on_bit(bits: Self::Int, bit: u32, yes: Self, no: Self) -> Self {
+        Self::select(Self::int_eq(Self::int_and(bits, 1 << bit), 0), no, yes)
+    }
 
-    /// Simplex noise and its gradient, [`crate::noise::simplex3`]. Lane types
-    /// keep it out of line (one copy per lane type and instruction set, called
-    /// three times per velocity), which keeps compile times short.
+    /// Simplex noise and its gradient, [`crate::noise::simplex3`]. The
+    /// portable and AVX-512 lane types keep it out of line (one copy per lane
+    /// type and instruction set, called three times per velocity), which keeps
+    /// compile times short; a [`Pair`] inlines it, as its three copies then
+    /// overlap (out of line, the AVX2 pair took 1.4 times as long).
     #[inline(always)]
     fn simplex(p: V3<Self>) -> (Self, V3<Self>) {
         crate::noise::simplex3(p)
@@ -100,6 +112,7 @@ pub trait Real:
 impl Real for f64 {
     type Mask = bool;
     type Int = u32;
+    const LANES: usize = 1;
 
     #[inline(always)]
     fn splat(value: f64) -> f64 {
@@ -195,11 +208,16 @@ impl Real for f64 {
     fn int_eq(a: u32, b: u32) -> bool {
         a == b
     }
+    #[inline(always)]
+    fn int_gt(a: u32, b: u32) -> bool {
+        a > b
+    }
 }
 
 impl<const N: usize> Real for F32s<N> {
     type Mask = U32s<N>;
     type Int = U32s<N>;
+    const LANES: usize = N;
 
     #[inline(never)]
     fn simplex(p: V3<Self>) -> (Self, V3<Self>) {
@@ -308,7 +326,163 @@ impl<const N: usize> Real for F32s<N> {
     fn int_eq(a: U32s<N>, b: u32) -> U32s<N> {
         U32s(map1(a.0, |x| mask_bits(x == b)))
     }
+    #[inline(always)]
+    fn int_gt(a: U32s<N>, b: u32) -> U32s<N> {
+        U32s(map1(a.0, |x| mask_bits(x > b)))
+    }
 }
+
+/// Implements [`Real`] for a bundle of several values of lane type `R` side
+/// by side, each operation done on all of them: independent chains of
+/// instructions for the CPU to overlap (the noise is a long chain of dependent operations, so one
+/// register's worth of particles leaves much of the CPU idle). Lane by lane
+/// the same operations as `R`, so the same bits. Written out field by field
+/// (no closures), so that all of it inlines into code compiled for an
+/// instruction set.
+macro_rules! bundle {
+    ($name:ident, $count:literal, $($field:tt),+) => {
+        bundle!(@op $name, Add, add, $($field),+);
+        bundle!(@op $name, Sub, sub, $($field),+);
+        bundle!(@op $name, Mul, mul, $($field),+);
+        bundle!(@op $name, Div, div, $($field),+);
+
+        impl<R: Real> Neg for $name<R> {
+            type Output = $name<R>;
+            #[inline(always)]
+            fn neg(self) -> $name<R> {
+                $name($(-self.$field),+)
+            }
+        }
+
+        impl<R: Real> Real for $name<R> {
+            type Mask = $name<R::Mask>;
+            type Int = $name<R::Int>;
+            const LANES: usize = $count * R::LANES;
+
+            #[inline(always)]
+            fn splat(value: f64) -> Self {
+                let one = R::splat(value);
+                $name($(bundle!(@same one, $field)),+)
+            }
+            #[inline(always)]
+            fn floor_int(self) -> (Self, Self::Int) {
+                let parts = ($(self.$field.floor_int(),)+);
+                ($name($(parts.$field.0),+), $name($(parts.$field.1),+))
+            }
+            #[inline(always)]
+            fn lt(self, other: Self) -> Self::Mask {
+                $name($(self.$field.lt(other.$field)),+)
+            }
+            #[inline(always)]
+            fn le(self, other: Self) -> Self::Mask {
+                $name($(self.$field.le(other.$field)),+)
+            }
+            #[inline(always)]
+            fn select(mask: Self::Mask, yes: Self, no: Self) -> Self {
+                $name($(R::select(mask.$field, yes.$field, no.$field)),+)
+            }
+            #[inline(always)]
+            fn min(self, other: Self) -> Self {
+                $name($(self.$field.min(other.$field)),+)
+            }
+            #[inline(always)]
+            fn max(self, other: Self) -> Self {
+                $name($(self.$field.max(other.$field)),+)
+            }
+            #[inline(always)]
+            fn sqrt(self) -> Self {
+                $name($(self.$field.sqrt()),+)
+            }
+            #[inline(always)]
+            fn and(a: Self::Mask, b: Self::Mask) -> Self::Mask {
+                $name($(R::and(a.$field, b.$field)),+)
+            }
+            #[inline(always)]
+            fn or(a: Self::Mask, b: Self::Mask) -> Self::Mask {
+                $name($(R::or(a.$field, b.$field)),+)
+            }
+            #[inline(always)]
+            fn not(a: Self::Mask) -> Self::Mask {
+                $name($(R::not(a.$field)),+)
+            }
+            #[inline(always)]
+            fn any(a: Self::Mask) -> bool {
+                false $(|| R::any(a.$field))+
+            }
+            #[inline(always)]
+            fn mask_to_int(a: Self::Mask) -> Self::Int {
+                $name($(R::mask_to_int(a.$field)),+)
+            }
+            #[inline(always)]
+            fn mask_bits(a: Self::Mask) -> u32 {
+                0 $(| R::mask_bits(a.$field) << ($field * R::LANES))+
+            }
+            #[inline(always)]
+            fn int_splat(value: u32) -> Self::Int {
+                let one = R::int_splat(value);
+                $name($(bundle!(@same one, $field)),+)
+            }
+            #[inline(always)]
+            fn int_add(a: Self::Int, b: Self::Int) -> Self::Int {
+                $name($(R::int_add(a.$field, b.$field)),+)
+            }
+            #[inline(always)]
+            fn int_mul(a: Self::Int, b: u32) -> Self::Int {
+                $name($(R::int_mul(a.$field, b)),+)
+            }
+            #[inline(always)]
+            fn int_xor(a: Self::Int, b: Self::Int) -> Self::Int {
+                $name($(R::int_xor(a.$field, b.$field)),+)
+            }
+            #[inline(always)]
+            fn int_and(a: Self::Int, b: u32) -> Self::Int {
+                $name($(R::int_and(a.$field, b)),+)
+            }
+            #[inline(always)]
+            fn int_shr(a: Self::Int, bits: u32) -> Self::Int {
+                $name($(R::int_shr(a.$field, bits)),+)
+            }
+            #[inline(always)]
+            fn int_shl(a: Self::Int, bits: u32) -> Self::Int {
+                $name($(R::int_shl(a.$field, bits)),+)
+            }
+            #[inline(always)]
+            fn int_select(mask: Self::Mask, yes: Self::Int, no: Self::Int) -> Self::Int {
+                $name($(R::int_select(mask.$field, yes.$field, no.$field)),+)
+            }
+            #[inline(always)]
+            fn int_eq(a: Self::Int, b: u32) -> Self::Mask {
+                $name($(R::int_eq(a.$field, b)),+)
+            }
+            #[inline(always)]
+            fn int_gt(a: Self::Int, b: u32) -> Self::Mask {
+                $name($(R::int_gt(a.$field, b)),+)
+            }
+            #[inline(always)]
+            fn select_on_bit(bits: Self::Int, bit: u32, yes: Self, no: Self) -> Self {
+                $name($(R::select_on_bit(bits.$field, bit, yes.$field, no.$field)),+)
+            }
+        }
+    };
+    (@same $value:ident, $field:tt) => { $value };
+    (@op $name:ident, $trait:ident, $method:ident, $($field:tt),+) => {
+        impl<R: Real> $trait for $name<R> {
+            type Output = $name<R>;
+            #[inline(always)]
+            fn $method(self, other: $name<R>) -> $name<R> {
+                $name($(self.$field.$method(other.$field)),+)
+            }
+        }
+    };
+}
+
+/// Two values of lane type `R` side by side (see the `bundle!` macro): twice
+/// the particles per batch, in two independent chains of instructions (the
+/// AVX2 path's batches of 16).
+#[derive(Clone, Copy, Debug)]
+pub struct Pair<R>(pub R, pub R);
+
+bundle!(Pair, 2, 0, 1);
 
 /// A vector of three [`Real`]s.
 pub type V3<R> = [R; 3];

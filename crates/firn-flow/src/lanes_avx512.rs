@@ -86,6 +86,7 @@ impl Neg for Avx16 {
 impl Real for Avx16 {
     type Mask = __mmask16;
     type Int = Avx16i;
+    const LANES: usize = 16;
 
     #[inline(always)]
     fn simplex(p: V3<Avx16>) -> (Avx16, V3<Avx16>) {
@@ -212,6 +213,11 @@ impl Real for Avx16 {
     fn int_eq(a: Avx16i, b: u32) -> __mmask16 {
         // SAFETY: Avx16 values exist only where the CPU has AVX-512F.
         unsafe { _mm512_cmpeq_epi32_mask(a.0, _mm512_set1_epi32(b as i32)) }
+    }
+    #[inline(always)]
+    fn int_gt(a: Avx16i, b: u32) -> __mmask16 {
+        // SAFETY: Avx16 values exist only where the CPU has AVX-512F.
+        unsafe { _mm512_cmpgt_epu32_mask(a.0, _mm512_set1_epi32(b as i32)) }
     }
 }
 

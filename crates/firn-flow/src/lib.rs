@@ -12,8 +12,8 @@
 //!   v = s · curl ψ' (seed eq. 4), exact or by central differences;
 //! - [`emitters`], [`particles`], [`trails`]: where particles are born, their
 //!   state (structure of arrays) and their recent positions;
-//! - [`integrate`] and [`simulation`]: RK2/RK4 steps, 16 (AVX-512), 8 (AVX2)
-//!   or 8 portable lanes per SIMD batch, chosen at run time ([`Simd`]), in
+//! - [`integrate`] and [`simulation`]: RK2/RK4 steps, 16 (AVX-512), 16
+//!   (AVX2, two registers) or 8 portable lanes per SIMD batch, chosen at run time ([`Simd`]), in
 //!   parallel with rayon, bit-identical for any thread count and code path;
 //! - [`lanes`]: the number types the field is written over.
 //!

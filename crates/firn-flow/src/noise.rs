@@ -76,23 +76,20 @@ fn corner_hash<R: Real>(base: [R::Int; 3], next: [R::Int; 3], step: [R::Mask; 3]
 
 /// The gradient for a hash: one of the twelve edge midpoints of a cube,
 /// (0, ±1, ±1), (±1, 0, ±1), (±1, ±1, 0), each with probability 1/12 up to
-/// 2⁻¹⁶ (the axis that is zero comes from the low 16 bits, the signs from
-/// bits 16 and 17).
+/// 2⁻¹⁶ (the axis that is zero is ⌊3 (h mod 2¹⁶) / 2¹⁶⌋, from the low 16
+/// bits; the signs come from bits 16 and 17).
 #[inline(always)]
 pub fn gradient<R: Real>(hash: R::Int) -> V3<R> {
-    // ⌊3 (h mod 2¹⁶) / 2¹⁶⌋, with 3x as x + 2x.
+    // ⌊3 low / 2¹⁶⌋ is 0 up to 21845 and 2 from 43691 on.
     let low = R::int_and(hash, 0xFFFF);
-    let zero_axis = R::int_shr(R::int_add(low, R::int_shl(low, 1)), 16);
-    let one = R::splat(1.0);
+    let x_nonzero = R::int_gt(low, 21_845);
+    let z_zero = R::int_gt(low, 43_690);
     let zero = R::splat(0.0);
-    let first = R::select(R::int_eq(R::int_and(hash, 1 << 16), 0), one, -one);
-    let second = R::select(R::int_eq(R::int_and(hash, 1 << 17), 0), one, -one);
-    let x_zero = R::int_eq(zero_axis, 0);
-    let y_zero = R::int_eq(zero_axis, 1);
-    let z_zero = R::int_eq(zero_axis, 2);
+    let first = R::select_on_bit(hash, 16, R::splat(-1.0), R::splat(1.0));
+    let second = R::select_on_bit(hash, 17, R::splat(-1.0), R::splat(1.0));
     [
-        R::select(x_zero, zero, first),
-        R::select(x_zero, first, R::select(y_zero, zero, second)),
+        R::select(x_nonzero, first, zero),
+        R::select(x_nonzero, R::select(z_zero, second, zero), first),
         R::select(z_zero, zero, second),
     ]
 }
