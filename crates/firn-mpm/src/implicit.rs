@@ -302,10 +302,10 @@ impl Stencil {
     /// Σ_i v_i (∇w_ip)ᵀ for node vector `velocities` (eq. 32's sum), with
     /// SIMD columns.
     #[inline(always)]
-    fn velocity_gradient(&self, velocities: &[Vec3]) -> Mat3 {
+    fn velocity_gradient(&self, velocities: &[Vec3A]) -> Mat3 {
         let mut columns = [Vec3A::ZERO; 3];
         for (node, gradient) in self.iter() {
-            let velocity = Vec3A::from(velocities[node]);
+            let velocity = velocities[node];
             columns[0] += velocity * gradient.x;
             columns[1] += velocity * gradient.y;
             columns[2] += velocity * gradient.z;
@@ -337,11 +337,11 @@ impl<K: ForceKernel> HessianOperator<'_, K> {
     /// output = β Δt² H input, over node vectors: per particle,
     /// δF_E = β Δt² (Σ_i input_i (∇w_ip)ᵀ) F_E, then output_i += A_p F_Eᵀ ∇w_ip
     /// with A_p = V_p^0 δP(δF_E).
-    fn apply(&self, input: &[Vec3], output: &mut [Vec3]) {
+    fn apply(&self, input: &[Vec3A], output: &mut [Vec3A]) {
         output
             .par_iter_mut()
             .with_min_len(4096)
-            .for_each(|o| *o = Vec3::ZERO);
+            .for_each(|o| *o = Vec3A::ZERO);
         scatter_by_colour(output, self.bins, |block, writer| {
             let mut stencil = Stencil::empty();
             for &p in block {
@@ -353,7 +353,7 @@ impl<K: ForceKernel> HessianOperator<'_, K> {
                 let stress = Mat3A::from(linearized.apply(delta) * elastic.transpose());
                 for (node, gradient) in stencil.iter() {
                     let force = stress * Vec3A::from(gradient);
-                    writer.update(node, |o| *o += Vec3::from(force));
+                    writer.update(node, |o| *o += force);
                 }
             }
         });
@@ -361,7 +361,8 @@ impl<K: ForceKernel> HessianOperator<'_, K> {
 }
 
 /// Per-node data and Krylov vectors of the solve, numbered like the grid's
-/// node pool.
+/// node pool. The vectors are `Vec3A`, so the product loads and adds a node
+/// in one SIMD operation (the same IEEE operations as on `Vec3`).
 #[derive(Clone, Debug, Default)]
 struct NodeVectors {
     mass: Vec<f32>,
@@ -369,17 +370,17 @@ struct NodeVectors {
     inverse_mass: Vec<f32>,
     constraint: Vec<Constraint>,
     /// The iterate, v^{n+1} at the end.
-    x: Vec<Vec3>,
+    x: Vec<Vec3A>,
     /// Residual P (M v* − S x), S = M + β Δt² H.
-    r: Vec<Vec3>,
+    r: Vec<Vec3A>,
     /// Preconditioned residual P M⁻¹ r.
-    z: Vec<Vec3>,
+    z: Vec<Vec3A>,
     /// Search direction.
-    p: Vec<Vec3>,
+    p: Vec<Vec3A>,
     /// S p.
-    sp: Vec<Vec3>,
+    sp: Vec<Vec3A>,
     /// Operator output scratch: β Δt² H y, then S y.
-    product: Vec<Vec3>,
+    product: Vec<Vec3A>,
 }
 
 /// Splits a node vector into blocks for the parallel passes.
@@ -446,7 +447,7 @@ impl NodeVectors {
                     let position = layout.node_position(GridLayout::node_in_block(coord, local));
                     let (velocity, fixed) =
                         collide_all_constrained(colliders, position, node.velocity_new());
-                    x[local] = velocity;
+                    x[local] = velocity.into();
                     constraint[local] = fixed;
                     sum += f64::from(node.mass() * velocity.length_squared());
                 }
@@ -470,7 +471,7 @@ impl NodeVectors {
             .map(|(r, z, product, constraint, inverse_mass)| {
                 let mut sum = 0.0;
                 for i in 0..r.len() {
-                    r[i] = -constraint[i].project(product[i]);
+                    r[i] = (-constraint[i].project(product[i].into())).into();
                     z[i] = r[i] * inverse_mass[i];
                     sum += r[i].dot(z[i]) as f64;
                 }
@@ -493,7 +494,9 @@ impl NodeVectors {
             .map(|(product, z, mass, constraint)| {
                 let mut sum = 0.0;
                 for i in 0..product.len() {
-                    product[i] = constraint[i].project(z[i] * mass[i] + product[i]);
+                    product[i] = constraint[i]
+                        .project((z[i] * mass[i] + product[i]).into())
+                        .into();
                     sum += z[i].dot(product[i]) as f64;
                 }
                 sum
@@ -734,7 +737,7 @@ impl ImplicitSolver {
                     if node.mass() > 0.0 {
                         let position =
                             layout.node_position(GridLayout::node_in_block(coord, local));
-                        node.set_velocity_new(collide_all(colliders, position, x[local]));
+                        node.set_velocity_new(collide_all(colliders, position, x[local].into()));
                     }
                 }
             });
@@ -982,11 +985,11 @@ mod tests {
         let mut random = Random(seed);
         let state = random_state(&mut random, 40, (0.9, 1.1));
         let len = state.bins.active_blocks().len() * BLOCK_NODES;
-        let velocity: Vec<Vec3> = (0..len).map(|_| random.vector(1.0)).collect();
+        let velocity: Vec<Vec3A> = (0..len).map(|_| random.vector(1.0).into()).collect();
         let (dt, beta) = (1e-3, 1.0);
         let stencils = state.stencils(kernel);
         let operator = state.operator(kernel, &stencils, beta * dt * dt);
-        let mut product = vec![Vec3::ZERO; len];
+        let mut product = vec![Vec3A::ZERO; len];
         operator.apply(&velocity, &mut product);
         // β Δt² H v = −β Δt ∂f/∂x̂ · (Δt v), by central differences in ε.
         let epsilon = 1e-4;
@@ -1028,8 +1031,8 @@ mod tests {
             let mut random = Random(11);
             let state = random_state(&mut random, 40, (0.9, 1.1));
             let len = state.bins.active_blocks().len() * BLOCK_NODES;
-            let velocity: Vec<Vec3> = (0..len).map(|_| random.vector(1.0)).collect();
-            let mut product = vec![Vec3::ZERO; len];
+            let velocity: Vec<Vec3A> = (0..len).map(|_| random.vector(1.0).into()).collect();
+            let mut product = vec![Vec3A::ZERO; len];
             if kernel_is_cubic {
                 let stencils = state.stencils(CubicGradient);
                 state
@@ -1066,7 +1069,7 @@ mod tests {
         for i in 0..len {
             nodes.mass[i] = random.range(0.5, 1.5) * 1e-3;
             nodes.inverse_mass[i] = 1.0 / nodes.mass[i];
-            nodes.x[i] = random.vector(1.0);
+            nodes.x[i] = random.vector(1.0).into();
             nodes.constraint[i] = match i % 7 {
                 0 => Constraint::Fixed,
                 1 => Constraint::Normal(random.vector(1.0).normalize()),
@@ -1086,13 +1089,14 @@ mod tests {
         assert!(report.converged && report.iterations > 5, "{report:?}");
         // The true residuals P (M v* − S x) at the start and the end, in the
         // M⁻¹ norm, recomputed from scratch.
-        let residual_norm = |x: &[Vec3]| -> f64 {
-            let mut product = vec![Vec3::ZERO; len];
+        let residual_norm = |x: &[Vec3A]| -> f64 {
+            let mut product = vec![Vec3A::ZERO; len];
             operator.apply(x, &mut product);
             (0..len)
                 .map(|i| {
                     let m = nodes.mass[i];
-                    let r = nodes.constraint[i].project(start[i] * m - x[i] * m - product[i]);
+                    let r =
+                        nodes.constraint[i].project((start[i] * m - x[i] * m - product[i]).into());
                     f64::from(r.length_squared() / m)
                 })
                 .sum::<f64>()
@@ -1111,7 +1115,7 @@ mod tests {
             .zip(nodes.x.iter().zip(&start))
             .enumerate()
         {
-            let moved = *x - *start;
+            let moved = Vec3::from(*x - *start);
             let drift = (moved - constraint.project(moved)).length();
             assert!(
                 drift < 1e-4,
