@@ -113,13 +113,16 @@ macro_rules! part {
     };
 }
 
-/// Functions shared by the snow programs: weights, SVD, snow model, colliders.
-const SNOW_LIBRARY: [Part; 5] = [
+/// Functions shared by the snow programs: weights, SVD, snow model,
+/// colliders, and the semi-implicit solve's stress differential (for now
+/// in the parity program only).
+const SNOW_LIBRARY: [Part; 6] = [
     part!("common/bspline.wgsl"),
     part!("common/svd.wgsl"),
     part!("common/polar.wgsl"),
     part!("common/snow_model.wgsl"),
     part!("common/colliders.wgsl"),
+    part!("common/stress_differential.wgsl"),
 ];
 
 /// The MPM substep, one file per stage in the order the substep runs them
@@ -159,6 +162,7 @@ pub const SNOW_PARITY: Program = Program {
         SNOW_LIBRARY[1],
         SNOW_LIBRARY[2],
         SNOW_LIBRARY[3],
+        SNOW_LIBRARY[5],
         Part::Bindings(&ParityBindings::TABLE),
         part!("parity/snow_parity.wgsl"),
     ],

@@ -1,5 +1,6 @@
-//! Per-kernel parity: the WGSL SVD, B-spline weights and snow model against
-//! the CPU functions they mirror, on the same inputs.
+//! Per-kernel parity: the WGSL SVD, B-spline weights, snow model and the
+//! semi-implicit solve's stress differential against the CPU functions they
+//! mirror, on the same inputs.
 
 use std::sync::Arc;
 
@@ -13,6 +14,7 @@ use firn_gpu::shaders::SNOW_PARITY;
 use firn_gpu::snow::bindings::ParityBindings;
 use firn_gpu::{GpuContext, context_for_tests};
 use firn_mpm::constitutive::{ElasticUpdate, MaterialConstants, MaterialLanes};
+use firn_mpm::implicit::StressDifferential;
 use glam::{Mat3, Vec3};
 use proptest::strategy::{Strategy, ValueTree};
 use proptest::test_runner::{Config, TestRunner};
@@ -257,5 +259,48 @@ fn the_wgsl_snow_model_matches_the_cpu_update() {
         );
         assert!((scalars[n][0] - cpu.plastic_j.lane(0)).abs() < 1e-5 * cpu.plastic_j.lane(0));
         assert!((scalars[n][1] / cpu.hardening_factor.lane(0) - 1.0).abs() < 1e-5);
+    }
+}
+
+#[test]
+fn the_wgsl_stress_differential_matches_the_cpu_one() {
+    let Some(context) = context_for_tests() else {
+        return;
+    };
+    // F_E within the plasticity clamp's reach (singular values near 1,
+    // stretched and compressed), random directions, stiff to soft snow.
+    let count = 256;
+    let elastic = random_matrices(count, 0.05);
+    let directions = random_matrices(count, 1.0);
+    let parameters: Vec<[f32; 4]> = (0..count)
+        .map(|n| {
+            let t = n as f32 / count as f32;
+            [1e4 + 2e6 * t, 3e6 - 2e6 * t, 1e-3 * (1.0 + t), 0.0]
+        })
+        .collect();
+    let matrices: Vec<Matrix> = elastic
+        .iter()
+        .zip(&directions)
+        .flat_map(|(&f, &d)| [f.into(), (d - Mat3::IDENTITY).into()])
+        .collect();
+    let (out, _) = run_parity(
+        &context,
+        "stress_differential_parity",
+        &matrices,
+        &parameters,
+        (count, 1),
+        count,
+    );
+    for n in 0..count {
+        let [mu, lambda, volume0, _] = parameters[n];
+        let direction = directions[n] - Mat3::IDENTITY;
+        let cpu = StressDifferential::new(elastic[n], mu, lambda, volume0).apply(direction);
+        let scale = cpu.abs().to_cols_array().into_iter().fold(1e-3, f32::max);
+        let gpu = Mat3::from(out[n]);
+        assert!(
+            max_difference(gpu, cpu) < 1e-4 * scale,
+            "dP {gpu} vs {cpu} at F_E = {}",
+            elastic[n]
+        );
     }
 }

@@ -226,10 +226,14 @@ impl StencilIndex {
         slot as usize * BLOCK_NODES + GridLayout::local_index(node)
     }
 
-    /// Indices of the whole `N`³ stencil, `[i][j][k]` as in [`Self::index`];
-    /// the per-axis part of the arithmetic is done once per axis, not per node.
+    /// Calls `visit(i, j, k, index)` for every node of the `N`³ stencil in
+    /// the order i, j, k (k fastest), `index` as in [`Self::index`]; the
+    /// per-axis part of the arithmetic is done once per axis, not per node.
     #[inline(always)]
-    pub fn indices<const N: usize>(&self) -> [[[usize; N]; N]; N] {
+    pub fn for_each_index<const N: usize>(
+        &self,
+        mut visit: impl FnMut(usize, usize, usize, usize),
+    ) {
         let width = BLOCK_WIDTH as usize;
         let mut block_bits = [[0usize; N]; 3];
         let mut local = [[0usize; N]; 3];
@@ -242,19 +246,19 @@ impl StencilIndex {
                 local[axis][a] = (node & (BLOCK_WIDTH - 1)) as usize * weights[axis];
             }
         }
-        let mut out = [[[0usize; N]; N]; N];
-        for (i, plane) in out.iter_mut().enumerate() {
-            for (j, row) in plane.iter_mut().enumerate() {
-                for (k, index) in row.iter_mut().enumerate() {
-                    let block = (block_bits[0][i] + block_bits[1][j] + block_bits[2][k]) & 7;
-                    *index = self.slots[block] as usize * BLOCK_NODES
-                        + local[0][i]
-                        + local[1][j]
-                        + local[2][k];
+        for i in 0..N {
+            for j in 0..N {
+                let (bits_ij, local_ij) = (
+                    block_bits[0][i] + block_bits[1][j],
+                    local[0][i] + local[1][j],
+                );
+                for k in 0..N {
+                    let block = (bits_ij + block_bits[2][k]) & 7;
+                    let index = self.slots[block] as usize * BLOCK_NODES + local_ij + local[2][k];
+                    visit(i, j, k, index);
                 }
             }
         }
-        out
     }
 }
 
@@ -438,11 +442,15 @@ mod tests {
             IVec3::new(6, 5, 2),
         ] {
             let stencil = table.stencil(base);
-            for (i, j, k) in (0..64).map(|n| (n / 16, n / 4 % 4, n % 4)) {
+            let mut visited = 0;
+            stencil.for_each_index::<4>(|i, j, k, index| {
                 let node = base + IVec3::new(i as i32, j as i32, k as i32);
+                assert_eq!((i, j, k), (visited / 16, visited / 4 % 4, visited % 4));
                 assert_eq!(stencil.index(i, j, k), table.node_index(node));
-                assert_eq!(stencil.indices::<4>()[i][j][k], table.node_index(node));
-            }
+                assert_eq!(index, table.node_index(node));
+                visited += 1;
+            });
+            assert_eq!(visited, 64);
         }
     }
 

@@ -22,7 +22,13 @@
 //! with the hardened μ, λ of each particle (eq. 35) and the differential of the
 //! polar rotation R_E from Stomakhin's technical report ([`StressDifferential`]).
 //! The product scatters through the same block colouring as the transfers
-//! ([`crate::binning`]), so it is deterministic for any thread count.
+//! ([`crate::binning`]), so it is deterministic for any thread count. What a
+//! product needs per particle that does not change during a solve, its 1D
+//! weights, stencil nodes, SVD and cof F_E, is computed once per substep
+//! ([`ForceKernel::prepare`], [`StressDifferential::new`]; 176 bytes of
+//! stencil per particle with the cubic kernel) and kept for every iteration;
+//! the product does the same floating-point operations in the same order as
+//! computing them afresh, so the results have the same bits.
 //!
 //! The system is symmetric but may be indefinite (the fixed-corotated energy is
 //! not convex under compression), so it is solved, as in the paper, by
@@ -35,7 +41,7 @@
 //! so the solve works on P (M + β Δt² H) P. Velocities are f32 like the grid;
 //! dot products sum in f64, block by block in a fixed order.
 
-use firn_core::math::bspline::{cubic_weights, quadratic_weights};
+use firn_core::math::bspline::{StencilWeights, cubic_weights, quadratic_weights};
 use firn_core::math::svd::svd3;
 use firn_core::scene::{ImplicitSettings, Transfer};
 use glam::{Mat3, Mat3A, Vec3, Vec3A};
@@ -45,7 +51,7 @@ use crate::binning::Bins;
 use crate::constitutive::MaterialConstants;
 use crate::contact::{Constraint, PlacedCollider, collide_all, collide_all_constrained};
 use crate::disjoint::scatter_by_colour;
-use crate::grid::{BLOCK_NODES, Grid, GridLayout, PageTable};
+use crate::grid::{BLOCK_NODES, Grid, GridLayout, PageTable, StencilIndex};
 use crate::particles::Particles;
 
 /// The differential of V_p^0 ∂Ψ/∂F_E for one particle, at its current F_E.
@@ -65,6 +71,8 @@ use crate::particles::Particles;
 #[derive(Clone, Copy, Debug)]
 pub struct StressDifferential {
     elastic: Mat3,
+    /// cof F_E.
+    cofactor: Mat3,
     u: Mat3,
     v: Mat3,
     /// 1 / (σ_j + σ_k) for the skew entries (1, 2), (0, 2) and (0, 1).
@@ -86,6 +94,7 @@ impl StressDifferential {
         let s = svd.sigma;
         StressDifferential {
             elastic,
+            cofactor: cofactor(elastic),
             u: svd.u,
             v: svd.v,
             inverse_sums: Vec3::new(1.0 / (s.y + s.z), 1.0 / (s.x + s.z), 1.0 / (s.x + s.y)),
@@ -104,7 +113,7 @@ impl StressDifferential {
     /// V_p^0 δP for a change `delta` = δF_E.
     #[inline(always)]
     pub fn apply(&self, delta: Mat3) -> Mat3 {
-        let cofactor = cofactor(self.elastic);
+        let cofactor = self.cofactor;
         let volume_rate = cofactor.x_axis.dot(delta.x_axis)
             + cofactor.y_axis.dot(delta.y_axis)
             + cofactor.z_axis.dot(delta.z_axis);
@@ -152,11 +161,40 @@ fn cofactor_differential(f: Mat3, d: Mat3) -> Mat3 {
 
 /// The weight gradients ∇w_ip through which a transfer scheme's grid forces
 /// act; the Hessian must use the same ones to be the derivative of the forces.
+///
+/// A solve computes each particle's weights and stencil nodes once
+/// ([`ForceKernel::prepare`]) and keeps them for all its products with H.
 pub trait ForceKernel: Copy + Send + Sync {
-    /// Calls `visit(node, ∇w_ip)` for every node of the stencil of a particle
-    /// at `position`, with `node` an index into [`Grid::nodes`] (found
-    /// through `table`).
-    fn visit(self, table: PageTable<'_>, position: Vec3, visit: impl FnMut(usize, Vec3));
+    /// What the kernel keeps per particle for one solve: its 1D weights and
+    /// where its stencil's nodes lie in [`Grid::nodes`].
+    type Prepared: Copy + Send + Sync;
+
+    /// The per-particle data of a particle at `position`, its stencil found
+    /// through `table`.
+    fn prepare(self, table: PageTable<'_>, position: Vec3) -> Self::Prepared;
+
+    /// Calls `visit(node, ∇w_ip)` for every node of the stencil of a
+    /// particle, `node` an index into [`Grid::nodes`], on a grid of cell
+    /// size `cell_size`.
+    fn visit(self, prepared: &Self::Prepared, cell_size: f32, visit: impl FnMut(usize, Vec3));
+
+    /// The solver's buffer of this kernel's per-particle data.
+    fn buffer(buffers: &mut PreparedStencils) -> &mut Vec<Self::Prepared>;
+}
+
+/// One particle's 1D weights and stencil nodes, kept for a solve.
+#[derive(Clone, Copy, Debug)]
+pub struct PreparedStencil<const N: usize> {
+    weights: StencilWeights<N>,
+    index: StencilIndex,
+}
+
+/// The per-particle stencils of the last solve, one buffer per kernel, kept
+/// to reuse their allocations.
+#[derive(Clone, Debug, Default)]
+pub struct PreparedStencils {
+    cubic: Vec<PreparedStencil<4>>,
+    quadratic: Vec<PreparedStencil<3>>,
 }
 
 /// PIC/FLIP: the cubic B-spline gradients of eq. 39-40 over a 4³ stencil.
@@ -164,21 +202,33 @@ pub trait ForceKernel: Copy + Send + Sync {
 pub struct CubicGradient;
 
 impl ForceKernel for CubicGradient {
+    type Prepared = PreparedStencil<4>;
+
     #[inline(always)]
-    fn visit(self, table: PageTable<'_>, position: Vec3, mut visit: impl FnMut(usize, Vec3)) {
+    fn prepare(self, table: PageTable<'_>, position: Vec3) -> PreparedStencil<4> {
         let weights = cubic_weights(table.layout.to_grid(position));
-        let stencil = table.stencil(weights.base);
-        let inverse_h = 1.0 / table.layout.cell_size;
-        for i in 0..4 {
-            for j in 0..4 {
-                for k in 0..4 {
-                    visit(
-                        stencil.index(i, j, k),
-                        weights.gradient(i, j, k) * inverse_h,
-                    );
-                }
-            }
+        PreparedStencil {
+            weights,
+            index: table.stencil(weights.base),
         }
+    }
+
+    #[inline(always)]
+    fn visit(
+        self,
+        prepared: &PreparedStencil<4>,
+        cell_size: f32,
+        mut visit: impl FnMut(usize, Vec3),
+    ) {
+        let inverse_h = 1.0 / cell_size;
+        let weights = &prepared.weights;
+        prepared.index.for_each_index::<4>(|i, j, k, node| {
+            visit(node, weights.gradient(i, j, k) * inverse_h);
+        });
+    }
+
+    fn buffer(buffers: &mut PreparedStencils) -> &mut Vec<PreparedStencil<4>> {
+        &mut buffers.cubic
     }
 }
 
@@ -188,25 +238,41 @@ impl ForceKernel for CubicGradient {
 pub struct MlsGradient;
 
 impl ForceKernel for MlsGradient {
+    type Prepared = PreparedStencil<3>;
+
     #[inline(always)]
-    fn visit(self, table: PageTable<'_>, position: Vec3, mut visit: impl FnMut(usize, Vec3)) {
+    fn prepare(self, table: PageTable<'_>, position: Vec3) -> PreparedStencil<3> {
         let weights = quadratic_weights(table.layout.to_grid(position));
-        let stencil = table.stencil(weights.base);
-        // (4/h²) times the offset in world units (cells · h).
-        let scale = 4.0 / table.layout.cell_size;
-        for i in 0..3 {
-            for j in 0..3 {
-                for k in 0..3 {
-                    let gradient = weights.node_offset(i, j, k) * (weights.weight(i, j, k) * scale);
-                    visit(stencil.index(i, j, k), gradient);
-                }
-            }
+        PreparedStencil {
+            weights,
+            index: table.stencil(weights.base),
         }
+    }
+
+    #[inline(always)]
+    fn visit(
+        self,
+        prepared: &PreparedStencil<3>,
+        cell_size: f32,
+        mut visit: impl FnMut(usize, Vec3),
+    ) {
+        // (4/h²) times the offset in world units (cells · h).
+        let scale = 4.0 / cell_size;
+        let weights = &prepared.weights;
+        prepared.index.for_each_index::<3>(|i, j, k, node| {
+            let gradient = weights.node_offset(i, j, k) * (weights.weight(i, j, k) * scale);
+            visit(node, gradient);
+        });
+    }
+
+    fn buffer(buffers: &mut PreparedStencils) -> &mut Vec<PreparedStencil<3>> {
+        &mut buffers.quadratic
     }
 }
 
 /// One particle's stencil as indices into the grid's node pool (which the
-/// solver's node vectors share), with its gradients.
+/// solver's node vectors share), with its gradients: scratch space that a
+/// product refills for each particle.
 struct Stencil {
     len: usize,
     nodes: [u32; 64],
@@ -214,28 +280,32 @@ struct Stencil {
 }
 
 impl Stencil {
-    #[inline(always)]
-    fn new<K: ForceKernel>(kernel: K, table: PageTable<'_>, position: Vec3) -> Stencil {
-        let mut stencil = Stencil {
+    fn empty() -> Stencil {
+        Stencil {
             len: 0,
             nodes: [0; 64],
             gradients: [Vec3::ZERO; 64],
-        };
-        kernel.visit(table, position, |node, gradient| {
-            stencil.nodes[stencil.len] = node as u32;
-            stencil.gradients[stencil.len] = gradient;
-            stencil.len += 1;
+        }
+    }
+
+    /// Overwrites the stencil with that of a prepared particle.
+    #[inline(always)]
+    fn fill<K: ForceKernel>(&mut self, kernel: K, prepared: &K::Prepared, cell_size: f32) {
+        self.len = 0;
+        kernel.visit(prepared, cell_size, |node, gradient| {
+            self.nodes[self.len] = node as u32;
+            self.gradients[self.len] = gradient;
+            self.len += 1;
         });
-        stencil
     }
 
     /// Σ_i v_i (∇w_ip)ᵀ for node vector `velocities` (eq. 32's sum), with
     /// SIMD columns.
     #[inline(always)]
-    fn velocity_gradient(&self, velocities: &[Vec3]) -> Mat3 {
+    fn velocity_gradient(&self, velocities: &[Vec3A]) -> Mat3 {
         let mut columns = [Vec3A::ZERO; 3];
         for (node, gradient) in self.iter() {
-            let velocity = Vec3A::from(velocities[node]);
+            let velocity = velocities[node];
             columns[0] += velocity * gradient.x;
             columns[1] += velocity * gradient.y;
             columns[2] += velocity * gradient.z;
@@ -253,11 +323,11 @@ impl Stencil {
 }
 
 /// Everything the matrix-free product with β Δt² H needs.
-struct HessianOperator<'a, K> {
+struct HessianOperator<'a, K: ForceKernel> {
     kernel: K,
-    table: PageTable<'a>,
+    cell_size: f32,
     bins: &'a Bins,
-    positions: &'a [Vec3],
+    stencils: &'a [K::Prepared],
     linearized: &'a [StressDifferential],
     /// β Δt².
     scale: f32,
@@ -267,22 +337,23 @@ impl<K: ForceKernel> HessianOperator<'_, K> {
     /// output = β Δt² H input, over node vectors: per particle,
     /// δF_E = β Δt² (Σ_i input_i (∇w_ip)ᵀ) F_E, then output_i += A_p F_Eᵀ ∇w_ip
     /// with A_p = V_p^0 δP(δF_E).
-    fn apply(&self, input: &[Vec3], output: &mut [Vec3]) {
+    fn apply(&self, input: &[Vec3A], output: &mut [Vec3A]) {
         output
             .par_iter_mut()
             .with_min_len(4096)
-            .for_each(|o| *o = Vec3::ZERO);
+            .for_each(|o| *o = Vec3A::ZERO);
         scatter_by_colour(output, self.bins, |block, writer| {
+            let mut stencil = Stencil::empty();
             for &p in block {
                 let p = p as usize;
-                let stencil = Stencil::new(self.kernel, self.table, self.positions[p]);
+                stencil.fill(self.kernel, &self.stencils[p], self.cell_size);
                 let linearized = &self.linearized[p];
                 let elastic = linearized.elastic();
                 let delta = stencil.velocity_gradient(input) * elastic * self.scale;
                 let stress = Mat3A::from(linearized.apply(delta) * elastic.transpose());
                 for (node, gradient) in stencil.iter() {
                     let force = stress * Vec3A::from(gradient);
-                    writer.update(node, |o| *o += Vec3::from(force));
+                    writer.update(node, |o| *o += force);
                 }
             }
         });
@@ -290,7 +361,8 @@ impl<K: ForceKernel> HessianOperator<'_, K> {
 }
 
 /// Per-node data and Krylov vectors of the solve, numbered like the grid's
-/// node pool.
+/// node pool. The vectors are `Vec3A`, so the product loads and adds a node
+/// in one SIMD operation (the same IEEE operations as on `Vec3`).
 #[derive(Clone, Debug, Default)]
 struct NodeVectors {
     mass: Vec<f32>,
@@ -298,17 +370,17 @@ struct NodeVectors {
     inverse_mass: Vec<f32>,
     constraint: Vec<Constraint>,
     /// The iterate, v^{n+1} at the end.
-    x: Vec<Vec3>,
+    x: Vec<Vec3A>,
     /// Residual P (M v* − S x), S = M + β Δt² H.
-    r: Vec<Vec3>,
+    r: Vec<Vec3A>,
     /// Preconditioned residual P M⁻¹ r.
-    z: Vec<Vec3>,
+    z: Vec<Vec3A>,
     /// Search direction.
-    p: Vec<Vec3>,
+    p: Vec<Vec3A>,
     /// S p.
-    sp: Vec<Vec3>,
+    sp: Vec<Vec3A>,
     /// Operator output scratch: β Δt² H y, then S y.
-    product: Vec<Vec3>,
+    product: Vec<Vec3A>,
 }
 
 /// Splits a node vector into blocks for the parallel passes.
@@ -375,7 +447,7 @@ impl NodeVectors {
                     let position = layout.node_position(GridLayout::node_in_block(coord, local));
                     let (velocity, fixed) =
                         collide_all_constrained(colliders, position, node.velocity_new());
-                    x[local] = velocity;
+                    x[local] = velocity.into();
                     constraint[local] = fixed;
                     sum += f64::from(node.mass() * velocity.length_squared());
                 }
@@ -399,7 +471,7 @@ impl NodeVectors {
             .map(|(r, z, product, constraint, inverse_mass)| {
                 let mut sum = 0.0;
                 for i in 0..r.len() {
-                    r[i] = -constraint[i].project(product[i]);
+                    r[i] = (-constraint[i].project(product[i].into())).into();
                     z[i] = r[i] * inverse_mass[i];
                     sum += r[i].dot(z[i]) as f64;
                 }
@@ -422,7 +494,9 @@ impl NodeVectors {
             .map(|(product, z, mass, constraint)| {
                 let mut sum = 0.0;
                 for i in 0..product.len() {
-                    product[i] = constraint[i].project(z[i] * mass[i] + product[i]);
+                    product[i] = constraint[i]
+                        .project((z[i] * mass[i] + product[i]).into())
+                        .into();
                     sum += z[i].dot(product[i]) as f64;
                 }
                 sum
@@ -566,6 +640,7 @@ pub struct ImplicitStep<'a> {
 #[derive(Clone, Debug, Default)]
 pub struct ImplicitSolver {
     linearized: Vec<StressDifferential>,
+    stencils: PreparedStencils,
     nodes: NodeVectors,
     stats: SolverStats,
 }
@@ -605,12 +680,20 @@ impl ImplicitSolver {
         step: &ImplicitStep,
     ) -> SolveReport {
         self.linearize(particles, step.materials);
+        let table = grid.page_table();
+        let stencils = K::buffer(&mut self.stencils);
+        particles
+            .position
+            .par_iter()
+            .with_min_len(512)
+            .map(|&position| kernel.prepare(table, position))
+            .collect_into_vec(stencils);
         self.nodes.reset(grid.nodes.len());
         let operator = HessianOperator {
             kernel,
-            table: grid.page_table(),
+            cell_size: table.layout.cell_size,
             bins,
-            positions: &particles.position,
+            stencils,
             linearized: &self.linearized,
             scale: step.settings.beta * step.dt * step.dt,
         };
@@ -654,7 +737,7 @@ impl ImplicitSolver {
                     if node.mass() > 0.0 {
                         let position =
                             layout.node_position(GridLayout::node_in_block(coord, local));
-                        node.set_velocity_new(collide_all(colliders, position, x[local]));
+                        node.set_velocity_new(collide_all(colliders, position, x[local].into()));
                     }
                 }
             });
@@ -850,7 +933,9 @@ mod tests {
     fn forces<K: ForceKernel>(kernel: K, state: &State, displacement: &[DVec3]) -> Vec<DVec3> {
         let mut force = vec![DVec3::ZERO; displacement.len()];
         for (p, &(f, mu, lambda, volume0)) in state.parameters.iter().enumerate() {
-            let stencil = Stencil::new(kernel, state.grid.page_table(), state.positions[p]);
+            let mut stencil = Stencil::empty();
+            let prepared = kernel.prepare(state.grid.page_table(), state.positions[p]);
+            stencil.fill(kernel, &prepared, state.grid.layout.cell_size);
             let f = f.as_dmat3();
             let mut moved = DMat3::IDENTITY;
             for (node, gradient) in stencil.iter() {
@@ -871,15 +956,28 @@ mod tests {
     }
 
     impl State {
-        fn operator<K: ForceKernel>(&self, kernel: K, scale: f32) -> HessianOperator<'_, K> {
+        fn operator<'a, K: ForceKernel>(
+            &'a self,
+            kernel: K,
+            stencils: &'a [K::Prepared],
+            scale: f32,
+        ) -> HessianOperator<'a, K> {
             HessianOperator {
                 kernel,
-                table: self.grid.page_table(),
+                cell_size: self.grid.layout.cell_size,
                 bins: &self.bins,
-                positions: &self.positions,
+                stencils,
                 linearized: &self.linearized,
                 scale,
             }
+        }
+
+        fn stencils<K: ForceKernel>(&self, kernel: K) -> Vec<K::Prepared> {
+            let table = self.grid.page_table();
+            self.positions
+                .iter()
+                .map(|&position| kernel.prepare(table, position))
+                .collect()
         }
     }
 
@@ -887,10 +985,11 @@ mod tests {
         let mut random = Random(seed);
         let state = random_state(&mut random, 40, (0.9, 1.1));
         let len = state.bins.active_blocks().len() * BLOCK_NODES;
-        let velocity: Vec<Vec3> = (0..len).map(|_| random.vector(1.0)).collect();
+        let velocity: Vec<Vec3A> = (0..len).map(|_| random.vector(1.0).into()).collect();
         let (dt, beta) = (1e-3, 1.0);
-        let operator = state.operator(kernel, beta * dt * dt);
-        let mut product = vec![Vec3::ZERO; len];
+        let stencils = state.stencils(kernel);
+        let operator = state.operator(kernel, &stencils, beta * dt * dt);
+        let mut product = vec![Vec3A::ZERO; len];
         operator.apply(&velocity, &mut product);
         // β Δt² H v = −β Δt ∂f/∂x̂ · (Δt v), by central differences in ε.
         let epsilon = 1e-4;
@@ -932,15 +1031,17 @@ mod tests {
             let mut random = Random(11);
             let state = random_state(&mut random, 40, (0.9, 1.1));
             let len = state.bins.active_blocks().len() * BLOCK_NODES;
-            let velocity: Vec<Vec3> = (0..len).map(|_| random.vector(1.0)).collect();
-            let mut product = vec![Vec3::ZERO; len];
+            let velocity: Vec<Vec3A> = (0..len).map(|_| random.vector(1.0).into()).collect();
+            let mut product = vec![Vec3A::ZERO; len];
             if kernel_is_cubic {
+                let stencils = state.stencils(CubicGradient);
                 state
-                    .operator(CubicGradient, 1.0)
+                    .operator(CubicGradient, &stencils, 1.0)
                     .apply(&velocity, &mut product);
             } else {
+                let stencils = state.stencils(MlsGradient);
                 state
-                    .operator(MlsGradient, 1.0)
+                    .operator(MlsGradient, &stencils, 1.0)
                     .apply(&velocity, &mut product);
             }
             let net: DVec3 = product.iter().map(|f| f.as_dvec3()).sum();
@@ -961,13 +1062,14 @@ mod tests {
         let mut random = Random(5);
         let state = random_state(&mut random, 40, (0.995, 1.005));
         let len = state.bins.active_blocks().len() * BLOCK_NODES;
-        let operator = state.operator(CubicGradient, 2e-5);
+        let stencils = state.stencils(CubicGradient);
+        let operator = state.operator(CubicGradient, &stencils, 2e-5);
         let mut nodes = NodeVectors::default();
         nodes.reset(len);
         for i in 0..len {
             nodes.mass[i] = random.range(0.5, 1.5) * 1e-3;
             nodes.inverse_mass[i] = 1.0 / nodes.mass[i];
-            nodes.x[i] = random.vector(1.0);
+            nodes.x[i] = random.vector(1.0).into();
             nodes.constraint[i] = match i % 7 {
                 0 => Constraint::Fixed,
                 1 => Constraint::Normal(random.vector(1.0).normalize()),
@@ -987,13 +1089,14 @@ mod tests {
         assert!(report.converged && report.iterations > 5, "{report:?}");
         // The true residuals P (M v* − S x) at the start and the end, in the
         // M⁻¹ norm, recomputed from scratch.
-        let residual_norm = |x: &[Vec3]| -> f64 {
-            let mut product = vec![Vec3::ZERO; len];
+        let residual_norm = |x: &[Vec3A]| -> f64 {
+            let mut product = vec![Vec3A::ZERO; len];
             operator.apply(x, &mut product);
             (0..len)
                 .map(|i| {
                     let m = nodes.mass[i];
-                    let r = nodes.constraint[i].project(start[i] * m - x[i] * m - product[i]);
+                    let r =
+                        nodes.constraint[i].project((start[i] * m - x[i] * m - product[i]).into());
                     f64::from(r.length_squared() / m)
                 })
                 .sum::<f64>()
@@ -1012,7 +1115,7 @@ mod tests {
             .zip(nodes.x.iter().zip(&start))
             .enumerate()
         {
-            let moved = *x - *start;
+            let moved = Vec3::from(*x - *start);
             let drift = (moved - constraint.project(moved)).length();
             assert!(
                 drift < 1e-4,

@@ -5,6 +5,7 @@
 mod common;
 
 use firn_core::Scene;
+use firn_core::math::lanes::Simd;
 use firn_core::math::svd::polar;
 use firn_core::scene::{ImplicitSettings, Integrator, Shape, TimeStep, Transfer};
 use firn_mpm::{Particles, Simulation, SimulationError};
@@ -342,6 +343,10 @@ fn bits(particles: &Particles) -> Vec<u32> {
 }
 
 fn run_with_threads(threads: usize, transfer: Transfer, until: f64) -> Particles {
+    run_with(threads, Simd::Portable, transfer, until)
+}
+
+fn run_with(threads: usize, simd: Simd, transfer: Transfer, until: f64) -> Particles {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -355,6 +360,7 @@ fn run_with_threads(threads: usize, transfer: Transfer, until: f64) -> Particles
         scene.solver.integrator = semi_implicit(1e-3);
         scene.time.step = TimeStep::Fixed { dt: 2e-3 };
         let mut simulation = Simulation::new(scene).unwrap();
+        simulation.set_simd(simd);
         simulation.advance_to(until).unwrap();
         simulation.particles().clone()
     })
@@ -373,6 +379,22 @@ fn results_are_bit_identical_across_thread_counts() {
             assert!(
                 bits(&reference) == bits(&other),
                 "{transfer:?}: {threads} threads differ from 1"
+            );
+        }
+    }
+}
+
+#[test]
+fn results_are_bit_identical_across_instruction_sets() {
+    // The solve itself has one code path; the transfers around it take the
+    // instruction set's, and each must give the portable bits.
+    for transfer in common::TRANSFERS {
+        let portable = run_with(2, Simd::Portable, transfer, 0.04);
+        for simd in [Simd::Avx2, Simd::Avx512] {
+            let other = run_with(2, simd, transfer, 0.04);
+            assert!(
+                bits(&portable) == bits(&other),
+                "{transfer:?}: {simd:?} differs from the portable path"
             );
         }
     }

@@ -57,3 +57,17 @@ fn stress_parity(@builtin(global_invocation_id) id: vec3<u32>) {
     matrices_out[2u * n + 1u] = state.stress;
     vectors_out[n] = vec4<f32>(state.plastic_j, state.hardening_factor, 0.0, 0.0);
 }
+
+// The semi-implicit solve's stress differential at F_E = matrices_in[2n] in
+// the direction matrices_in[2n + 1], with (mu, lambda, V_p^0) in
+// vectors_in[n].xyz: V_p^0 dP to matrices_out[n].
+@compute @workgroup_size(64)
+fn stress_differential_parity(@builtin(global_invocation_id) id: vec3<u32>) {
+    let n = id.x;
+    if n >= arrayLength(&vectors_in) {
+        return;
+    }
+    let p = vectors_in[n];
+    let linearized = stress_differential(matrices_in[2u * n], p.x, p.y, p.z);
+    matrices_out[n] = apply_stress_differential(linearized, matrices_in[2u * n + 1u]);
+}
