@@ -173,7 +173,7 @@ def test_the_example_script_runs(tmp_path):
 def test_reprs_say_what_things_are():
     scene = small_snowball()
     assert "snowball-wall" in repr(scene) and "snow" in repr(scene)
-    assert "8160 snow particles" in repr(firn.Simulation(scene))
+    assert "5758 snow particles" in repr(firn.Simulation(scene))
 
 
 def test_ctrl_c_stops_stepping_and_leaves_a_consistent_state():
