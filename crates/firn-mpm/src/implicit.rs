@@ -189,6 +189,17 @@ pub struct PreparedStencil<const N: usize> {
     index: StencilIndex,
 }
 
+impl<const N: usize> PreparedStencil<N> {
+    /// The stencil of `weights` (computed at the particle) on `table`'s grid.
+    #[inline(always)]
+    fn new(table: PageTable<'_>, weights: StencilWeights<N>) -> PreparedStencil<N> {
+        PreparedStencil {
+            weights,
+            index: table.stencil(weights.base),
+        }
+    }
+}
+
 /// The per-particle stencils of the last solve, one buffer per kernel, kept
 /// to reuse their allocations.
 #[derive(Clone, Debug, Default)]
@@ -206,11 +217,7 @@ impl ForceKernel for CubicGradient {
 
     #[inline(always)]
     fn prepare(self, table: PageTable<'_>, position: Vec3) -> PreparedStencil<4> {
-        let weights = cubic_weights(table.layout.to_grid(position));
-        PreparedStencil {
-            weights,
-            index: table.stencil(weights.base),
-        }
+        PreparedStencil::new(table, cubic_weights(table.layout.to_grid(position)))
     }
 
     #[inline(always)]
@@ -242,11 +249,7 @@ impl ForceKernel for MlsGradient {
 
     #[inline(always)]
     fn prepare(self, table: PageTable<'_>, position: Vec3) -> PreparedStencil<3> {
-        let weights = quadratic_weights(table.layout.to_grid(position));
-        PreparedStencil {
-            weights,
-            index: table.stencil(weights.base),
-        }
+        PreparedStencil::new(table, quadratic_weights(table.layout.to_grid(position)))
     }
 
     #[inline(always)]

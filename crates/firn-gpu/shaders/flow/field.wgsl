@@ -155,3 +155,17 @@ fn field_velocity(x: vec3<f32>, stage: u32) -> vec3<f32> {
     }
     return velocity_analytic(x, stage);
 }
+
+// The field's velocity over a step of dt from x, stage by stage: the midpoint
+// rule (RK2) or classic RK4 (firn_flow::integrate on the CPU). Flow particles
+// (flow/step.wgsl) and spindrift (snow/spindrift.wgsl) are carried by it.
+fn integrated_velocity(x: vec3<f32>, dt: f32, half_dt: f32) -> vec3<f32> {
+    let k1 = field_velocity(x, STAGE_START);
+    let k2 = field_velocity(x + half_dt * k1, STAGE_MIDDLE);
+    if field_constants.integrator == 0u {
+        return k2;
+    }
+    let k3 = field_velocity(x + half_dt * k2, STAGE_MIDDLE);
+    let k4 = field_velocity(x + dt * k3, STAGE_END);
+    return (1.0 / 6.0) * ((k1 + k4) + 2.0 * (k2 + k3));
+}

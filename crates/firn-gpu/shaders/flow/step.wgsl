@@ -29,20 +29,6 @@ fn store_velocity(i: u32, v: vec3<f32>) {
     velocities[3u * i + 2u] = v.z;
 }
 
-// The flow velocity over the substep: the midpoint rule (RK2) or classic RK4.
-fn integrate(x: vec3<f32>) -> vec3<f32> {
-    let dt = substep.dt;
-    let half_dt = substep.half_dt;
-    let k1 = field_velocity(x, STAGE_START);
-    let k2 = field_velocity(x + half_dt * k1, STAGE_MIDDLE);
-    if field_constants.integrator == 0u {
-        return k2;
-    }
-    let k3 = field_velocity(x + half_dt * k2, STAGE_MIDDLE);
-    let k4 = field_velocity(x + dt * k3, STAGE_END);
-    return (1.0 / 6.0) * ((k1 + k4) + 2.0 * (k2 + k3));
-}
-
 // A point inside a sphere moved to just outside it, along the ray from its centre.
 fn push_out(point: vec3<f32>) -> vec3<f32> {
     var x = point;
@@ -102,7 +88,7 @@ fn advance(
     }
     let e = emitters[emitter_of[i]];
     let dt = substep.dt;
-    let flow = integrate(load_position(i));
+    let flow = integrated_velocity(load_position(i), substep.dt, substep.half_dt);
     let age = ages[i];
     let moved = (load_position(i) + dt * flow) + kick(e, age, dt);
     let velocity = flow + kick_velocity(e, age + dt);

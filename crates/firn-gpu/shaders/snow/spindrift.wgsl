@@ -166,21 +166,6 @@ fn detach_snow(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups)
     set_phase(p, PHASE_LIFTED);
 }
 
-// The wind's velocity over the substep at x: the midpoint rule (RK2) or
-// classic RK4, as flow/step.wgsl integrates a flow's particles.
-fn carried_velocity(x: vec3<f32>) -> vec3<f32> {
-    let dt = state.dt;
-    let half_dt = 0.5 * dt;
-    let k1 = field_velocity(x, STAGE_START);
-    let k2 = field_velocity(x + half_dt * k1, STAGE_MIDDLE);
-    if field_constants.integrator == 0u {
-        return k2;
-    }
-    let k3 = field_velocity(x + half_dt * k2, STAGE_MIDDLE);
-    let k4 = field_velocity(x + dt * k3, STAGE_END);
-    return (1.0 / 6.0) * ((k1 + k4) + 2.0 * (k2 + k3));
-}
-
 // Whether a step to `to` went into one of the scene's colliders (placed at
 // the end of the substep) or through a floor.
 fn landed(to: vec3<f32>) -> bool {
@@ -232,7 +217,7 @@ fn carry_drift(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups)
     }
     let dt = state.dt;
     let before = position_mass[p].xyz;
-    let air = carried_velocity(before);
+    let air = integrated_velocity(before, state.dt, 0.5 * state.dt);
     let fall = spindrift.fall.xyz;
     let moved = (before + dt * air) + fall * dt;
     if landed(moved) {
