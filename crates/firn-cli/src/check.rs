@@ -81,8 +81,14 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
             }
         };
         let material = &scene.materials[body.material];
+        let clumps = body.clumps.map_or(String::new(), |clumps| {
+            format!(
+                ", clumps of {} m (contrast {})",
+                clumps.size, clumps.contrast
+            )
+        });
         println!(
-            "  body {index}    {shape}, material {}, {} particles per cell, about {} particles",
+            "  body {index}    {shape}, material {}{clumps}, {} particles per cell, about {} particles",
             material.name, body.particles_per_cell, estimate.particles
         );
     }

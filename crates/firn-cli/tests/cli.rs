@@ -369,7 +369,12 @@ fn check_json_prints_the_resolved_scene() {
 fn the_bundled_default_scene_checks() {
     let output = firn(&["check"]);
     assert!(output.status.success(), "{}", text(&output.stderr));
-    assert!(text(&output.stdout).contains("snowball-wall"));
+    let stdout = text(&output.stdout);
+    assert!(stdout.contains("snowball-wall"), "{stdout}");
+    assert!(
+        stdout.contains("clumps of 0.05 m (contrast 0.2)"),
+        "{stdout}"
+    );
 }
 
 #[test]
