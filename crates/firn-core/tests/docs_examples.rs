@@ -76,21 +76,34 @@ fn first_example_is_the_bundled_default_scene() {
         "the first example of docs/scene-format.md differs from scenes/snowball-wall.toml"
     );
 
-    // A snowball thrown at a wall.
+    // A clumpy snowball thrown at the top of a wall that it meets.
     assert_eq!(documented.bodies.len(), 1);
-    let Shape::Sphere { .. } = documented.bodies[0].shape else {
+    let ball = &documented.bodies[0];
+    let Shape::Sphere { center, radius } = ball.shape else {
         panic!("the snowball is a sphere");
     };
-    assert!(documented.bodies[0].velocity.x > 0.0);
-    let wall = documented
+    assert!(ball.velocity.x > 0.0);
+    assert!(
+        ball.clumps.is_some(),
+        "the default snow is packed in clumps"
+    );
+    let (wall_center, wall_size) = documented
         .colliders
         .iter()
         .find_map(|c| match c.geometry {
-            ColliderGeometry::HalfPlane { normal, .. } => Some(normal),
+            ColliderGeometry::Box { center, size, .. } => Some((center, size)),
             _ => None,
         })
         .expect("a wall");
-    assert!(wall.x < 0.0, "the wall faces the snowball");
+    assert!(
+        wall_center.x > center.x,
+        "the wall stands in the ball's way"
+    );
+    let wall_top = wall_center.y + 0.5 * wall_size.y;
+    assert!(
+        (center.y - radius..center.y + radius).contains(&wall_top),
+        "the ball hits the wall's top edge"
+    );
 }
 
 /// Parse a number as written in the table (`1.4e5`, `0.025`, `10`).
