@@ -51,7 +51,10 @@ def ply_bytes(run: pathlib.Path) -> dict:
 
 def ctrl_c_timer(delay: float = 0.0) -> threading.Timer:
     """A thread that sends this process SIGINT (Ctrl-C) `delay` s after it
-    is started."""
+    is started. Python's own Ctrl-C handler is installed first: a process
+    started in the background by a shell inherits SIGINT ignored, and then
+    Python never installs it."""
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     return threading.Timer(delay, os.kill, (os.getpid(), signal.SIGINT))
 
 
