@@ -84,35 +84,6 @@ fn spindrift_draw(position: vec3<f32>) -> f32 {
     return f32(h.y >> 8u) * (1.0 / 16777216.0);
 }
 
-// The mass of the node at `cell`, 0 outside the grid.
-fn node_mass_at(cell: vec3<i32>) -> f32 {
-    if !inside_grid(cell) {
-        return 0.0;
-    }
-    let node = node_index(cell);
-    return from_fixed(atomicLoad(&mass_hi[node]), atomicLoad(&mass_lo[node])) / params.scales.x;
-}
-
-// The exposure 1 - phi_up of the node at `cell` to air moving along
-// `relative` (W2, firn_mpm::wind::AirDrag::exposure), the shares measured
-// against `full_mass`; 0 without a direction.
-fn exposure_against(cell: vec3<i32>, relative: vec3<f32>, full_mass: f32) -> f32 {
-    let weights = abs(relative);
-    let total = weights.x + weights.y + weights.z;
-    if total <= 0.0 {
-        return 0.0;
-    }
-    var upwind = 0.0;
-    for (var axis = 0; axis < 3; axis++) {
-        if weights[axis] > 0.0 {
-            var offset = vec3<i32>(0);
-            offset[axis] = select(1, -1, relative[axis] > 0.0);
-            upwind += weights[axis] * min(node_mass_at(cell + offset) / full_mass, 1.0);
-        }
-    }
-    return max(1.0 - upwind / total, 0.0);
-}
-
 // e_p of S1 at the node nearest `position`: the larger of its exposures to
 // the relative wind and from above, against half the node's own mass.
 fn surface_exposure(position: vec3<f32>, relative: vec3<f32>) -> f32 {

@@ -29,24 +29,23 @@ fn noise_point(x: vec3<f32>, stage: u32, c: u32) -> vec3<f32> {
     return x * field_constants.inv_length + wind.offsets[c].xyz + time * wind.drift[c].xyz;
 }
 
-// φ of the node at `cell`, 0 outside the grid.
-fn packed_share(cell: vec3<i32>) -> f32 {
-    let dims = vec3<i32>(params.dims.xyz);
-    if any(cell < vec3<i32>(0)) || any(cell >= dims) {
+// The mass of the node at `cell`, 0 outside the grid.
+fn node_mass_at(cell: vec3<i32>) -> f32 {
+    if !inside_grid(cell) {
         return 0.0;
     }
     let node = node_index(cell);
-    let mass = from_fixed(atomicLoad(&mass_hi[node]), atomicLoad(&mass_lo[node])) / params.scales.x;
-    return min(mass / wind.packed_mass, 1.0);
+    return from_fixed(atomicLoad(&mass_hi[node]), atomicLoad(&mass_lo[node])) / params.scales.x;
 }
 
-// k_i of the node at `cell` with mass `mass` moving at `velocity` in air
-// moving at `air`.
-fn drag_rate(cell: vec3<i32>, mass: f32, velocity: vec3<f32>, air: vec3<f32>) -> f32 {
-    let relative = air - velocity;
+// The exposure 1 - phi_up of the node at `cell` to air moving along
+// `relative` (W2, firn_mpm::wind::AirDrag::exposure), the shares measured
+// against `full_mass`; 0 without a direction. The drag and spindrift's
+// shelter test both use it.
+fn exposure_against(cell: vec3<i32>, relative: vec3<f32>, full_mass: f32) -> f32 {
     let weights = abs(relative);
     let total = weights.x + weights.y + weights.z;
-    if wind.node_drag == 0.0 || total <= 0.0 {
+    if total <= 0.0 {
         return 0.0;
     }
     var upwind = 0.0;
@@ -54,10 +53,19 @@ fn drag_rate(cell: vec3<i32>, mass: f32, velocity: vec3<f32>, air: vec3<f32>) ->
         if weights[axis] > 0.0 {
             var offset = vec3<i32>(0);
             offset[axis] = select(1, -1, relative[axis] > 0.0);
-            upwind += weights[axis] * packed_share(cell + offset);
+            upwind += weights[axis] * min(node_mass_at(cell + offset) / full_mass, 1.0);
         }
     }
-    let exposure = max(1.0 - upwind / total, 0.0);
+    return max(1.0 - upwind / total, 0.0);
+}
+
+// k_i of the node at `cell` with mass `mass` moving at `velocity` in air
+// moving at `air`.
+fn drag_rate(cell: vec3<i32>, mass: f32, velocity: vec3<f32>, air: vec3<f32>) -> f32 {
+    if wind.node_drag == 0.0 {
+        return 0.0;
+    }
+    let exposure = exposure_against(cell, air - velocity, wind.packed_mass);
     return wind.node_drag * exposure / max(mass, wind.packed_mass);
 }
 
