@@ -260,12 +260,19 @@ impl Solver {
         (self.time() * self.scene().time.fps + FRAME_TOLERANCE).floor() as u32
     }
 
-    /// Current number of particles.
+    /// Current number of particles: of snow, without the drift in the air
+    /// (spindrift). The GPU keeps snow and drift in one buffer, so there it
+    /// is the snow of the host copy while that is current (from
+    /// [`Solver::host`] to the next step, as when a frame was written),
+    /// else every particle in the buffer.
     pub fn particle_count(&self) -> usize {
         match &self.engine {
             Engine::CpuSnow(simulation) => simulation.particles().len(),
             Engine::CpuFlow(flow) => flow.len(),
-            Engine::GpuSnow(run) => run.device.particle_arrays().count as usize,
+            Engine::GpuSnow(run) => match &run.host {
+                Some(simulation) => simulation.particles().len(),
+                None => run.device.particle_arrays().count as usize,
+            },
             Engine::GpuFlow(run) => run.device.len(),
         }
     }
