@@ -5,7 +5,8 @@
 //! documented only by its C++ source; `usda` is USD's documented text
 //! format, so this module writes that text itself.
 //!
-//! A run's particles are a `UsdGeomPoints` prim, `/World/<name>`, with
+//! A run's particles are `UsdGeomPoints` prims, `/World/<name>` (the snow,
+//! and the drift in the air where the scene has spindrift), each with
 //! `points`, `velocities`, `extent` and one primvar per other cached
 //! attribute, all time-sampled at the frame index as time code; its
 //! colliders are `Mesh` (planes and mesh colliders), `Cube` (boxes) and
@@ -43,16 +44,23 @@ pub fn clip_name(index: u32) -> String {
 /// What the stage says of a run besides the particles.
 #[derive(Clone, Debug, PartialEq)]
 pub struct UsdStage {
-    /// Name of the points prim under `/World` (a USD identifier).
-    pub points_name: String,
+    /// The points prims, in the order of a frame's particle sets.
+    pub points: Vec<UsdPoints>,
     /// Frames per second: the stage's time codes per second.
     pub fps: f64,
     /// The last frame written so far: the stage's end time code.
     pub last_frame: u32,
-    /// Diameter drawn for each particle, in metres.
-    pub width: f32,
     /// The colliders' shapes, about their reference points.
     pub colliders: Vec<UsdShape>,
+}
+
+/// One points prim of the stage.
+#[derive(Clone, Debug, PartialEq)]
+pub struct UsdPoints {
+    /// Name of the prim under `/World` (a USD identifier).
+    pub name: String,
+    /// Diameter drawn for each particle, in metres.
+    pub width: f32,
 }
 
 /// A collider's shape about its reference point (the prim's translate).
@@ -85,26 +93,37 @@ pub enum UsdShape {
     },
 }
 
-/// Writes frame `frame`'s clip into `folder` (the run folder) with the
-/// colliders' reference points at `colliders`, then the clip manifest and
-/// the stage, each atomically.
+/// Writes a frame's clip into `folder` (the run folder), with `frames`
+/// the particle sets of the stage's points prims in their order (of one
+/// frame index) and the colliders' reference points at `colliders`, then
+/// the clip manifest and the stage, each atomically. Panics if `frames`
+/// and the stage's points prims differ in number.
 pub fn write_usd_frame(
     folder: &Path,
     stage: &UsdStage,
-    frame: &FrameData,
+    frames: &[&FrameData],
     colliders: &[Vec3],
 ) -> Result<(), IoError> {
-    frame.validate().map_err(|problem| IoError::InvalidFrame {
-        path: folder.join(clip_name(frame.index)),
-        problem,
-    })?;
+    let index = frames.first().map_or(0, |frame| frame.index);
+    let path = folder.join(clip_name(index));
+    assert_eq!(
+        frames.len(),
+        stage.points.len(),
+        "one particle set per points prim"
+    );
+    for frame in frames {
+        frame.validate().map_err(|problem| IoError::InvalidFrame {
+            path: path.clone(),
+            problem,
+        })?;
+    }
     let files = [
+        (clip_name(index), encode_usd_clip(stage, frames, colliders)),
         (
-            clip_name(frame.index),
-            encode_usd_clip(stage, frame, colliders),
+            MANIFEST_FILE.to_string(),
+            encode_usd_manifest(stage, frames),
         ),
-        (MANIFEST_FILE.to_string(), encode_usd_manifest(stage, frame)),
-        (STAGE_FILE.to_string(), encode_usd_stage(stage, frame)),
+        (STAGE_FILE.to_string(), encode_usd_stage(stage, frames)),
     ];
     for (name, text) in files {
         write_atomically(&folder.join(name), |out| out.write_all(text.as_bytes()))?;
@@ -152,8 +171,9 @@ fn primvar_name(attribute: &str) -> String {
     format!("primvars:{}", attribute.replace(['-', '.'], "_"))
 }
 
-/// The stage: metadata, the points prim's declarations and the colliders.
-pub fn encode_usd_stage(stage: &UsdStage, frame: &FrameData) -> String {
+/// The stage: metadata, the points prims' declarations (each from its
+/// particle set in `frames`) and the colliders.
+pub fn encode_usd_stage(stage: &UsdStage, frames: &[&FrameData]) -> String {
     let last = stage.last_frame;
     let mut text = String::new();
     // Writing into a String cannot fail.
@@ -170,10 +190,22 @@ pub fn encode_usd_stage(stage: &UsdStage, frame: &FrameData) -> String {
          string primPath = \"/World\"\n        }}\n    }}\n)\n{{\n",
         fps = stage.fps,
     );
+    for (points, frame) in stage.points.iter().zip(frames) {
+        push_points(&mut text, points, frame);
+    }
+    for (index, shape) in stage.colliders.iter().enumerate() {
+        push_collider(&mut text, index, shape);
+    }
+    text.push_str("}\n");
+    text
+}
+
+/// A points prim's width and declarations, its samples left to the clips.
+fn push_points(text: &mut String, points: &UsdPoints, frame: &FrameData) {
     let _ = write!(
         text,
         "    def Points \"{}\"\n    {{\n        float[] widths = [{}] (interpolation = \"constant\")\n",
-        stage.points_name, stage.width
+        points.name, points.width
     );
     for declaration in declarations(frame) {
         let metadata = if declaration.name.starts_with("primvars:") {
@@ -188,11 +220,6 @@ pub fn encode_usd_stage(stage: &UsdStage, frame: &FrameData) -> String {
         );
     }
     text.push_str("    }\n");
-    for (index, shape) in stage.colliders.iter().enumerate() {
-        push_collider(&mut text, index, shape);
-    }
-    text.push_str("}\n");
-    text
 }
 
 /// A collider prim, its translate left to the clips.
@@ -245,19 +272,19 @@ fn triangle_mesh(points: &[Vec3], triangles: &[[u32; 3]]) -> String {
 }
 
 /// The clip manifest: every attribute that the clips give samples to.
-pub fn encode_usd_manifest(stage: &UsdStage, frame: &FrameData) -> String {
-    let mut text = format!(
-        "#usda 1.0\n\nover \"World\"\n{{\n    over \"{}\"\n    {{\n",
-        stage.points_name
-    );
-    for declaration in declarations(frame) {
-        let _ = writeln!(
-            text,
-            "        {} {}",
-            declaration.type_name, declaration.name
-        );
+pub fn encode_usd_manifest(stage: &UsdStage, frames: &[&FrameData]) -> String {
+    let mut text = String::from("#usda 1.0\n\nover \"World\"\n{\n");
+    for (points, frame) in stage.points.iter().zip(frames) {
+        let _ = write!(text, "    over \"{}\"\n    {{\n", points.name);
+        for declaration in declarations(frame) {
+            let _ = writeln!(
+                text,
+                "        {} {}",
+                declaration.type_name, declaration.name
+            );
+        }
+        text.push_str("    }\n");
     }
-    text.push_str("    }\n");
     for index in 0..stage.colliders.len() {
         let _ = write!(
             text,
@@ -268,15 +295,32 @@ pub fn encode_usd_manifest(stage: &UsdStage, frame: &FrameData) -> String {
     text
 }
 
-/// Frame `frame`'s clip: the samples at its time code.
-pub fn encode_usd_clip(stage: &UsdStage, frame: &FrameData, colliders: &[Vec3]) -> String {
+/// A frame's clip: the samples of its particle sets `frames` (one per points
+/// prim) and of the colliders at its time code.
+pub fn encode_usd_clip(stage: &UsdStage, frames: &[&FrameData], colliders: &[Vec3]) -> String {
+    let code = frames.first().map_or(0, |frame| frame.index);
+    let mut text = String::from("#usda 1.0\n\nover \"World\"\n{\n");
+    for (points, frame) in stage.points.iter().zip(frames) {
+        push_samples(&mut text, points, frame);
+    }
+    for (index, position) in colliders.iter().enumerate() {
+        let _ = write!(
+            text,
+            "    over \"Collider{index}\"\n    {{\n        \
+             double3 xformOp:translate.timeSamples = {{ {code}: {} }}\n    }}\n",
+            tuple(*position)
+        );
+    }
+    text.push_str("}\n");
+    text
+}
+
+/// A points prim's samples of `frame` at its time code.
+fn push_samples(text: &mut String, points: &UsdPoints, frame: &FrameData) {
     let code = frame.index;
-    let mut text = format!(
-        "#usda 1.0\n\nover \"World\"\n{{\n    over \"{}\"\n    {{\n",
-        stage.points_name
-    );
+    let _ = write!(text, "    over \"{}\"\n    {{\n", points.name);
     let samples = declarations(frame);
-    let (low, high) = extent(frame.positions, stage.width * 0.5);
+    let (low, high) = extent(frame.positions, points.width * 0.5);
     let mut values = vec![
         vectors(frame.positions),
         format!("[{}, {}]", tuple(low), tuple(high)),
@@ -296,16 +340,6 @@ pub fn encode_usd_clip(stage: &UsdStage, frame: &FrameData, colliders: &[Vec3]) 
         );
     }
     text.push_str("    }\n");
-    for (index, position) in colliders.iter().enumerate() {
-        let _ = write!(
-            text,
-            "    over \"Collider{index}\"\n    {{\n        \
-             double3 xformOp:translate.timeSamples = {{ {code}: {} }}\n    }}\n",
-            tuple(*position)
-        );
-    }
-    text.push_str("}\n");
-    text
 }
 
 /// The bounds of `positions` grown by `margin` (zero where there are none).
@@ -359,10 +393,18 @@ mod tests {
 
     fn stage() -> UsdStage {
         UsdStage {
-            points_name: "Snow".to_string(),
+            points: vec![
+                UsdPoints {
+                    name: "Snow".to_string(),
+                    width: 0.02,
+                },
+                UsdPoints {
+                    name: "Drift".to_string(),
+                    width: 0.01,
+                },
+            ],
             fps: 24.0,
             last_frame: 3,
-            width: 0.02,
             colliders: vec![
                 UsdShape::Plane {
                     normal: Vec3::Y,
@@ -382,7 +424,8 @@ mod tests {
         let frame = FrameData::new(3, 0.125, &positions)
             .with_attribute(Attribute::vector("velocity", &positions))
             .with_attribute(Attribute::scalar("plastic-j", &density));
-        let clip = encode_usd_clip(&stage(), &frame, &[Vec3::ZERO, Vec3::X]);
+        let drift = FrameData::new(3, 0.125, &positions[..1]);
+        let clip = encode_usd_clip(&stage(), &[&frame, &drift], &[Vec3::ZERO, Vec3::X]);
         assert!(
             clip.contains("point3f[] points.timeSamples = { 3: [(0.5, 1, 0.25), (0, 0.1, 2)] }")
         );
@@ -390,13 +433,19 @@ mod tests {
         assert!(clip.contains("float[] primvars:plastic_j.timeSamples = { 3: [400, 350.5] }"));
         assert!(clip.contains("float3[] extent.timeSamples = { 3: [(-0.01, "));
         assert!(clip.contains("double3 xformOp:translate.timeSamples = { 3: (1, 0, 0) }"));
+        let drift = &clip[clip.find("over \"Drift\"").expect("the drift's samples")..];
+        assert!(drift.contains("point3f[] points.timeSamples = { 3: [(0.5, 1, 0.25)] }"));
+        assert!(drift.contains("float3[] extent.timeSamples = { 3: [(0.495, 0.995, 0.245), "));
     }
 
     #[test]
     fn the_stage_names_the_range_the_clips_and_the_colliders() {
         let positions = [Vec3::ONE];
-        let frame = FrameData::new(3, 0.125, &positions);
-        let text = encode_usd_stage(&stage(), &frame);
+        let (snow, drift) = (
+            FrameData::new(3, 0.125, &positions),
+            FrameData::new(3, 0.125, &[]),
+        );
+        let text = encode_usd_stage(&stage(), &[&snow, &drift]);
         for line in [
             "endTimeCode = 3",
             "timeCodesPerSecond = 24",
@@ -406,6 +455,8 @@ mod tests {
             "double templateEndTime = 3",
             "def Points \"Snow\"",
             "float[] widths = [0.02] (interpolation = \"constant\")",
+            "def Points \"Drift\"",
+            "float[] widths = [0.01] (interpolation = \"constant\")",
             "def Mesh \"Collider0\"",
             "def Cube \"Collider1\"",
             "float3 xformOp:scale = (1, 2, 3)",

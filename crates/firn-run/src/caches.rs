@@ -4,7 +4,8 @@
 //! volumes (`vdb`, see [`crate::volumes`]), a snow frame's surface mesh
 //! (`mesh`, PLY and OBJ, see [`crate::surface`]) and the run's USD stage
 //! (`usd`, see [`crate::usd_stage`]). A snow scene with spindrift writes its drift
-//! particles beside the snow, in `drift/` (PLY and VTK).
+//! particles beside the snow, in `drift/` (PLY and VTK), as a `drift` grid
+//! in the snow's OpenVDB file and as a `Drift` prim in the USD stage.
 
 use firn_core::scene::{Attribute as SceneAttribute, CacheFormat, Scene};
 use firn_io::{
@@ -13,12 +14,13 @@ use firn_io::{
 };
 use firn_mesh::TriangleMesh;
 use firn_mpm::{Particles, Simulation};
+use glam::Vec3;
 
 use crate::run_dir::RunDirectory;
 use crate::simulation::HostState;
 use crate::surface::scene_surface;
 use crate::usd_stage::{collider_positions, usd_stage};
-use crate::volumes::snow_volumes;
+use crate::volumes::{density_grid, snow_volumes};
 
 /// Writes frame `index` of `state` in every cache format of its scene into
 /// `run`, and updates the collection `pvd` with a VTK frame; returns the
@@ -35,7 +37,7 @@ pub fn write_frame(
             let frame = FrameData::new(index, flow.time(), flow.positions())
                 .with_attribute(Attribute::vector("velocity", flow.velocities()))
                 .with_attribute(Attribute::scalar("age", flow.ages()));
-            write_caches(flow.scene(), &frame, &Volumes::default(), run, pvd)
+            write_caches(flow.scene(), &frame, None, &Volumes::default(), run, pvd)
         }
     }
 }
@@ -74,52 +76,57 @@ fn write_snow_frame(
     for attribute in wanted {
         frame = frame.with_attribute(attribute_data(*attribute, particles, &derived));
     }
+    let drift = scene.spindrift().map(|_| {
+        let drift = simulation.drift();
+        FrameData::new(index, simulation.time(), &drift.position)
+            .with_attribute(Attribute::vector("velocity", &drift.velocity))
+            .with_attribute(Attribute::scalar("mass", &drift.mass))
+    });
     let formats = &scene.output.formats;
+    let mut grids = Vec::new();
+    if formats.contains(&CacheFormat::Vdb) {
+        grids = scene_volumes(scene, particles);
+        if scene.spindrift().is_some() {
+            let drift = simulation.drift();
+            grids.push(drift_volume(scene, &drift.position, &drift.mass));
+        }
+    }
     let volumes = Volumes {
-        grids: if formats.contains(&CacheFormat::Vdb) {
-            scene_volumes(scene, particles)
-        } else {
-            Vec::new()
-        },
+        grids,
         surface: formats
             .contains(&CacheFormat::Mesh)
             .then(|| scene_surface(scene, &particles.position, &particles.mass)),
     };
-    let mut files = write_caches(scene, &frame, &volumes, run, pvd)?;
-    if scene
-        .wind
-        .as_ref()
-        .is_some_and(|wind| wind.spindrift.is_some())
-    {
-        files.extend(write_drift_frame(simulation, index, run)?);
+    let mut files = write_caches(scene, &frame, drift.as_ref(), &volumes, run, pvd)?;
+    if let Some(drift) = &drift {
+        files.extend(write_drift_frame(scene, drift, run)?);
     }
     Ok(files)
 }
 
-/// Writes a snow frame's drift (`[wind.spindrift]`) beside its snow, in
-/// `drift/` as PLY and VTK PolyData for the scene's `ply` and `vtk` formats,
-/// with each particle's velocity and mass; returns the files' paths
-/// relative to the run directory.
+/// Writes a snow frame's drift (`[wind.spindrift]`, each particle with its
+/// velocity and mass) beside its snow, in `drift/` as PLY and VTK PolyData
+/// for the scene's `ply` and `vtk` formats; returns the files' paths
+/// relative to the run directory. (The `vdb` and `usd` caches hold the
+/// drift in the snow's files: a `drift` grid, a `Drift` points prim.)
 fn write_drift_frame(
-    simulation: &Simulation,
-    index: u32,
+    scene: &Scene,
+    drift: &FrameData,
     run: &RunDirectory,
 ) -> Result<Vec<String>, IoError> {
-    let drift = simulation.drift();
-    let frame = FrameData::new(index, simulation.time(), &drift.position)
-        .with_attribute(Attribute::vector("velocity", &drift.velocity))
-        .with_attribute(Attribute::scalar("mass", &drift.mass));
     let mut files = Vec::new();
-    for &format in &simulation.scene().output.formats {
+    for &format in &scene.output.formats {
         let name = match format {
-            CacheFormat::Ply | CacheFormat::Vtk => RunDirectory::drift_cache_name(format, index),
+            CacheFormat::Ply | CacheFormat::Vtk => {
+                RunDirectory::drift_cache_name(format, drift.index)
+            }
             CacheFormat::Vdb | CacheFormat::Usd | CacheFormat::Mesh => continue,
         };
         let path = run.path().join(&name);
         firn_io::ensure_writable_dir(path.parent().unwrap_or(run.path()))?;
         match format {
-            CacheFormat::Ply => write_ply(&path, &frame)?,
-            _ => write_vtp(&path, &frame)?,
+            CacheFormat::Ply => write_ply(&path, drift)?,
+            _ => write_vtp(&path, drift)?,
         }
         files.push(name);
     }
@@ -132,6 +139,16 @@ fn write_drift_frame(
 struct Volumes {
     grids: Vec<FloatGrid>,
     surface: Option<TriangleMesh>,
+}
+
+/// The `drift` grid of a spindrift scene's frame: the drift's mass per
+/// volume (kg/m³) on the snow's voxels, a fog volume beside the snow's
+/// `density`.
+fn drift_volume(scene: &Scene, positions: &[Vec3], masses: &[f32]) -> FloatGrid {
+    let voxel = scene.output.vdb.voxel_size_for(scene.domain.cell_size);
+    let mut grid = density_grid(positions, masses, scene.domain.min, voxel);
+    grid.name = "drift".to_string();
+    grid
 }
 
 /// The OpenVDB grids of a snow frame, as the scene's `[output.vdb]` asks.
@@ -152,10 +169,12 @@ fn scene_volumes(scene: &Scene, particles: &Particles) -> Vec<FloatGrid> {
 }
 
 /// Writes `frame` in each of `scene`'s formats into `run` (`volumes` for
-/// `vdb` and `mesh`); returns the files' paths relative to the run directory.
+/// `vdb` and `mesh`, and a spindrift scene's `drift` for `usd`); returns
+/// the files' paths relative to the run directory.
 fn write_caches(
     scene: &Scene,
     frame: &FrameData,
+    drift: Option<&FrameData>,
     volumes: &Volumes,
     run: &RunDirectory,
     pvd: &mut PvdCollection,
@@ -193,7 +212,10 @@ fn write_caches(
             CacheFormat::Usd => write_usd_frame(
                 run.path(),
                 &usd_stage(scene, frame.index),
-                frame,
+                &[Some(frame), drift]
+                    .into_iter()
+                    .flatten()
+                    .collect::<Vec<_>>(),
                 &collider_positions(scene, frame.time),
             )?,
         }

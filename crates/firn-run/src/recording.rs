@@ -393,11 +393,7 @@ impl Recording {
         let HostState::Snow(simulation) = self.solver.host()? else {
             return Ok(None);
         };
-        let spindrift = simulation
-            .scene()
-            .wind
-            .as_ref()
-            .is_some_and(|wind| wind.spindrift.is_some());
+        let spindrift = simulation.scene().spindrift().is_some();
         if !spindrift {
             return Ok(None);
         }

@@ -1,5 +1,6 @@
-//! What a run's USD stage says besides the particles: the points prim's
-//! name and width, the frame rate and the colliders (see [`firn_io::usd`]).
+//! What a run's USD stage says besides the particles: the points prims'
+//! names and widths (the snow, or a flow's particles, and a spindrift
+//! scene's drift), the frame rate and the colliders (see [`firn_io::usd`]).
 //!
 //! Planes are drawn as squares as wide as the domain's longest edge; mesh
 //! colliders as their file's triangles, placed as at time zero about the
@@ -10,16 +11,26 @@
 use firn_core::Scene;
 use firn_core::scene::ColliderGeometry;
 use firn_core::scene::sampling::particle_spacing;
-use firn_io::{UsdShape, UsdStage};
+use firn_io::{UsdPoints, UsdShape, UsdStage};
 use glam::Vec3;
 
 /// The stage of `scene` with frames up to `last_frame`.
 pub fn usd_stage(scene: &Scene, last_frame: u32) -> UsdStage {
+    let width = particle_width(scene);
+    let mut points = vec![UsdPoints {
+        name: points_name(scene).to_string(),
+        width,
+    }];
+    if scene.spindrift().is_some() {
+        points.push(UsdPoints {
+            name: "Drift".to_string(),
+            width,
+        });
+    }
     UsdStage {
-        points_name: points_name(scene).to_string(),
+        points,
         fps: scene.time.fps,
         last_frame,
-        width: particle_width(scene),
         colliders: scene
             .colliders
             .iter()

@@ -92,7 +92,7 @@ fn usd_cost_per_frame() {
         write_usd_frame(
             folder.path(),
             &stage,
-            &frame,
+            &[&frame],
             &collider_positions(&scene, 0.0),
         )
         .unwrap();

@@ -284,3 +284,103 @@ fn pixar_usd_reads_a_mesh_collider_as_a_moving_mesh() {
         );
     }
 }
+
+/// A slab of light powder in a strong wind that lifts drift at once: 3
+/// frames, cached as PLY and USD.
+const DRIFT_SCENE: &str = r#"
+format = 1
+name = "usd-drift"
+
+[domain]
+max = [0.64, 0.32, 0.4]
+cell_size = 0.04
+
+[time]
+duration = 0.06
+fps = 50
+
+[materials.powder]
+preset = "snow"
+density = 100.0
+
+[[bodies]]
+shape = "box"
+center = [0.2, 0.06, 0.2]
+size = [0.24, 0.12, 0.24]
+material = "powder"
+
+[wind]
+background_direction = [1.0, 0.0, 0.0]
+background_strength = 10.0
+noise_share = 0.0
+
+[wind.spindrift]
+threshold_speed = 1.0
+rate = 40.0
+
+[render]
+enabled = false
+
+[output]
+formats = ["ply", "usd"]
+attributes = ["velocity"]
+"#;
+
+/// Opens the stage `sys.argv[1]`; prints the drift prim's type, its
+/// primvars, then per frame of `sys.argv[2:]` its snow and drift point
+/// counts and the drift's points.
+const READ_DRIFT: &str = "
+import sys
+from pxr import Usd, UsdGeom
+stage = Usd.Stage.Open(sys.argv[1])
+snow = UsdGeom.Points(stage.GetPrimAtPath('/World/Snow'))
+prim = stage.GetPrimAtPath('/World/Drift')
+drift = UsdGeom.Points(prim)
+names = sorted(p.GetPrimvarName() for p in UsdGeom.PrimvarsAPI(prim).GetAuthoredPrimvars())
+print(prim.GetTypeName(), ','.join(names))
+for frame in sys.argv[2:]:
+    t = float(frame)
+    xyz = [repr(c) for p in drift.GetPointsAttr().Get(t) for c in p]
+    print(frame, len(snow.GetPointsAttr().Get(t)), len(xyz) // 3, *xyz)
+";
+
+#[test]
+fn pixar_usd_reads_the_drift_beside_the_snow() {
+    if !usd_available() {
+        return;
+    }
+    let scene = Scene::from_toml_str(DRIFT_SCENE, "usd-drift.toml").expect("the scene is valid");
+    let last = scene.time.frame_count();
+    let folder = tempfile::tempdir().unwrap();
+    record(&scene, folder.path(), last);
+    let output = Command::new(python())
+        .args(["-c", READ_DRIFT])
+        .arg(folder.path().join("particles.usda"))
+        .args((0..=last).map(|frame| frame.to_string()))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "pxr failed:\n{stderr}");
+    assert!(stderr.is_empty(), "pxr warned:\n{stderr}");
+    let text = String::from_utf8(output.stdout).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines[0], "Points mass");
+    let mut lifted = 0;
+    for (line, frame) in lines[1..].iter().zip(0..=last) {
+        let fields: Vec<&str> = line.split(' ').collect();
+        let snow = ply_positions(&folder.path().join(format!("ply/frame_{frame:05}.ply")));
+        let drift = ply_positions(&folder.path().join(format!("drift/frame_{frame:05}.ply")));
+        assert_eq!(fields[0], frame.to_string());
+        assert_eq!(fields[1].parse::<usize>().unwrap() * 3, snow.len());
+        assert_eq!(fields[2].parse::<usize>().unwrap() * 3, drift.len());
+        let usd: Vec<f32> = fields[3..].iter().map(|f| f.parse().unwrap()).collect();
+        assert!(
+            usd == drift,
+            "frame {frame}: pxr's drift differs from the PLY's"
+        );
+        lifted = lifted.max(drift.len() / 3);
+    }
+    assert_eq!(lines.len(), 2 + last as usize);
+    assert!(lifted > 0, "the wind lifts drift");
+    eprintln!("pxr read up to {lifted} drift points equal to the drift PLY's");
+}

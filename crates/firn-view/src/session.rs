@@ -310,7 +310,7 @@ impl Session {
     /// GPU: with spindrift, whose drift and escaped drift share the snow's
     /// buffers on the device (`firn_gpu::GpuSnow::particle_arrays`).
     pub fn draws_read_back(&self) -> bool {
-        self.on_gpu() && has_spindrift(self.scene())
+        self.on_gpu() && self.scene().spindrift().is_some()
     }
 
     /// Reads a live GPU run with spindrift back, so that its snow and its
@@ -417,12 +417,4 @@ fn default_style(scene: &Scene) -> DrawStyle {
         Some(RenderStyle::Trails) => DrawStyle::Trails,
         _ => DrawStyle::Points,
     }
-}
-
-/// Whether `scene` blows spindrift off its snow (`[wind.spindrift]`).
-fn has_spindrift(scene: &Scene) -> bool {
-    scene
-        .wind
-        .as_ref()
-        .is_some_and(|wind| wind.spindrift.is_some())
 }

@@ -20,7 +20,7 @@ use super::flow::SceneKind;
 use super::material::Material;
 use super::mesh::{MeshBody, MeshCollider};
 use super::render::{Camera, RenderSettings};
-use super::wind::Wind;
+use super::wind::{Spindrift, Wind};
 
 /// A complete snow scene, resolved: presets expanded, defaults filled in.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -61,6 +61,12 @@ impl Scene {
     /// The name of [`Scene::default`], and of a scene parsed from text whose
     /// origin is not a `.toml` file.
     pub const DEFAULT_NAME: &'static str = "scene";
+
+    /// The wind's spindrift (`[wind.spindrift]`), if the scene lifts drift
+    /// off its snow.
+    pub fn spindrift(&self) -> Option<&Spindrift> {
+        self.wind.as_ref()?.spindrift.as_ref()
+    }
 }
 
 impl Default for Scene {
