@@ -22,22 +22,33 @@ use crate::surface::scene_surface;
 use crate::usd_stage::{collider_positions, usd_stage};
 use crate::volumes::{density_grid, snow_volumes};
 
+/// A frame's caches once written.
+pub struct WrittenFrame {
+    /// The files' paths relative to the run directory.
+    pub files: Vec<String>,
+    /// The snow's surface, where the `mesh` format made it.
+    pub surface: Option<TriangleMesh>,
+}
+
 /// Writes frame `index` of `state` in every cache format of its scene into
-/// `run`, and updates the collection `pvd` with a VTK frame; returns the
-/// files' paths relative to the run directory.
+/// `run`, and updates the collection `pvd` with a VTK frame.
 pub fn write_frame(
     state: HostState<'_>,
     index: u32,
     run: &RunDirectory,
     pvd: &mut PvdCollection,
-) -> Result<Vec<String>, IoError> {
+) -> Result<WrittenFrame, IoError> {
     match state {
         HostState::Snow(simulation) => write_snow_frame(simulation, index, run, pvd),
         HostState::Flow(flow) => {
             let frame = FrameData::new(index, flow.time(), flow.positions())
                 .with_attribute(Attribute::vector("velocity", flow.velocities()))
                 .with_attribute(Attribute::scalar("age", flow.ages()));
-            write_caches(flow.scene(), &frame, None, &Volumes::default(), run, pvd)
+            let files = write_caches(flow.scene(), &frame, None, &Volumes::default(), run, pvd)?;
+            Ok(WrittenFrame {
+                files,
+                surface: None,
+            })
         }
     }
 }
@@ -55,7 +66,7 @@ fn write_snow_frame(
     index: u32,
     run: &RunDirectory,
     pvd: &mut PvdCollection,
-) -> Result<Vec<String>, IoError> {
+) -> Result<WrittenFrame, IoError> {
     let scene = simulation.scene();
     let particles = simulation.particles();
     let wanted = &scene.output.attributes;
@@ -101,7 +112,10 @@ fn write_snow_frame(
     if let Some(drift) = &drift {
         files.extend(write_drift_frame(scene, drift, run)?);
     }
-    Ok(files)
+    Ok(WrittenFrame {
+        files,
+        surface: volumes.surface,
+    })
 }
 
 /// Writes a snow frame's drift (`[wind.spindrift]`, each particle with its

@@ -125,6 +125,9 @@ pub fn write_animations(
 /// every style of its scene, under `directory`; returns their paths
 /// relative to it.
 pub fn frame_pictures(frame: &FrameToPicture<'_>, directory: &Path) -> Result<Vec<String>, String> {
-    let particles = frame_particles(&frame.particles);
+    let particles = FrameParticles {
+        surface: frame.surface,
+        ..frame_particles(&frame.particles)
+    };
     render_frame(frame.scene, directory, frame.index, frame.time, particles)
 }

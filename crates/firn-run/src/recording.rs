@@ -14,6 +14,7 @@ use std::time::{Duration, Instant};
 
 use firn_core::Scene;
 use firn_io::{FrameRecord, Manifest, MassBalance, PvdCollection, RunStatus, SolverFrameStats};
+use firn_mesh::TriangleMesh;
 use firn_mpm::SolverStats;
 
 use crate::backend::Placement;
@@ -82,6 +83,9 @@ pub struct FrameToPicture<'a> {
     pub time: f64,
     /// Its particles, with the values of the scene's `color_by`.
     pub particles: HostParticles<'a>,
+    /// The snow's surface, where the `mesh` cache made it for this frame
+    /// (so that the `surface` style need not make it again).
+    pub surface: Option<&'a TriangleMesh>,
 }
 
 /// How far a run has come, after a frame.
@@ -373,19 +377,20 @@ impl Recording {
         observer: &mut dyn Observer,
     ) -> Result<(Vec<String>, Vec<String>), RunError> {
         let host = self.solver.host()?;
-        let files = caches::write_frame(host, index, &self.run, &mut self.pvd)?;
+        let written = caches::write_frame(host, index, &self.run, &mut self.pvd)?;
         let scene = host.scene();
         if !scene.render.enabled {
-            return Ok((files, Vec::new()));
+            return Ok((written.files, Vec::new()));
         }
         let frame = FrameToPicture {
             scene,
             index,
             time: host.time(),
             particles: host.particles(scene.render.color_by),
+            surface: written.surface.as_ref(),
         };
         let images = observer.pictures(&frame).map_err(RunError::Pictures)?;
-        Ok((files, images))
+        Ok((written.files, images))
     }
 
     /// Where the snow's mass is now, for a scene with spindrift.

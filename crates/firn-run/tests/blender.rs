@@ -120,7 +120,9 @@ fn blender_renders_the_snow_where_firn_sees_it() {
     run.create(&scene).unwrap();
     let mut solver = Solver::new(scene.clone(), &Placement::Cpu).unwrap();
     solver.advance_frame().unwrap();
-    let files = write_frame(solver.host().unwrap(), 1, &run, &mut PvdCollection::new()).unwrap();
+    let files = write_frame(solver.host().unwrap(), 1, &run, &mut PvdCollection::new())
+        .unwrap()
+        .files;
     let HostState::Snow(simulation) = solver.host().unwrap() else {
         panic!("a snow scene");
     };

@@ -122,7 +122,9 @@ fn openvdb_reads_a_snow_frame_with_its_mass_and_inside() {
     let centre = particles.position.iter().sum::<Vec3>() / particles.position.len() as f32;
     let probe = ((centre / 0.025) - 0.5).round().as_ivec3().to_array();
 
-    let files = write_frame(solver.host().unwrap(), 1, &run, &mut PvdCollection::new()).unwrap();
+    let files = write_frame(solver.host().unwrap(), 1, &run, &mut PvdCollection::new())
+        .unwrap()
+        .files;
     assert_eq!(files, [RunDirectory::cache_name(CacheFormat::Vdb, 1)]);
     let (grids, inside) = read_with_openvdb(&run.path().join(&files[0]), probe);
 
@@ -161,7 +163,7 @@ fn a_frame_gives_the_same_vdb_bytes_twice() {
             let run = RunDirectory::new(folder.path());
             run.create(&scene).unwrap();
             let files = write_frame(solver.host().unwrap(), 0, &run, &mut PvdCollection::new());
-            std::fs::read(run.path().join(&files.unwrap()[0])).unwrap()
+            std::fs::read(run.path().join(&files.unwrap().files[0])).unwrap()
         })
         .collect();
     assert!(bytes[0].len() > 1000);
@@ -229,7 +231,9 @@ fn openvdb_reads_the_drift_as_a_grid_beside_the_snow() {
     );
     assert!(drift > 0.0, "the wind lifts drift");
 
-    let files = write_frame(solver.host().unwrap(), 2, &run, &mut PvdCollection::new()).unwrap();
+    let files = write_frame(solver.host().unwrap(), 2, &run, &mut PvdCollection::new())
+        .unwrap()
+        .files;
     let (grids, _) = read_with_openvdb(&run.path().join(&files[0]), [0, 0, 0]);
     let names: Vec<&str> = grids.iter().map(|grid| grid.name.as_str()).collect();
     assert_eq!(names, ["density", "drift"]);

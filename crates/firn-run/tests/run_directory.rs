@@ -19,6 +19,8 @@ use firn_run::{Placement, Recording, RunDirectory, Solver};
 #[derive(Default)]
 struct Notes {
     pictured: Vec<(u32, usize)>,
+    /// Per picture, the triangles of the surface handed in with it.
+    surfaces: Vec<Option<usize>>,
     recorded: Vec<Progress>,
     animated: Vec<u32>,
     stop_after: Option<u32>,
@@ -28,6 +30,8 @@ impl Observer for Notes {
     fn pictures(&mut self, frame: &FrameToPicture<'_>) -> Result<Vec<String>, String> {
         self.pictured
             .push((frame.index, frame.particles.positions.len()));
+        self.surfaces
+            .push(frame.surface.map(|surface| surface.triangles.len()));
         Ok(vec![format!("images/test/{}.png", frame.index)])
     }
 
@@ -128,6 +132,32 @@ fn pictures_and_animations_come_from_the_observer() {
     assert_eq!(read.manifest.status, RunStatus::Finished);
     assert_eq!(read.manifest.animations, ["images/test.gif"]);
     assert_eq!(read.manifest.frames[2].images, ["images/test/2.png"]);
+    assert_eq!(notes.surfaces, vec![None; notes.pictured.len()]);
+}
+
+#[test]
+fn the_pictures_get_the_surface_the_mesh_cache_made() {
+    let folder = tempfile::tempdir().unwrap();
+    let mut scene = common::slab();
+    scene.render.enabled = true;
+    scene.output.formats = vec![firn_core::scene::CacheFormat::Mesh];
+    scene.domain.cell_size = 0.05;
+    let mut notes = Notes::default();
+    let mut recording = start(scene, folder.path(), &mut notes);
+    recording.run_to(1, &mut notes).expect("the run finishes");
+    let name = RunDirectory::cache_name(firn_core::scene::CacheFormat::Mesh, 1);
+    let bytes = std::fs::read(folder.path().join(name)).unwrap();
+    let header = String::from_utf8_lossy(&bytes[..bytes.len().min(400)]);
+    let faces: usize = header
+        .lines()
+        .find_map(|line| line.strip_prefix("element face "))
+        .expect("the mesh cache has faces")
+        .parse()
+        .unwrap();
+    assert!(faces > 0, "the slab has a surface");
+    assert_eq!(notes.surfaces.len(), 2, "frames 0 and 1");
+    assert!(notes.surfaces.iter().all(Option::is_some));
+    assert_eq!(notes.surfaces[1], Some(faces), "frame 1's surface");
 }
 
 #[test]

@@ -118,8 +118,9 @@ fn frame_files(threads: usize) -> (Vec<Vec<u8>>, tempfile::TempDir) {
         run.create(&scene).unwrap();
         let mut solver = Solver::new(scene, &Placement::Cpu).unwrap();
         solver.advance_frame().unwrap();
-        let files =
-            write_frame(solver.host().unwrap(), 1, &run, &mut PvdCollection::new()).unwrap();
+        let files = write_frame(solver.host().unwrap(), 1, &run, &mut PvdCollection::new())
+            .unwrap()
+            .files;
         assert_eq!(
             files,
             [
