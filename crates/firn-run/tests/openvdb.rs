@@ -4,6 +4,8 @@
 //! Skipped where the module is missing, unless `FIRN_REQUIRE_OPENVDB=1` (as
 //! `.ci/run` sets it).
 
+mod common;
+
 use std::path::Path;
 
 use firn_core::Scene;
@@ -170,52 +172,13 @@ fn a_frame_gives_the_same_vdb_bytes_twice() {
     assert_eq!(bytes[0], bytes[1]);
 }
 
-/// A slab of light powder in a strong wind that lifts drift at once,
-/// cached as VDB volumes only.
-const DRIFT_SCENE: &str = r#"
-format = 1
-name = "vdb-drift"
-
-[domain]
-max = [0.64, 0.32, 0.4]
-cell_size = 0.04
-
-[time]
-duration = 0.04
-fps = 50
-
-[materials.powder]
-preset = "snow"
-density = 100.0
-
-[[bodies]]
-shape = "box"
-center = [0.2, 0.06, 0.2]
-size = [0.24, 0.12, 0.24]
-material = "powder"
-
-[wind]
-background_direction = [1.0, 0.0, 0.0]
-background_strength = 10.0
-noise_share = 0.0
-
-[wind.spindrift]
-threshold_speed = 1.0
-rate = 40.0
-
-[render]
-enabled = false
-
-[output]
-formats = ["vdb"]
-"#;
-
 #[test]
 fn openvdb_reads_the_drift_as_a_grid_beside_the_snow() {
     if !openvdb_available() {
         return;
     }
-    let scene = Scene::from_toml_str(DRIFT_SCENE, "vdb-drift.toml").expect("the scene is valid");
+    let mut scene = common::drift_slab();
+    scene.output.formats = vec![CacheFormat::Vdb];
     let folder = tempfile::tempdir().unwrap();
     let run = RunDirectory::new(folder.path());
     run.create(&scene).unwrap();

@@ -209,28 +209,13 @@ fn the_gpu_takes_its_scatter_and_steps_at_least_the_substeps_asked_for() {
     assert_eq!(flow.options(), SolverOptions::default());
 }
 
-/// A slab of fresh powder in a wind strong enough to lift drift within a
-/// few hundredths of a second.
-fn slab_lifting_drift() -> Scene {
-    let mut scene = common::slab();
-    scene.wind = Some(firn_core::scene::Wind::uniform(glam::Vec3::X, 10.0));
-    let spindrift = firn_core::scene::Spindrift {
-        threshold_speed: 0.5,
-        loose_density: 1000.0,
-        rate: 40.0,
-        ..firn_core::scene::Spindrift::default()
-    };
-    scene.wind.as_mut().unwrap().spindrift = Some(spindrift);
-    scene
-}
-
 #[test]
 fn both_backends_count_the_snow_and_not_the_drift() {
     let Some(context) = firn_gpu::context_for_tests() else {
         return;
     };
     for placement in [Placement::Cpu, Placement::Gpu(context)] {
-        let mut solver = Solver::new(slab_lifting_drift(), &placement).unwrap();
+        let mut solver = Solver::new(common::drift_slab(), &placement).unwrap();
         let at_start = solver.particle_count();
         solver.advance_to(0.04).unwrap();
         let (snow, drift) = match solver.host().unwrap() {

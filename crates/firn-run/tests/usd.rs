@@ -5,10 +5,13 @@
 //! the pxr test is skipped where `pxr` is missing, unless
 //! `FIRN_REQUIRE_USD=1` (as `.ci/run` sets it).
 
+mod common;
+
 use std::path::Path;
 use std::process::Command;
 
 use firn_core::Scene;
+use firn_core::scene::CacheFormat;
 use firn_io::{PlyValues, read_ply};
 use firn_run::recording::Observer;
 use firn_run::{Placement, Recording, RunDirectory, Solver};
@@ -285,47 +288,6 @@ fn pixar_usd_reads_a_mesh_collider_as_a_moving_mesh() {
     }
 }
 
-/// A slab of light powder in a strong wind that lifts drift at once: 3
-/// frames, cached as PLY and USD.
-const DRIFT_SCENE: &str = r#"
-format = 1
-name = "usd-drift"
-
-[domain]
-max = [0.64, 0.32, 0.4]
-cell_size = 0.04
-
-[time]
-duration = 0.06
-fps = 50
-
-[materials.powder]
-preset = "snow"
-density = 100.0
-
-[[bodies]]
-shape = "box"
-center = [0.2, 0.06, 0.2]
-size = [0.24, 0.12, 0.24]
-material = "powder"
-
-[wind]
-background_direction = [1.0, 0.0, 0.0]
-background_strength = 10.0
-noise_share = 0.0
-
-[wind.spindrift]
-threshold_speed = 1.0
-rate = 40.0
-
-[render]
-enabled = false
-
-[output]
-formats = ["ply", "usd"]
-attributes = ["velocity"]
-"#;
-
 /// Opens the stage `sys.argv[1]`; prints the drift prim's type, its
 /// primvars, then per frame of `sys.argv[2:]` its snow and drift point
 /// counts and the drift's points.
@@ -349,7 +311,10 @@ fn pixar_usd_reads_the_drift_beside_the_snow() {
     if !usd_available() {
         return;
     }
-    let scene = Scene::from_toml_str(DRIFT_SCENE, "usd-drift.toml").expect("the scene is valid");
+    let mut scene = common::drift_slab();
+    scene.time.duration = 0.06;
+    scene.time.fps = 50.0;
+    scene.output.formats = vec![CacheFormat::Ply, CacheFormat::Usd];
     let last = scene.time.frame_count();
     let folder = tempfile::tempdir().unwrap();
     record(&scene, folder.path(), last);

@@ -1,10 +1,13 @@
-//! Small scenes for the tests: a slab of snow thrown onto the floor and a
-//! curl-noise flow around a sphere, each a fraction of a second of a few
-//! hundred particles, without pictures.
+//! Small scenes for the tests: a slab of snow thrown onto the floor (also
+//! in a wind that lifts drift off it) and a curl-noise flow around a
+//! sphere, each a fraction of a second of a few hundred particles, without
+//! pictures. (Each test file uses some of them.)
+#![allow(dead_code)]
 
 use firn_core::Scene;
 use firn_core::scene::{
-    Attribute, Body, FlowEmitter, FlowEmitterShape, FlowObstacle, RenderStyle, Transfer,
+    Attribute, Body, FlowEmitter, FlowEmitterShape, FlowObstacle, RenderStyle, Spindrift, Transfer,
+    Wind,
 };
 use glam::Vec3;
 
@@ -32,6 +35,22 @@ pub fn slab() -> Scene {
         .build()
         .expect("the slab is a valid scene");
     scene.render.enabled = false;
+    scene
+}
+
+/// [`slab`] in a 10 m/s wind along +x whose spindrift lifts drift off it
+/// within a few hundredths of a second.
+pub fn drift_slab() -> Scene {
+    let mut scene = slab();
+    let spindrift = Spindrift {
+        threshold_speed: 0.5,
+        loose_density: 1000.0,
+        rate: 40.0,
+        ..Spindrift::default()
+    };
+    let mut wind = Wind::uniform(Vec3::X, 10.0);
+    wind.spindrift = Some(spindrift);
+    scene.wind = Some(wind);
     scene
 }
 
