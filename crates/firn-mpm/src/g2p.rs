@@ -651,16 +651,7 @@ impl<P: PairLanes> PicFlipSums<P> {
     fn of(lanes: P, local: &LocalNodes<Node>, grid: &Grid, position: Vec3) -> PicFlipSums<P> {
         let weights = cubic_weights(grid.layout.to_grid(position));
         let window = local.window::<4, CUBIC_SPAN>(weights.base);
-        let axis = |a: usize| {
-            let mut values = [0.0; 4];
-            let mut slopes = [0.0; 4];
-            for n in 0..4 {
-                values[n] = weights.values[n][a];
-                slopes[n] = weights.slopes[n][a];
-            }
-            (values, slopes)
-        };
-        let ((wx, sx), (wy, sy), (wz, sz)) = (axis(0), axis(1), axis(2));
+        let ((wx, sx), (wy, sy), (wz, sz)) = (weights.along(0), weights.along(1), weights.along(2));
         let zero = lanes.splat(0.0);
         // Per slab i: Σ_jk w_j w_k, Σ_jk s_j w_k and Σ_jk w_j s_k of its nodes.
         let mut slabs = [zero; 4];

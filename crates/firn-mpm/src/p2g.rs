@@ -89,7 +89,7 @@ impl Kernel for PicFlipBlock<'_> {
 /// w_i^x s_j^y w_k^z, w_i^x w_j^y s_k^z) / h (s the per-cell slopes).
 ///
 /// Both node vectors are added at once, as a pair ([`Node::pair`]),
-/// and the terms are built by the tensor product: per slab i the lanes
+/// and the terms are built by the tensor product: per slab i the pairs
 /// (w_i (m_p v_p, m_p), −s_i τ_0 / h), (0, −w_i τ_1 / h) and
 /// (0, −w_i τ_2 / h) (τ_a the columns of τ_p); per row (i, j) from them
 /// a_ij = (w_i w_j (m_p v_p, m_p), −(s_i w_j τ_0 + w_i s_j τ_1) / h) and
@@ -114,16 +114,7 @@ impl PicFlipStencil {
         weights: &StencilWeights<4>,
         window: &mut [Node; CUBIC_SPAN],
     ) {
-        let axis = |a: usize| {
-            let mut values = [0.0; 4];
-            let mut slopes = [0.0; 4];
-            for n in 0..4 {
-                values[n] = weights.values[n][a];
-                slopes[n] = weights.slopes[n][a];
-            }
-            (values, slopes)
-        };
-        let ((wx, sx), (wy, sy), (wz, sz)) = (axis(0), axis(1), axis(2));
+        let ((wx, sx), (wy, sy), (wz, sz)) = (weights.along(0), weights.along(1), weights.along(2));
         let splat = |value: f32| lanes.splat(value);
         let minus_inverse_h = -self.inverse_h;
         let stress = self.stress;
@@ -133,15 +124,15 @@ impl PicFlipStencil {
             stress.z_axis.extend(0.0),
         );
         for i in 0..4 {
-            let by_weight = lanes.pair(self.momentum_mass * wx[i], t0 * (sx[i] * minus_inverse_h));
-            let by_slope = lanes.pair(Vec4::ZERO, t1 * (wx[i] * minus_inverse_h));
-            let by_slope_z = lanes.pair(Vec4::ZERO, t2 * (wx[i] * minus_inverse_h));
+            // The slab's pairs, to be multiplied by w_j, s_j and w_j.
+            let weighted = lanes.pair(self.momentum_mass * wx[i], t0 * (sx[i] * minus_inverse_h));
+            let sloped = lanes.pair(Vec4::ZERO, t1 * (wx[i] * minus_inverse_h));
+            let sloped_z = lanes.pair(Vec4::ZERO, t2 * (wx[i] * minus_inverse_h));
             for j in 0..4 {
-                let row = by_weight * splat(wy[j]) + by_slope * splat(sy[j]);
-                let row_z = by_slope_z * splat(wy[j]);
+                let a = weighted * splat(wy[j]) + sloped * splat(sy[j]);
+                let b = sloped_z * splat(wy[j]);
                 for k in 0..4 {
-                    let terms = row * splat(wz[k]) + row_z * splat(sz[k]);
-                    window[at(i, j, k)].add_pair(lanes, terms);
+                    window[at(i, j, k)].add_pair(lanes, a * splat(wz[k]) + b * splat(sz[k]));
                 }
             }
         }
