@@ -26,7 +26,7 @@
 use firn_core::math::bspline::{StencilValues, cubic_weights, quadratic_values};
 #[cfg(target_arch = "x86_64")]
 use firn_core::math::isa::Vec4Pair;
-use firn_core::math::isa::{Avx2, Isa, Kernel};
+use firn_core::math::isa::{Avx2, Isa, Kernel, PairLanes, PortablePairs};
 use firn_core::math::lanes::{F32s, Mat3s, Simd, U32s, Vec3s};
 use std::ops::Range;
 
@@ -213,7 +213,13 @@ pub(crate) trait Interpolation: Sync {
         _isa: Isa,
         particles: [(Vec3, Vec3); 2],
     ) -> [(Vec3, Mat3); 2] {
-        particles.map(|(position, velocity)| self.interpolate(local, position, velocity))
+        // Spelled out, not `map`ped: `array::map` can be compiled as a
+        // function of its own, outside the caller's instruction set.
+        let [(position_a, velocity_a), (position_b, velocity_b)] = particles;
+        [
+            self.interpolate(local, position_a, velocity_a),
+            self.interpolate(local, position_b, velocity_b),
+        ]
     }
 }
 
@@ -569,7 +575,7 @@ impl Interpolation for PicFlipInterpolation<'_> {
         position: Vec3,
         velocity: Vec3,
     ) -> (Vec3, Mat3) {
-        self.blend(PicFlipSums::of(None, local, self.grid, position), velocity)
+        self.blend(PortablePairs, local, position, velocity)
     }
 
     #[inline(always)]
@@ -579,122 +585,112 @@ impl Interpolation for PicFlipInterpolation<'_> {
         isa: Isa,
         particles: [(Vec3, Vec3); 2],
     ) -> [(Vec3, Mat3); 2] {
-        let avx2 = isa.avx2();
-        let result = |(position, velocity): (Vec3, Vec3)| {
-            self.blend(PicFlipSums::of(avx2, local, self.grid, position), velocity)
-        };
-        [result(particles[0]), result(particles[1])]
+        let [(position_a, velocity_a), (position_b, velocity_b)] = particles;
+        match isa.avx2() {
+            #[cfg(target_arch = "x86_64")]
+            Some(avx2) => [
+                self.blend(avx2, local, position_a, velocity_a),
+                self.blend(avx2, local, position_b, velocity_b),
+            ],
+            _ => [
+                self.blend(PortablePairs, local, position_a, velocity_a),
+                self.blend(PortablePairs, local, position_b, velocity_b),
+            ],
+        }
     }
 }
 
 impl PicFlipInterpolation<'_> {
     /// v_p = (1 − α) v_PIC + α (v_p + Δv_FLIP) (step 8) and ∇v_p (step 7)
-    /// from a particle's stencil sums.
+    /// of a particle at `position` with the old `velocity`, from its
+    /// stencil sums ([`PicFlipSums`]) in `lanes`.
     #[inline(always)]
-    fn blend(&self, sums: PicFlipSums, velocity: Vec3) -> (Vec3, Mat3) {
+    fn blend<P: PairLanes>(
+        &self,
+        lanes: P,
+        local: &LocalNodes<Node>,
+        position: Vec3,
+        velocity: Vec3,
+    ) -> (Vec3, Mat3) {
+        let sums = PicFlipSums::of(lanes, local, self.grid, position);
         let flip = self.flip;
-        let pic = sums.pic.truncate();
-        let change = sums.change.truncate();
+        let [old, new] = lanes.halves(sums.velocities);
+        let pic = new.truncate();
+        let change = (new - old).truncate();
+        // The slopes are per cell: ∇w_ip is theirs over h.
+        let inverse_h = 1.0 / self.grid.layout.cell_size;
+        let column = |sums: P::Pair| (lanes.halves(sums)[1] * inverse_h).truncate();
         let gradient = Mat3::from_cols(
-            sums.gradient[0].truncate(),
-            sums.gradient[1].truncate(),
-            sums.gradient[2].truncate(),
+            column(sums.gradient[0]),
+            column(sums.gradient[1]),
+            column(sums.gradient[2]),
         );
         (pic * (1.0 - flip) + (velocity + change) * flip, gradient)
     }
 }
 
 /// One particle's sums over its 4x4x4 stencil (eq. 41 and the PIC/FLIP
-/// blend): v_PIC = Σ w_ip v_i^{n+1}, Δv_FLIP = Σ w_ip (v_i^{n+1} − v_i) and
-/// ∇v_p = Σ v_i^{n+1} (∇w_ip)ᵀ by columns, each summed node by node in
-/// stencil order. The fourth lanes carry nothing that is read.
-struct PicFlipSums {
-    pic: Vec4,
-    change: Vec4,
-    gradient: [Vec4; 3],
+/// blend), each over both node vectors (v_i, v_i^{n+1}) at once, as a
+/// pair ([`Node::pair`]): Σ w_ip (v_i, v_i^{n+1}), whose halves give
+/// v_PIC = Σ w_ip v_i^{n+1} and Δv_FLIP = Σ w_ip v_i^{n+1} − Σ w_ip v_i,
+/// and per axis a the sums Σ (h ∂w_ip/∂x_a) (·, v_i^{n+1}), whose high
+/// halves over h are the columns of ∇v_p = Σ v_i^{n+1} (∇w_ip)ᵀ. The
+/// fourth lanes of each half carry nothing that is read.
+struct PicFlipSums<P: PairLanes> {
+    velocities: P::Pair,
+    gradient: [P::Pair; 3],
 }
 
-impl PicFlipSums {
+impl<P: PairLanes> PicFlipSums<P> {
     /// The sums of a particle at `position`, from the nodes around its
-    /// block. Given `avx2`, two of the five sums share a 256-bit register:
-    /// lane by lane the operations of the portable form, so the same bits.
+    /// block, by the tensor product of the weights w_ijk = w_i^x w_j^y w_k^z:
+    /// along z per stencil row, the rows along y per slab, the slabs along
+    /// x (the slopes take a weight's place on their axis). Every instruction
+    /// set does these lane-wise operations in this order, so the same bits.
     #[inline(always)]
-    fn of(
-        avx2: Option<Avx2>,
-        local: &LocalNodes<Node>,
-        grid: &Grid,
-        position: Vec3,
-    ) -> PicFlipSums {
-        let layout = grid.layout;
-        let inverse_h = 1.0 / layout.cell_size;
-        let weights = cubic_weights(layout.to_grid(position));
+    fn of(lanes: P, local: &LocalNodes<Node>, grid: &Grid, position: Vec3) -> PicFlipSums<P> {
+        let weights = cubic_weights(grid.layout.to_grid(position));
         let window = local.window::<4, CUBIC_SPAN>(weights.base);
-        let (values, slopes) = (&weights.values, &weights.slopes);
-        // w_ijk and ∇w_ijk as StencilWeights::weight and ::gradient multiply.
-        let node_weights = |i: usize, j: usize, k: usize| {
-            let (wx, wy, wz) = (values[i].x, values[j].y, values[k].z);
-            let gradient = [
-                slopes[i].x * wy * wz * inverse_h,
-                wx * slopes[j].y * wz * inverse_h,
-                wx * wy * slopes[k].z * inverse_h,
-            ];
-            (wx * wy * wz, gradient)
-        };
-        match avx2 {
-            #[cfg(target_arch = "x86_64")]
-            Some(avx2) => {
-                let mut velocity_sums = avx2.zero_pair();
-                let mut gradient_xy = avx2.zero_pair();
-                let mut gradient_z = Vec4::ZERO;
-                for i in 0..4 {
-                    for j in 0..4 {
-                        for k in 0..4 {
-                            let node = &window[at(i, j, k)];
-                            let (w, g) = node_weights(i, j, k);
-                            let new = node.velocity_new;
-                            let change = new - node.velocity_mass;
-                            velocity_sums = velocity_sums
-                                + avx2.pair(new, change)
-                                    * avx2.pair(Vec4::splat(w), Vec4::splat(w));
-                            gradient_xy = gradient_xy
-                                + avx2.pair(new, new)
-                                    * avx2.pair(Vec4::splat(g[0]), Vec4::splat(g[1]));
-                            gradient_z += new * g[2];
-                        }
-                    }
+        let ((wx, sx), (wy, sy), (wz, sz)) = (weights.along(0), weights.along(1), weights.along(2));
+        let zero = lanes.splat(0.0);
+        // Per slab i: Σ_jk w_j w_k, Σ_jk s_j w_k and Σ_jk w_j s_k of its nodes.
+        let mut slabs = [zero; 4];
+        let mut slabs_y = [zero; 4];
+        let mut slabs_z = [zero; 4];
+        for i in 0..4 {
+            let mut rows = [zero; 4];
+            let mut rows_z = [zero; 4];
+            for j in 0..4 {
+                let mut nodes = [zero; 4];
+                for (k, node) in nodes.iter_mut().enumerate() {
+                    *node = window[at(i, j, k)].pair(lanes);
                 }
-                let [pic, change] = velocity_sums.halves();
-                let [gradient_x, gradient_y] = gradient_xy.halves();
-                PicFlipSums {
-                    pic,
-                    change,
-                    gradient: [gradient_x, gradient_y, gradient_z],
-                }
+                rows[j] = weighted_sum(lanes, &nodes, &wz);
+                rows_z[j] = weighted_sum(lanes, &nodes, &sz);
             }
-            _ => {
-                let mut sums = PicFlipSums {
-                    pic: Vec4::ZERO,
-                    change: Vec4::ZERO,
-                    gradient: [Vec4::ZERO; 3],
-                };
-                for i in 0..4 {
-                    for j in 0..4 {
-                        for k in 0..4 {
-                            let node = &window[at(i, j, k)];
-                            let (w, g) = node_weights(i, j, k);
-                            let new = node.velocity_new;
-                            sums.pic += new * w;
-                            sums.change += (new - node.velocity_mass) * w;
-                            for (column, g) in sums.gradient.iter_mut().zip(g) {
-                                *column += new * g;
-                            }
-                        }
-                    }
-                }
-                sums
-            }
+            slabs[i] = weighted_sum(lanes, &rows, &wy);
+            slabs_y[i] = weighted_sum(lanes, &rows, &sy);
+            slabs_z[i] = weighted_sum(lanes, &rows_z, &wy);
+        }
+        PicFlipSums {
+            velocities: weighted_sum(lanes, &slabs, &wx),
+            gradient: [
+                weighted_sum(lanes, &slabs, &sx),
+                weighted_sum(lanes, &slabs_y, &wx),
+                weighted_sum(lanes, &slabs_z, &wx),
+            ],
         }
     }
+}
+
+/// Σ_n weights[n] terms[n], added in order n = 0, 1, 2, 3.
+#[inline(always)]
+fn weighted_sum<P: PairLanes>(lanes: P, terms: &[P::Pair; 4], weights: &[f32; 4]) -> P::Pair {
+    let mut sum = terms[0] * lanes.splat(weights[0]);
+    for n in 1..4 {
+        sum = sum + terms[n] * lanes.splat(weights[n]);
+    }
+    sum
 }
 
 /// APIC with quadratic B-splines, read from [`LocalNodes`].

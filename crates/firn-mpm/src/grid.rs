@@ -10,6 +10,7 @@
 //! history), the pool stays in the same order a dense grid would have, and a
 //! 1024³-cell box costs a 64 MiB page table plus the blocks near the snow.
 
+use firn_core::math::isa::PairLanes;
 use glam::{IVec3, UVec3, Vec3, Vec4};
 use rayon::prelude::*;
 
@@ -62,6 +63,20 @@ impl Node {
     #[inline(always)]
     pub fn set_velocity_new(&mut self, velocity: Vec3) {
         self.velocity_new = velocity.extend(0.0);
+    }
+
+    /// Both vectors as one pair, `velocity_mass` low: the PIC/FLIP
+    /// transfers weight them together, in one 256-bit register where the
+    /// instruction set has them.
+    #[inline(always)]
+    pub fn pair<P: PairLanes>(&self, lanes: P) -> P::Pair {
+        lanes.pair(self.velocity_mass, self.velocity_new)
+    }
+
+    /// Adds `terms` laid out as [`Node::pair`].
+    #[inline(always)]
+    pub fn add_pair<P: PairLanes>(&mut self, lanes: P, terms: P::Pair) {
+        [self.velocity_mass, self.velocity_new] = lanes.halves(self.pair(lanes) + terms);
     }
 }
 

@@ -20,7 +20,7 @@ use glam::{IVec3, Mat3, Vec3, Vec4};
 use rayon::prelude::*;
 
 use firn_core::math::bspline::{QuadraticLanes, StencilWeights, cubic_weights};
-use firn_core::math::isa::{Avx2, Isa, Kernel};
+use firn_core::math::isa::{Avx2, Isa, Kernel, PairLanes, PortablePairs};
 use firn_core::math::lanes::{F32s, Mat3s, Simd, Vec3s, lanes_to_rows};
 
 use crate::binning::Bins;
@@ -74,19 +74,28 @@ impl Kernel for PicFlipBlock<'_> {
                 inverse_h,
             };
             let window = self.local.window_mut::<4, CUBIC_SPAN>(weights.base);
-            stencil.add_to(isa.avx2(), &weights, window);
+            match isa.avx2() {
+                #[cfg(target_arch = "x86_64")]
+                Some(avx2) => stencil.add_to(avx2, &weights, window),
+                _ => stencil.add_to(PortablePairs, &weights, window),
+            }
         }
     }
 }
 
 /// What one particle adds to its 4x4x4 stencil: node (i, j, k) gets
-/// w_ijk (m_p v_p, m_p) and the force −τ_p ∇w_ijk / h (eq. 31-33, 40).
+/// w_ijk (m_p v_p, m_p) and the force −τ_p ∇w_ijk (eq. 31-33, 40), with
+/// w_ijk = w_i^x w_j^y w_k^z and ∇w_ijk = (s_i^x w_j^y w_k^z,
+/// w_i^x s_j^y w_k^z, w_i^x w_j^y s_k^z) / h (s the per-cell slopes).
 ///
-/// Eight nodes at a time (two stencil rows along z) are computed in SIMD
-/// lanes, each lane doing the IEEE operations that
-/// [`StencilWeights::weight`], [`StencilWeights::gradient`] and glam's
-/// `Mat3 * Vec3` do for its node, in the same order, so the sums have the
-/// bits of the scalar form whatever the instruction set.
+/// Both node vectors are added at once, as a pair ([`Node::pair`]),
+/// and the terms are built by the tensor product: per slab i the pairs
+/// (w_i (m_p v_p, m_p), −s_i τ_0 / h), (0, −w_i τ_1 / h) and
+/// (0, −w_i τ_2 / h) (τ_a the columns of τ_p); per row (i, j) from them
+/// a_ij = (w_i w_j (m_p v_p, m_p), −(s_i w_j τ_0 + w_i s_j τ_1) / h) and
+/// b_ij = (0, −w_i w_j τ_2 / h); node (i, j, k) gets a_ij w_k + b_ij s_k.
+/// Every instruction set does these lane-wise operations in this order,
+/// so the same bits.
 struct PicFlipStencil {
     /// (m_p v_p, m_p).
     momentum_mass: Vec4,
@@ -99,71 +108,33 @@ struct PicFlipStencil {
 impl PicFlipStencil {
     /// Adds the particle's terms to its stencil `window`.
     #[inline(always)]
-    fn add_to(
+    fn add_to<P: PairLanes>(
         &self,
-        avx2: Option<Avx2>,
+        lanes: P,
         weights: &StencilWeights<4>,
         window: &mut [Node; CUBIC_SPAN],
     ) {
-        type Lanes = F32s<8>;
-        let (values, slopes) = (&weights.values, &weights.slopes);
-        // Lane l is node (i, j0 + l / 4, l % 4) of rows j0 and j0 + 1.
-        let along_z = |f: &dyn Fn(usize) -> f32| F32s(std::array::from_fn(|l| f(l % 4)));
-        let (wz, sz) = (along_z(&|k| values[k].z), along_z(&|k| slopes[k].z));
-        let splat = Lanes::splat;
-        let [m_x, m_y, m_z, m_w] = self.momentum_mass.to_array().map(splat);
-        let columns = [self.stress.x_axis, self.stress.y_axis, self.stress.z_axis];
-        let [c0, c1, c2] = columns.map(|c| c.to_array().map(splat));
-        let inverse_h = splat(self.inverse_h);
+        let ((wx, sx), (wy, sy), (wz, sz)) = (weights.along(0), weights.along(1), weights.along(2));
+        let splat = |value: f32| lanes.splat(value);
+        let minus_inverse_h = -self.inverse_h;
+        let stress = self.stress;
+        let (t0, t1, t2) = (
+            stress.x_axis.extend(0.0),
+            stress.y_axis.extend(0.0),
+            stress.z_axis.extend(0.0),
+        );
         for i in 0..4 {
-            let (wx, sx) = (splat(values[i].x), splat(slopes[i].x));
-            for j0 in [0, 2] {
-                let along_y =
-                    |f: &dyn Fn(usize) -> f32| F32s(std::array::from_fn(|l| f(j0 + l / 4)));
-                let (wy, sy) = (along_y(&|j| values[j].y), along_y(&|j| slopes[j].y));
-                let wxy = wx * wy;
-                let weight = wxy * wz;
-                let gradient = [
-                    sx * wy * wz * inverse_h,
-                    wx * sy * wz * inverse_h,
-                    wxy * sz * inverse_h,
-                ];
-                let force =
-                    |r: usize| -(c0[r] * gradient[0] + c1[r] * gradient[1] + c2[r] * gradient[2]);
-                let terms = [
-                    m_x * weight,
-                    m_y * weight,
-                    m_z * weight,
-                    m_w * weight,
-                    force(0),
-                    force(1),
-                    force(2),
-                    splat(0.0),
-                ];
-                let rows = rows_of(avx2, &terms);
-                for (l, row) in rows.iter().enumerate() {
-                    add_row(avx2, &mut window[at(i, j0 + l / 4, l % 4)], row);
+            // The slab's pairs, to be multiplied by w_j, s_j and w_j.
+            let weighted = lanes.pair(self.momentum_mass * wx[i], t0 * (sx[i] * minus_inverse_h));
+            let sloped = lanes.pair(Vec4::ZERO, t1 * (wx[i] * minus_inverse_h));
+            let sloped_z = lanes.pair(Vec4::ZERO, t2 * (wx[i] * minus_inverse_h));
+            for j in 0..4 {
+                let a = weighted * splat(wy[j]) + sloped * splat(sy[j]);
+                let b = sloped_z * splat(wy[j]);
+                for k in 0..4 {
+                    window[at(i, j, k)].add_pair(lanes, a * splat(wz[k]) + b * splat(sz[k]));
                 }
             }
-        }
-    }
-}
-
-/// Adds a row of eight floats to `node`: (momentum, mass) then (force, 0),
-/// in one 256-bit register given `avx2` (the same additions lane by lane).
-#[inline(always)]
-fn add_row(avx2: Option<Avx2>, node: &mut Node, row: &[f32; 8]) {
-    let (momentum_mass, force) = (Vec4::from_slice(&row[..4]), Vec4::from_slice(&row[4..]));
-    match avx2 {
-        #[cfg(target_arch = "x86_64")]
-        Some(avx2) => {
-            let sums =
-                avx2.pair(node.velocity_mass, node.velocity_new) + avx2.pair(momentum_mass, force);
-            [node.velocity_mass, node.velocity_new] = sums.halves();
-        }
-        _ => {
-            node.velocity_mass += momentum_mass;
-            node.velocity_new += force;
         }
     }
 }

@@ -5,7 +5,9 @@
 //! Every tolerance is relative to the largest |value| of the quantity (over
 //! the grid or the particles), about ten times the worst difference seen
 //! over the cases of a run (in brackets, measured on 2026-11-25 with 12
-//! random states per stage and scheme; each check prints its worst, so
+//! random states per stage and scheme, and again on 2026-11-26 once the
+//! PIC/FLIP transfers summed their stencils as tensor products; each check
+//! prints its worst, so
 //! `cargo test -p firn-mpm --test reference -- --nocapture 2>&1 | grep worst`
 //! shows them):
 //! - P2G: every node sums up to 64 (cubic) or 27 (quadratic) terms per
@@ -13,17 +15,17 @@
 //!   APIC's terms built in SIMD lanes with the affine map factored
 //!   differently). Each f32 addition rounds by at most 2⁻²⁴ of the running
 //!   sum, so the difference stays within some ulps of the largest node
-//!   value: 1e-5 (mass 7.3e-7, momentum 6.1e-7, force 6.1e-7).
+//!   value: 1e-5 (mass 6.4e-7, momentum 4.9e-7, force 6.5e-7).
 //! - Grid update: the same IEEE operations node by node, but from node
-//!   sums that differ as above: 1e-6 (v_i 1.1e-7, v_i^{n+1} 1.3e-7).
+//!   sums that differ as above: 1e-6 (v_i 1.1e-7, v_i^{n+1} 2.6e-7).
 //! - G2P: the velocity and ∇v_p sum over the stencil in another order:
-//!   1e-5 (v_p 2.4e-7, ∇v_p 9.1e-7). The snow model differs more: the fast
+//!   1e-5 (v_p 2.4e-7, ∇v_p 9.5e-7). The snow model differs more: the fast
 //!   path keeps F̂_E unchanged inside the yield surface and takes R_E from
 //!   Newton's polar iteration, uses its own exponential, and evaluates in
 //!   lanes; the reference always goes through the SVD. F_E and J_P: 1e-5
-//!   (9.5e-7, 9.9e-7); the stress V_p^0 τ_p, a difference of nearly equal
+//!   (9.5e-7, 7.8e-7); the stress V_p^0 τ_p, a difference of nearly equal
 //!   matrices (F_E − R_E) scaled by 2μ, loses digits to cancellation: 1e-4
-//!   (1.3e-5); positions 1e-6 (8.0e-8). Every instruction set the CPU has
+//!   (1.4e-5); positions 1e-6 (7.9e-8). Every instruction set the CPU has
 //!   is checked (they give the same bits; tests/determinism.rs).
 //! - Whole substeps: the differences above feed back through the stress;
 //!   after ten substeps positions agree to 1e-5 of a cell.

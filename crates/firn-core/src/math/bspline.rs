@@ -97,6 +97,20 @@ impl<const N: usize> StencilWeights<N> {
         )
     }
 
+    /// The 1D weights and slopes of the stencil's nodes along `axis` (0, 1
+    /// or 2 for x, y, z), for sums that take the weights' tensor product
+    /// axis by axis.
+    #[inline(always)]
+    pub fn along(&self, axis: usize) -> ([f32; N], [f32; N]) {
+        let mut values = [0.0; N];
+        let mut slopes = [0.0; N];
+        for n in 0..N {
+            values[n] = self.values[n][axis];
+            slopes[n] = self.slopes[n][axis];
+        }
+        (values, slopes)
+    }
+
     /// Vector from the particle to stencil node (i, j, k), in cells.
     #[inline(always)]
     pub fn node_offset(&self, i: usize, j: usize, k: usize) -> Vec3 {

@@ -8,7 +8,9 @@
 //! - [`Isa::run`] runs a [`Kernel`] compiled for the instruction set, the
 //!   way every solver stage dispatches (one copy of the kernel per set);
 //! - [`Vec4Pair`] puts two `Vec4`s in one 256-bit register, for the APIC
-//!   stencils that handle two nodes or two particles at once;
+//!   stencils that handle two nodes or two particles at once, and
+//!   [`PairLanes`] writes pair code once for AVX2 and portable code (the
+//!   PIC/FLIP transfers, which weight both vectors of a node together);
 //! - [`floor_sse2`] is B-spline weights' ⌊x⌋ in SSE2, which x86-64 always has;
 //! - [`floor_clamped`] is ⌊x⌋ as an `i32` without `as`'s saturation checks,
 //!   so that lanes of it vectorise;
@@ -277,6 +279,90 @@ impl Mul for Vec4Pair {
     fn mul(self, other: Vec4Pair) -> Vec4Pair {
         // SAFETY: a `Vec4Pair` is only made with an `Avx2` proof.
         Vec4Pair(unsafe { _mm256_mul_ps(self.0, other.0) })
+    }
+}
+
+/// Two `Vec4`s operated on together, lane by lane as glam does each, on
+/// any instruction set: code generic over it is written once and runs in
+/// one 256-bit register per pair with an [`Avx2`] ([`Vec4Pair`]), or as two
+/// `Vec4`s with [`PortablePairs`] ([`SplitPair`]). The same IEEE operations
+/// either way, so the same bits.
+pub trait PairLanes: Copy {
+    /// Two `Vec4`s, low and high.
+    type Pair: Copy + Add<Output = Self::Pair> + Mul<Output = Self::Pair>;
+
+    /// `low` and `high` as one pair.
+    fn pair(self, low: Vec4, high: Vec4) -> Self::Pair;
+
+    /// The low and the high `Vec4` of `pair`.
+    fn halves(self, pair: Self::Pair) -> [Vec4; 2];
+
+    /// `value` in all eight lanes.
+    #[inline(always)]
+    fn splat(self, value: f32) -> Self::Pair {
+        self.pair(Vec4::splat(value), Vec4::splat(value))
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl PairLanes for Avx2 {
+    type Pair = Vec4Pair;
+
+    #[inline(always)]
+    fn pair(self, low: Vec4, high: Vec4) -> Vec4Pair {
+        Avx2::pair(self, low, high)
+    }
+
+    #[inline(always)]
+    fn halves(self, pair: Vec4Pair) -> [Vec4; 2] {
+        pair.halves()
+    }
+}
+
+/// [`PairLanes`] without AVX2: each pair is two `Vec4`s.
+#[derive(Clone, Copy, Debug)]
+pub struct PortablePairs;
+
+/// Two `Vec4`s side by side, for [`PortablePairs`].
+#[derive(Clone, Copy, Debug)]
+pub struct SplitPair {
+    low: Vec4,
+    high: Vec4,
+}
+
+impl Add for SplitPair {
+    type Output = SplitPair;
+    #[inline(always)]
+    fn add(self, other: SplitPair) -> SplitPair {
+        SplitPair {
+            low: self.low + other.low,
+            high: self.high + other.high,
+        }
+    }
+}
+
+impl Mul for SplitPair {
+    type Output = SplitPair;
+    #[inline(always)]
+    fn mul(self, other: SplitPair) -> SplitPair {
+        SplitPair {
+            low: self.low * other.low,
+            high: self.high * other.high,
+        }
+    }
+}
+
+impl PairLanes for PortablePairs {
+    type Pair = SplitPair;
+
+    #[inline(always)]
+    fn pair(self, low: Vec4, high: Vec4) -> SplitPair {
+        SplitPair { low, high }
+    }
+
+    #[inline(always)]
+    fn halves(self, pair: SplitPair) -> [Vec4; 2] {
+        [pair.low, pair.high]
     }
 }
 
