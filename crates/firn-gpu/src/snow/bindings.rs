@@ -83,6 +83,16 @@ bind_group! {
         /// Spindrift's settings and the frame's first substep index
         /// (`snow/spindrift.wgsl`; zeroes without spindrift).
         32 => spindrift: Uniform "SpindriftParams",
+        /// The semi-implicit solve's node vectors x, r, z, p, S p, S z and
+        /// the contact constraints, one plane of nodes each
+        /// (`snow/implicit.wgsl`; a 16-byte stand-in for the explicit
+        /// integrator).
+        33 => solve_nodes: ReadWrite "array<vec4<f32>>",
+        /// The stress differential of each particle for the solve's
+        /// products with H.
+        34 => linearized: ReadWrite "array<StressDifferential>",
+        /// The solve's scalars and the workgroups' partial sums.
+        35 => solve: ReadWrite "SolveState",
     }
 }
 
