@@ -106,7 +106,7 @@ fn solve_running() -> bool {
 }
 
 // The last product beta dt^2 H y at a node, read from the force word planes,
-// which are zeroed for the next product.
+// which are zeroed for the next product (the load zeroes them first).
 fn take_product(node: u32) -> vec3<f32> {
     let sum = vec3<f32>(
         from_fixed(atomicLoad(&fx_hi[node]), atomicLoad(&fx_lo[node])),
@@ -311,11 +311,13 @@ fn relative_residual(rz: f32) -> f32 {
 // ---- per node ----
 
 // Reads m_i and v*, applies the collisions while recording which components
-// they fix, zeroes the other vectors; returns m_i |v*|^2.
+// they fix, zeroes the other vectors and the force word planes (PIC/FLIP's
+// scatter left its force impulse there); returns m_i |v*|^2.
 fn load_node(node: u32) -> f32 {
     if node >= node_count() {
         return 0.0;
     }
+    take_product(node);
     for (var vector = VECTOR_R; vector <= VECTOR_PRODUCT; vector++) {
         set_node_vector(vector, node, vec3<f32>(0.0));
     }
