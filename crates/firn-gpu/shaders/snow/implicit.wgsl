@@ -27,7 +27,8 @@
 // `solve.running` between them. Once the solve stops, every kernel of it
 // returns at once.
 
-// The node vectors, one plane of nodes each in solve_nodes.
+// The node vectors, one plane of nodes each: the first four in
+// solve_vectors, the rest in solve_products.
 const VECTOR_X: u32 = 0u;
 const VECTOR_R: u32 = 1u;
 const VECTOR_Z: u32 = 2u;
@@ -36,6 +37,7 @@ const VECTOR_SP: u32 = 4u;
 const VECTOR_PRODUCT: u32 = 5u;
 // xyz: direction, w: kind (colliders.wgsl, CONSTRAINT_*).
 const VECTOR_CONSTRAINT: u32 = 6u;
+const VECTORS_IN_FIRST_BUFFER: u32 = 4u;
 
 // The solve's state within a substep, and the partial sums of the
 // workgroups' reductions.
@@ -73,16 +75,31 @@ fn node_count() -> u32 {
     return params.dims.x * params.dims.y * params.dims.z;
 }
 
+fn node_word(vector: u32, node: u32) -> vec4<f32> {
+    if vector < VECTORS_IN_FIRST_BUFFER {
+        return solve_vectors[vector * node_count() + node];
+    }
+    return solve_products[(vector - VECTORS_IN_FIRST_BUFFER) * node_count() + node];
+}
+
+fn set_node_word(vector: u32, node: u32, value: vec4<f32>) {
+    if vector < VECTORS_IN_FIRST_BUFFER {
+        solve_vectors[vector * node_count() + node] = value;
+    } else {
+        solve_products[(vector - VECTORS_IN_FIRST_BUFFER) * node_count() + node] = value;
+    }
+}
+
 fn node_vector(vector: u32, node: u32) -> vec3<f32> {
-    return solve_nodes[vector * node_count() + node].xyz;
+    return node_word(vector, node).xyz;
 }
 
 fn set_node_vector(vector: u32, node: u32, value: vec3<f32>) {
-    solve_nodes[vector * node_count() + node] = vec4<f32>(value, 0.0);
+    set_node_word(vector, node, vec4<f32>(value, 0.0));
 }
 
 fn node_constraint(node: u32) -> vec4<f32> {
-    return solve_nodes[VECTOR_CONSTRAINT * node_count() + node];
+    return node_word(VECTOR_CONSTRAINT, node);
 }
 
 fn solve_node_mass(node: u32) -> f32 {
@@ -324,13 +341,13 @@ fn load_node(node: u32) -> f32 {
     let mass = solve_node_mass(node);
     if mass <= 0.0 {
         set_node_vector(VECTOR_X, node, vec3<f32>(0.0));
-        solve_nodes[VECTOR_CONSTRAINT * node_count() + node] = vec4<f32>(0.0, 0.0, 0.0, CONSTRAINT_FIXED);
+        set_node_word(VECTOR_CONSTRAINT, node, vec4<f32>(0.0, 0.0, 0.0, CONSTRAINT_FIXED));
         return 0.0;
     }
     atomicAdd(&solve.active_nodes, 1u);
     let collided = collide_all_constrained(node_position(node), node_velocity_new(node), simulated_time());
     set_node_vector(VECTOR_X, node, collided.velocity);
-    solve_nodes[VECTOR_CONSTRAINT * node_count() + node] = collided.constraint;
+    set_node_word(VECTOR_CONSTRAINT, node, collided.constraint);
     return mass * dot(collided.velocity, collided.velocity);
 }
 

@@ -112,16 +112,22 @@ impl GridBuffers {
 /// The semi-implicit solve's buffers (`shaders/snow/implicit.wgsl`):
 /// 16-byte stand-ins for the explicit integrator.
 pub struct SolveBuffers {
-    /// The node vectors x, r, z, p, S p, S z and the constraints.
-    pub nodes: wgpu::Buffer,
+    /// The node vectors x, r, z and p.
+    pub vectors: wgpu::Buffer,
+    /// The node vectors S p and S z, and the constraints.
+    pub products: wgpu::Buffer,
     /// One `StressDifferential` per particle.
     pub linearized: wgpu::Buffer,
     /// `SolveState`: the scalars, then one partial sum per node workgroup.
     pub state: wgpu::Buffer,
 }
 
-/// Node vectors of the solve, each one plane of `vec4` per node.
-pub const SOLVE_VECTORS: u64 = 7;
+/// Node vectors of the solve in `SolveBuffers::vectors`, one plane of
+/// `vec4` per node each.
+pub const SOLVE_VECTORS: u64 = 4;
+
+/// Node vectors in `SolveBuffers::products`.
+pub const SOLVE_PRODUCTS: u64 = 3;
 
 /// Bytes of a `StressDifferential` in storage layout: four `mat3x3` and a
 /// `vec4`'s worth of scalars.
@@ -134,7 +140,12 @@ impl SolveBuffers {
         let size = |bytes: u64| if implicit { bytes } else { 16 };
         let node_groups = nodes.div_ceil(64);
         SolveBuffers {
-            nodes: zeroed_storage_buffer(context, "solve vectors", size(SOLVE_VECTORS * 16 * nodes)),
+            vectors: zeroed_storage_buffer(context, "solve vectors", size(SOLVE_VECTORS * 16 * nodes)),
+            products: zeroed_storage_buffer(
+                context,
+                "solve products",
+                size(SOLVE_PRODUCTS * 16 * nodes),
+            ),
             linearized: zeroed_storage_buffer(
                 context,
                 "stress differentials",
@@ -249,7 +260,8 @@ impl SnowBuffers {
             obstacles: &self.wind.obstacles,
             wind: &self.wind.params,
             spindrift: &self.spindrift,
-            solve_nodes: &self.solve.nodes,
+            solve_vectors: &self.solve.vectors,
+            solve_products: &self.solve.products,
             linearized: &self.solve.linearized,
             solve: &self.solve.state,
         }

@@ -4,7 +4,7 @@ use firn_core::Scene;
 use firn_core::scene::{Integrator, Transfer};
 use firn_mpm::grid::GridLayout;
 
-use super::buffers::{LINEARIZED_BYTES, SOLVE_VECTORS};
+use super::buffers::{LINEARIZED_BYTES, SOLVE_PRODUCTS, SOLVE_VECTORS};
 
 /// Bytes per particle: position and mass, velocity and V_p^0 (two `vec4`),
 /// F_E, C_p and V_p^0 τ_p (three `mat3x3` of 48 bytes in storage layout),
@@ -28,7 +28,7 @@ fn grid_quantities(transfer: Transfer, implicit: bool) -> u64 {
 
 /// Bytes per node of the semi-implicit solve: its node vectors (one `vec4`
 /// each) and a partial sum per 64 nodes, rounded up.
-const SOLVE_BYTES_PER_NODE: u64 = SOLVE_VECTORS * 16 + 1;
+const SOLVE_BYTES_PER_NODE: u64 = (SOLVE_VECTORS + SOLVE_PRODUCTS) * 16 + 1;
 
 /// The GPU memory a snow scene needs: dense grid plus particles.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -77,7 +77,7 @@ impl MemoryEstimate {
     /// The largest single buffer: one grid quantity's word (4 bytes per
     /// node) or one particle matrix array (48 bytes per particle; the work
     /// items take at most 8 bytes and a fraction); with the semi-implicit
-    /// solve, its node vectors or its stress differentials.
+    /// solve, its larger buffer of node vectors or its stress differentials.
     pub fn largest_buffer_bytes(&self) -> u64 {
         let explicit = (self.nodes * 4).max(self.particles * 48);
         if self.implicit {
