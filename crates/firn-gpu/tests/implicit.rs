@@ -157,7 +157,6 @@ fn one_substep_matches_the_cpu_solve_in_contact() {
     }
 }
 
-
 /// Five frames (50 substeps) through the impact on the wall: the mass is
 /// equal, momentum, centre of mass and the positions' quantiles agree, and
 /// the solves took as many iterations give or take two per substep.
@@ -183,7 +182,11 @@ fn a_run_through_the_impact_follows_the_cpu() {
         assert_eq!(on_cpu.mass, on_gpu.mass);
         // The wall stopped the ball: its x-momentum fell by more than half.
         let thrown = on_cpu.mass * 3.0;
-        assert!(on_cpu.momentum[0] < 0.5 * thrown, "{transfer}: {:?}", on_cpu.momentum);
+        assert!(
+            on_cpu.momentum[0] < 0.5 * thrown,
+            "{transfer}: {:?}",
+            on_cpu.momentum
+        );
         for axis in 0..3 {
             let difference = (on_cpu.momentum[axis] - on_gpu.momentum[axis]).abs();
             assert!(
@@ -193,7 +196,10 @@ fn a_run_through_the_impact_follows_the_cpu() {
                 on_gpu.momentum
             );
             let shift = (on_cpu.center_of_mass[axis] - on_gpu.center_of_mass[axis]).abs();
-            assert!(shift <= 1e-3 * f64::from(h), "{transfer}: centre of mass {axis} differs by {shift:e} m");
+            assert!(
+                shift <= 1e-3 * f64::from(h),
+                "{transfer}: centre of mass {axis} differs by {shift:e} m"
+            );
         }
         let worst = worst_quantile(&cpu.particles().position, &snapshot.particles.position);
         assert!(
@@ -201,10 +207,15 @@ fn a_run_through_the_impact_follows_the_cpu() {
             "{transfer}: the positions' quantiles differ by {worst:e} m"
         );
         let (on_cpu, on_gpu) = (cpu.solver_stats().unwrap(), gpu.solver_stats().unwrap());
-        eprintln!("{transfer}: CPU solves {on_cpu:?}\nGPU solves {on_gpu:?}\nquantiles within {worst:.2e} m");
+        eprintln!(
+            "{transfer}: CPU solves {on_cpu:?}\nGPU solves {on_gpu:?}\nquantiles within {worst:.2e} m"
+        );
         assert_eq!(on_cpu.steps, on_gpu.steps, "{transfer}");
         assert_eq!(on_gpu.unconverged_steps, 0, "{transfer}: {on_gpu:?}");
-        assert!(on_cpu.max_iterations.abs_diff(on_gpu.max_iterations) <= 2, "{transfer}");
+        assert!(
+            on_cpu.max_iterations.abs_diff(on_gpu.max_iterations) <= 2,
+            "{transfer}"
+        );
         assert!(
             on_cpu.total_iterations.abs_diff(on_gpu.total_iterations) <= 2 * on_cpu.steps,
             "{transfer}: {} CPU and {} GPU iterations in all",
@@ -259,4 +270,3 @@ fn two_gpu_runs_give_the_same_bits() {
     assert!(bits(&first) == bits(&second), "two GPU runs differ");
     assert_eq!(first_stats, second_stats);
 }
-

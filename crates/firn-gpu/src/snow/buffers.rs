@@ -85,7 +85,12 @@ impl GridBuffers {
     /// Zeroed planes for `nodes` nodes. The force planes are also the
     /// semi-implicit solve's sums of its products with H (`implicit`), so
     /// APIC has them too then.
-    pub fn new(context: &GpuContext, nodes: u64, transfer: Transfer, implicit: bool) -> GridBuffers {
+    pub fn new(
+        context: &GpuContext,
+        nodes: u64,
+        transfer: Transfer,
+        implicit: bool,
+    ) -> GridBuffers {
         let used = match transfer {
             Transfer::Apic if !implicit => 8,
             Transfer::Apic | Transfer::PicFlip => PLANES,
@@ -140,7 +145,11 @@ impl SolveBuffers {
         let size = |bytes: u64| if implicit { bytes } else { 16 };
         let node_groups = nodes.div_ceil(64);
         SolveBuffers {
-            vectors: zeroed_storage_buffer(context, "solve vectors", size(SOLVE_VECTORS * 16 * nodes)),
+            vectors: zeroed_storage_buffer(
+                context,
+                "solve vectors",
+                size(SOLVE_VECTORS * 16 * nodes),
+            ),
             products: zeroed_storage_buffer(
                 context,
                 "solve products",

@@ -61,7 +61,11 @@ pub struct SolveGroups {
     pub nodes: (u32, u32, u32),
 }
 
-fn dispatch(pass: &mut wgpu::ComputePass, pipeline: &wgpu::ComputePipeline, (x, y, z): (u32, u32, u32)) {
+fn dispatch(
+    pass: &mut wgpu::ComputePass,
+    pipeline: &wgpu::ComputePipeline,
+    (x, y, z): (u32, u32, u32),
+) {
     pass.set_pipeline(pipeline);
     pass.dispatch_workgroups(x, y, z);
 }
