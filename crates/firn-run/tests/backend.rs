@@ -27,7 +27,10 @@ fn the_gpu_runs_explicit_snow_and_flows() {
 fn a_semi_implicit_scene_runs_on_the_gpu() {
     let mut scene = common::slab();
     scene.solver.integrator = Integrator::SemiImplicit(ImplicitSettings::DEFAULT);
-    assert!(gpu_supports(&scene).is_ok(), "the GPU runs the semi-implicit solve");
+    assert!(
+        gpu_supports(&scene).is_ok(),
+        "the GPU runs the semi-implicit solve"
+    );
 }
 
 #[test]
