@@ -346,8 +346,28 @@ fn check_says_whether_the_gpu_backend_runs_the_scene() {
     let output = firn(&["check", implicit.to_str().unwrap()]);
     assert!(output.status.success(), "{}", text(&output.stderr));
     let stdout = text(&output.stdout);
+    // The semi-implicit solve's stress differentials: 224 bytes per particle more.
     assert!(
-        stdout.contains("CPU only") && stdout.contains("semi-implicit"),
+        stdout.contains("the GPU backend runs this scene")
+            && stdout.contains("429 bytes per particle"),
+        "{stdout}"
+    );
+    let obstacles: String = (0..9)
+        .map(|i| {
+            let x = 0.05 + 0.04 * f64::from(i);
+            format!("\n[[wind.obstacles]]\ncenter = [{x:.2}, 0.4, 0.4]\nradius = 0.02\n")
+        })
+        .collect();
+    let sheltered = write_scene(
+        dir.path(),
+        "sheltered.toml",
+        &format!("{SMALL_SCENE}\n[wind]\nbackground_strength = 2.0\n{obstacles}"),
+    );
+    let output = firn(&["check", sheltered.to_str().unwrap()]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let stdout = text(&output.stdout);
+    assert!(
+        stdout.contains("CPU only") && stdout.contains("9 spheres"),
         "{stdout}"
     );
 }

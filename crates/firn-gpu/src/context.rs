@@ -112,7 +112,7 @@ fn usable(adapters: Vec<wgpu::Adapter>) -> Vec<wgpu::Adapter> {
 }
 
 /// Storage buffers the snow substep binds (one bind group for all its kernels).
-pub const MIN_STORAGE_BUFFERS: u32 = 28;
+pub const MIN_STORAGE_BUFFERS: u32 = 32;
 
 /// Every adapter wgpu finds that can run firn's kernels, best first.
 pub fn adapters() -> Vec<AdapterReport> {

@@ -114,8 +114,7 @@ macro_rules! part {
 }
 
 /// Functions shared by the snow programs: weights, SVD, snow model,
-/// colliders, and the semi-implicit solve's stress differential (for now
-/// in the parity program only).
+/// colliders, and the semi-implicit solve's stress differential.
 const SNOW_LIBRARY: [Part; 6] = [
     part!("common/bspline.wgsl"),
     part!("common/svd.wgsl"),
@@ -127,7 +126,7 @@ const SNOW_LIBRARY: [Part; 6] = [
 
 /// The MPM substep, one file per stage in the order the substep runs them
 /// (`src/snow/substep.rs`): begin (Δt, stop conditions), binning, scatter,
-/// grid update, gather, spindrift.
+/// grid update, semi-implicit solve, gather, spindrift.
 pub const SNOW_STEP: Program = Program {
     name: "snow step",
     parts: &[
@@ -136,6 +135,7 @@ pub const SNOW_STEP: Program = Program {
         SNOW_LIBRARY[2],
         SNOW_LIBRARY[3],
         SNOW_LIBRARY[4],
+        SNOW_LIBRARY[5],
         part!("snow/layout.wgsl"),
         part!("flow/layout.wgsl"),
         Part::Bindings(&StepBindings::TABLE),
@@ -148,6 +148,7 @@ pub const SNOW_STEP: Program = Program {
         part!("snow/binning.wgsl"),
         part!("snow/p2g.wgsl"),
         part!("snow/grid_update.wgsl"),
+        part!("snow/implicit.wgsl"),
         part!("snow/g2p.wgsl"),
         part!("snow/spindrift.wgsl"),
     ],

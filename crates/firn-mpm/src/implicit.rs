@@ -611,7 +611,9 @@ impl SolverStats {
         (self.node_products > 0).then(|| seconds / self.node_products as f64)
     }
 
-    fn record(&mut self, report: SolveReport, active_nodes: u64) {
+    /// Adds one substep's solve, on `active_nodes` nodes with mass (both
+    /// backends keep their statistics with it).
+    pub fn record(&mut self, report: SolveReport, active_nodes: u64) {
         self.node_products += (u64::from(report.iterations) + 1) * active_nodes;
         self.steps += 1;
         self.total_iterations += u64::from(report.iterations);

@@ -278,11 +278,12 @@ impl Solver {
     }
 
     /// The semi-implicit solver's running totals (snow with that integrator,
-    /// on the CPU only).
+    /// on either backend).
     pub fn solver_stats(&self) -> Option<SolverStats> {
         match &self.engine {
             Engine::CpuSnow(simulation) => simulation.solver_stats(),
-            Engine::CpuFlow(_) | Engine::GpuSnow(_) | Engine::GpuFlow(_) => None,
+            Engine::GpuSnow(run) => run.device.solver_stats(),
+            Engine::CpuFlow(_) | Engine::GpuFlow(_) => None,
         }
     }
 

@@ -2,7 +2,7 @@
 
 mod common;
 
-use firn_core::scene::{Backend, ImplicitSettings, Integrator, Spindrift, Wind};
+use firn_core::scene::{Backend, FlowObstacle, ImplicitSettings, Integrator, Spindrift, Wind};
 use firn_run::backend::gpu_supports;
 use firn_run::choose_backend;
 
@@ -24,11 +24,25 @@ fn the_gpu_runs_explicit_snow_and_flows() {
 }
 
 #[test]
-fn a_semi_implicit_scene_is_not_for_the_gpu() {
+fn a_semi_implicit_scene_runs_on_the_gpu() {
     let mut scene = common::slab();
     scene.solver.integrator = Integrator::SemiImplicit(ImplicitSettings::DEFAULT);
-    let why = gpu_supports(&scene).expect_err("the GPU steps explicitly only");
-    assert!(why.to_string().contains("semi-implicit"), "{why}");
+    assert!(
+        gpu_supports(&scene).is_ok(),
+        "the GPU runs the semi-implicit solve"
+    );
+}
+
+#[test]
+fn a_wind_around_too_many_obstacles_is_not_for_the_gpu() {
+    let mut scene = common::slab();
+    let mut wind = Wind::uniform(glam::Vec3::X, 8.0);
+    wind.field.obstacles = (0..9)
+        .map(|i| FlowObstacle::new(glam::Vec3::new(0.1 * i as f32, 0.5, 0.5), 0.02))
+        .collect();
+    scene.wind = Some(wind);
+    let why = gpu_supports(&scene).expect_err("the GPU takes at most 8 obstacles");
+    assert!(why.to_string().contains("9 spheres"), "{why}");
     scene.compute.backend = Backend::Gpu;
     assert!(choose_backend(&scene).is_err());
     scene.compute.backend = Backend::Auto;

@@ -223,3 +223,116 @@ fn collide_all(point: vec3<f32>, velocity_in: vec3<f32>, t: f32) -> vec3<f32> {
     }
     return velocity;
 }
+
+// The velocity components of a grid node that contacts fix, as
+// firn_mpm::contact::Constraint: w is the kind, xyz its unit direction (the
+// fixed normal, or the one free line).
+const CONSTRAINT_FREE: f32 = 0.0;
+const CONSTRAINT_NORMAL: f32 = 1.0;
+const CONSTRAINT_LINE: f32 = 2.0;
+const CONSTRAINT_FIXED: f32 = 3.0;
+
+// Directions closer than this (|sin| of the angle) count as the same.
+const CONSTRAINT_PARALLEL: f32 = 1.0e-3;
+
+// A velocity after the contacts, with the components they fixed.
+struct Constrained {
+    velocity: vec3<f32>,
+    constraint: vec4<f32>,
+}
+
+// contact_response, plus which components the contact fixed
+// (firn_mpm::contact::contact_response).
+fn constrained_response(velocity: vec3<f32>, collider_velocity: vec3<f32>, normal: vec3<f32>, contact: u32, friction: f32) -> Constrained {
+    let free = vec4<f32>(0.0, 0.0, 0.0, CONSTRAINT_FREE);
+    let fixed = vec4<f32>(0.0, 0.0, 0.0, CONSTRAINT_FIXED);
+    let along_normal = vec4<f32>(normal, CONSTRAINT_NORMAL);
+    let relative = velocity - collider_velocity;
+    let normal_speed = dot(relative, normal);
+    let tangential = relative - normal * normal_speed;
+    if contact == CONTACT_STICKY {
+        return Constrained(collider_velocity, fixed);
+    }
+    if normal_speed >= 0.0 {
+        if contact == CONTACT_SEPARATE {
+            return Constrained(velocity, free);
+        }
+        return Constrained(collider_velocity + tangential, along_normal);
+    }
+    let length = length(tangential);
+    let limit = -friction * normal_speed;
+    if length > limit {
+        return Constrained(collider_velocity + tangential * (1.0 - limit / length), along_normal);
+    }
+    return Constrained(collider_velocity, fixed);
+}
+
+// The constraint after a further contact fixes `other` as well
+// (firn_mpm::contact::Constraint::and).
+fn constraint_and(a: vec4<f32>, b: vec4<f32>) -> vec4<f32> {
+    let fixed = vec4<f32>(0.0, 0.0, 0.0, CONSTRAINT_FIXED);
+    if a.w == CONSTRAINT_FREE {
+        return b;
+    }
+    if b.w == CONSTRAINT_FREE {
+        return a;
+    }
+    if a.w == CONSTRAINT_FIXED || b.w == CONSTRAINT_FIXED {
+        return fixed;
+    }
+    if a.w == CONSTRAINT_NORMAL && b.w == CONSTRAINT_NORMAL {
+        let free = cross(a.xyz, b.xyz);
+        let length = length(free);
+        if length < CONSTRAINT_PARALLEL {
+            return a;
+        }
+        return vec4<f32>(free / length, CONSTRAINT_LINE);
+    }
+    if a.w == CONSTRAINT_LINE && b.w == CONSTRAINT_LINE {
+        return fixed;
+    }
+    // One line and one normal.
+    var line = a.xyz;
+    var normal = b.xyz;
+    if a.w == CONSTRAINT_NORMAL {
+        line = b.xyz;
+        normal = a.xyz;
+    }
+    if abs(dot(line, normal)) < CONSTRAINT_PARALLEL {
+        return vec4<f32>(line, CONSTRAINT_LINE);
+    }
+    return fixed;
+}
+
+// P v: `velocity` with its fixed components removed
+// (firn_mpm::contact::Constraint::project).
+fn project(constraint: vec4<f32>, velocity: vec3<f32>) -> vec3<f32> {
+    let d = constraint.xyz;
+    if constraint.w == CONSTRAINT_NORMAL {
+        return velocity - d * dot(d, velocity);
+    }
+    if constraint.w == CONSTRAINT_LINE {
+        return d * dot(d, velocity);
+    }
+    if constraint.w == CONSTRAINT_FIXED {
+        return vec3<f32>(0.0);
+    }
+    return velocity;
+}
+
+// collide_all, plus the components the contacts fixed
+// (firn_mpm::contact::collide_all_constrained).
+fn collide_all_constrained(point: vec3<f32>, velocity_in: vec3<f32>, t: f32) -> Constrained {
+    var result = Constrained(velocity_in, vec4<f32>(0.0, 0.0, 0.0, CONSTRAINT_FREE));
+    let count = arrayLength(&colliders);
+    for (var c = 0u; c < count; c++) {
+        let collider = colliders[c];
+        let placed = placement(collider, t);
+        let surface = surface_point(collider, placed.position, point);
+        if surface.distance <= 0.0 {
+            let response = constrained_response(result.velocity, placed.velocity, surface.normal, collider.contact, collider.friction);
+            result = Constrained(response.velocity, constraint_and(result.constraint, response.constraint));
+        }
+    }
+    return result;
+}

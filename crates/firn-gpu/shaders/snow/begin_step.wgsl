@@ -2,9 +2,8 @@
 // and the stop conditions, as firn_mpm::Simulation::next_dt and
 // Simulation::advance_to. Δt = CFL h / (max |v_p| + max c_p), capped, or the
 // fixed Δt, from the maxima the last gather reduced; clipped to the frame's
-// end. The GPU runs the thesis' explicit scheme: step 6, the semi-implicit
-// solve of Stomakhin et al. 2013 (eq. 9, firn_mpm::implicit), has no stage
-// here, and the grid update's v_i* are the new grid velocities.
+// end. With the semi-implicit integrator (implicit.wgsl) elastic waves do
+// not limit the step: dt = CFL h / max |v_p|.
 
 // Seconds within which a frame counts as reached (the CPU's 1e-9 s).
 const FRAME_END_TOLERANCE: f32 = 1.0e-9;
@@ -15,7 +14,10 @@ fn next_dt(speed_squared: f32, wave_speed_squared: f32) -> f32 {
     if params.stepping.z > 0.0 {
         return params.stepping.z;
     }
-    let speed = sqrt(speed_squared) + sqrt(wave_speed_squared);
+    var speed = sqrt(speed_squared);
+    if params.flags.z == 0u {
+        speed += sqrt(wave_speed_squared);
+    }
     if speed > 0.0 {
         return min(params.stepping.x * params.origin.w / speed, params.stepping.y);
     }

@@ -34,11 +34,13 @@ fn store_node_velocities(node: u32, velocity: vec3<f32>, velocity_new: vec3<f32>
 }
 
 // Steps 4 and 5: v_i = p_i / m_i, v_i* = v_i + dt (f_i / m_i + g), the
-// wind's drag when `windy`, then the grid collisions at the end of the
-// substep, on every node with mass. The two entry points below pass `windy`
-// as a constant, so the scene without wind runs no wind code: lavapipe, for
-// one, runs both sides of a branch it cannot prove uniform.
-fn update_node(node: u32, windy: bool) {
+// wind's drag when `windy`, then, when `colliding`, the grid collisions at
+// the end of the substep, on every node with mass. The semi-implicit
+// integrator leaves the collisions to its solve (implicit.wgsl), which
+// records the components they fix. The entry points below pass `windy` and
+// `colliding` as constants, so the scene without wind runs no wind code:
+// lavapipe, for one, runs both sides of a branch it cannot prove uniform.
+fn update_node(node: u32, windy: bool, colliding: bool) {
     let dims = params.dims.xyz;
     if node >= dims.x * dims.y * dims.z || state.running == 0u {
         return;
@@ -60,7 +62,10 @@ fn update_node(node: u32, windy: bool) {
     if windy {
         velocity_star = blown(vec3<i32>(cell), mass, velocity_star, position);
     }
-    let velocity_new = collide_all(position, velocity_star, simulated_time());
+    var velocity_new = velocity_star;
+    if colliding {
+        velocity_new = collide_all(position, velocity_star, simulated_time());
+    }
     store_node_velocities(node, velocity, velocity_new);
 }
 
@@ -68,7 +73,7 @@ fn update_node(node: u32, windy: bool) {
 @compute @workgroup_size(64)
 fn update_grid(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
                @builtin(local_invocation_index) local: u32) {
-    update_node(linear_index(group, groups, local), false);
+    update_node(linear_index(group, groups, local), false, true);
 }
 
 // The grid update of a scene with a [wind]; with no drag there is nothing to
@@ -78,5 +83,20 @@ fn update_grid(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups)
 @compute @workgroup_size(64)
 fn update_grid_in_wind(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
                        @builtin(local_invocation_index) local: u32) {
-    update_node(linear_index(group, groups, local), wind.node_drag > 0.0);
+    update_node(linear_index(group, groups, local), wind.node_drag > 0.0, true);
+}
+
+// The grid update of a semi-implicit scene without wind: v* without the
+// collisions, which the solve applies.
+@compute @workgroup_size(64)
+fn update_grid_free(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
+                    @builtin(local_invocation_index) local: u32) {
+    update_node(linear_index(group, groups, local), false, false);
+}
+
+// The grid update of a semi-implicit scene with a [wind].
+@compute @workgroup_size(64)
+fn update_grid_free_in_wind(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
+                            @builtin(local_invocation_index) local: u32) {
+    update_node(linear_index(group, groups, local), wind.node_drag > 0.0, false);
 }

@@ -25,8 +25,11 @@ struct Params {
     stepping: vec4<f32>,
     // x: mass scale; y: momentum scale (fixed-point units per kg, per kg m/s).
     scales: vec4<f32>,
-    // x: transfer scheme; y: the adapter's workgroups per dispatch dimension.
+    // x: transfer scheme; y: the adapter's workgroups per dispatch
+    // dimension; z: 1 with the semi-implicit integrator (implicit.wgsl).
     flags: vec4<u32>,
+    // The semi-implicit solve: x: beta; y: tolerance; z: iteration limit.
+    implicit: vec4<f32>,
 }
 
 // What the substeps of a frame share, written by the GPU and read back by

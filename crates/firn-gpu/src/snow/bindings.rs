@@ -83,6 +83,19 @@ bind_group! {
         /// Spindrift's settings and the frame's first substep index
         /// (`snow/spindrift.wgsl`; zeroes without spindrift).
         32 => spindrift: Uniform "SpindriftParams",
+        /// The semi-implicit solve's node vectors x, r, z and p, one plane
+        /// of nodes each (`snow/implicit.wgsl`; a 16-byte stand-in for the
+        /// explicit integrator).
+        33 => solve_vectors: ReadWrite "array<vec4<f32>>",
+        /// Its vectors S p and S z and the contact constraints, one plane
+        /// of nodes each (two buffers, so neither grows past the adapter's
+        /// storage-binding limit as fast as one would).
+        34 => solve_products: ReadWrite "array<vec4<f32>>",
+        /// The stress differential of each particle for the solve's
+        /// products with H.
+        35 => linearized: ReadWrite "array<StressDifferential>",
+        /// The solve's scalars and the workgroups' partial sums.
+        36 => solve: ReadWrite "SolveState",
     }
 }
 

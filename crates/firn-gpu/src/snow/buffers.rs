@@ -7,7 +7,7 @@ use firn_mpm::Particles;
 
 use super::bindings::StepBindings;
 use super::binning::BinningBuffers;
-use super::layout::{GpuMat3, GpuPlastic, PackedColliders};
+use super::layout::{GpuMat3, GpuPlastic, PackedColliders, SolveHeader};
 use super::wind::WindBuffers;
 use crate::buffers::{storage_buffer, zeroed_storage_buffer};
 use crate::context::GpuContext;
@@ -82,11 +82,18 @@ pub struct GridBuffers {
 }
 
 impl GridBuffers {
-    /// Zeroed planes for `nodes` nodes.
-    pub fn new(context: &GpuContext, nodes: u64, transfer: Transfer) -> GridBuffers {
+    /// Zeroed planes for `nodes` nodes. The force planes are also the
+    /// semi-implicit solve's sums of its products with H (`implicit`), so
+    /// APIC has them too then.
+    pub fn new(
+        context: &GpuContext,
+        nodes: u64,
+        transfer: Transfer,
+        implicit: bool,
+    ) -> GridBuffers {
         let used = match transfer {
-            Transfer::Apic => 8,
-            Transfer::PicFlip => PLANES,
+            Transfer::Apic if !implicit => 8,
+            Transfer::Apic | Transfer::PicFlip => PLANES,
         };
         let planes = std::array::from_fn(|plane| {
             let bytes = if plane < used { nodes * 4 } else { 16 };
@@ -103,6 +110,61 @@ impl GridBuffers {
     pub fn clear(&self, encoder: &mut wgpu::CommandEncoder) {
         for plane in &self.planes[..self.used] {
             encoder.clear_buffer(plane, 0, None);
+        }
+    }
+}
+
+/// The semi-implicit solve's buffers (`shaders/snow/implicit.wgsl`):
+/// 16-byte stand-ins for the explicit integrator.
+pub struct SolveBuffers {
+    /// The node vectors x, r, z and p.
+    pub vectors: wgpu::Buffer,
+    /// The node vectors S p and S z, and the constraints.
+    pub products: wgpu::Buffer,
+    /// One `StressDifferential` per particle.
+    pub linearized: wgpu::Buffer,
+    /// `SolveState`: the scalars, then one partial sum per node workgroup.
+    pub state: wgpu::Buffer,
+}
+
+/// Node vectors of the solve in `SolveBuffers::vectors`, one plane of
+/// `vec4` per node each.
+pub const SOLVE_VECTORS: u64 = 4;
+
+/// Node vectors in `SolveBuffers::products`.
+pub const SOLVE_PRODUCTS: u64 = 3;
+
+/// Bytes of a `StressDifferential` in storage layout: four `mat3x3` and a
+/// `vec4`'s worth of scalars.
+pub const LINEARIZED_BYTES: u64 = 4 * 48 + 32;
+
+impl SolveBuffers {
+    /// Zeroed buffers for `particles` particles on `nodes` nodes, full size
+    /// only when `implicit`.
+    pub fn new(context: &GpuContext, particles: u64, nodes: u64, implicit: bool) -> SolveBuffers {
+        let size = |bytes: u64| if implicit { bytes } else { 16 };
+        let node_groups = nodes.div_ceil(64);
+        SolveBuffers {
+            vectors: zeroed_storage_buffer(
+                context,
+                "solve vectors",
+                size(SOLVE_VECTORS * 16 * nodes),
+            ),
+            products: zeroed_storage_buffer(
+                context,
+                "solve products",
+                size(SOLVE_PRODUCTS * 16 * nodes),
+            ),
+            linearized: zeroed_storage_buffer(
+                context,
+                "stress differentials",
+                size(LINEARIZED_BYTES * particles),
+            ),
+            state: zeroed_storage_buffer(
+                context,
+                "solve state",
+                size_of::<SolveHeader>() as u64 + 4 * node_groups,
+            ),
         }
     }
 }
@@ -144,6 +206,8 @@ pub struct SnowBuffers {
     pub wind: WindBuffers,
     /// Spindrift's parameters (`SpindriftParams`).
     pub spindrift: wgpu::Buffer,
+    /// The semi-implicit solve's buffers.
+    pub solve: SolveBuffers,
 }
 
 impl SnowBuffers {
@@ -205,6 +269,10 @@ impl SnowBuffers {
             obstacles: &self.wind.obstacles,
             wind: &self.wind.params,
             spindrift: &self.spindrift,
+            solve_vectors: &self.solve.vectors,
+            solve_products: &self.solve.products,
+            linearized: &self.solve.linearized,
+            solve: &self.solve.state,
         }
     }
 }

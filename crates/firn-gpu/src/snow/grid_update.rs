@@ -5,13 +5,16 @@
 //! (for APIC the force impulse is already inside the momentum), and the
 //! wind's drag in scenes with a `[wind]` (`shaders/snow/wind.wgsl`), and the
 //! grid-based collisions with the colliders placed at the substep's end
-//! (Quellcode 12). One invocation per node; v_i and v_i* replace the
+//! (Quellcode 12), which the semi-implicit integrator leaves to its solve
+//! ([`super::implicit`]). One invocation per node; v_i and v_i* replace the
 //! momentum sums in the word planes for the gather.
 
 use super::substep::StepProgram;
 
-/// The grid update's two pipelines: without wind, and with the wind's drag
-/// (`update_grid_in_wind`); a run records the one its scene needs.
+/// The grid update's pipelines: without wind and with the wind's drag
+/// (`update_grid_in_wind`), each with the grid collisions or, for the
+/// semi-implicit solve that applies them itself, without
+/// (`update_grid_free*`); a run records the one its scene needs.
 pub struct GridUpdate {
     calm: wgpu::ComputePipeline,
     in_wind: wgpu::ComputePipeline,
@@ -20,12 +23,18 @@ pub struct GridUpdate {
 }
 
 impl GridUpdate {
-    /// The pipelines of both entry points (both transfer schemes), recording
-    /// the one with the wind's drag when `windy`.
-    pub fn new(program: &StepProgram, windy: bool) -> GridUpdate {
+    /// The pipelines of both entry points (both transfer schemes), with the
+    /// grid collisions unless `implicit`, recording the one with the wind's
+    /// drag when `windy`.
+    pub fn new(program: &StepProgram, windy: bool, implicit: bool) -> GridUpdate {
+        let (calm, in_wind) = if implicit {
+            ("update_grid_free", "update_grid_free_in_wind")
+        } else {
+            ("update_grid", "update_grid_in_wind")
+        };
         GridUpdate {
-            calm: program.pipeline("update_grid"),
-            in_wind: program.pipeline("update_grid_in_wind"),
+            calm: program.pipeline(calm),
+            in_wind: program.pipeline(in_wind),
             windy,
         }
     }

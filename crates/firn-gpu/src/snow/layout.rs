@@ -18,6 +18,7 @@ pub struct Params {
     pub stepping: [f32; 4],
     pub scales: [f32; 4],
     pub flags: [u32; 4],
+    pub implicit: [f32; 4],
 }
 
 /// `StepState`: what the substeps of a frame share.
@@ -36,6 +37,28 @@ pub struct StepState {
     pub speed_squared: f32,
     pub wave_speed_squared: f32,
     pub pad: u32,
+}
+
+/// The head of `SolveState` (`shaders/snow/implicit.wgsl`), before its
+/// partial sums: how the last substep's semi-implicit solve went.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct SolveHeader {
+    pub running: u32,
+    pub solved: u32,
+    pub iterations: u32,
+    pub converged: u32,
+    pub active_nodes: u32,
+    pub residual: f32,
+    pub momentum: f32,
+    pub stop_at: f32,
+    pub reference: f32,
+    pub rz: f32,
+    pub z_sz: f32,
+    pub denominator: f32,
+    pub alpha: f32,
+    pub gamma: f32,
+    pub pad: [u32; 2],
 }
 
 /// No particle: the "none" value of the trouble indices.

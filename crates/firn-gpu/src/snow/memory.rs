@@ -1,8 +1,10 @@
 //! What a snow scene needs on the GPU, known before anything is allocated.
 
 use firn_core::Scene;
-use firn_core::scene::Transfer;
+use firn_core::scene::{Integrator, Transfer};
 use firn_mpm::grid::GridLayout;
+
+use super::buffers::{LINEARIZED_BYTES, SOLVE_PRODUCTS, SOLVE_VECTORS};
 
 /// Bytes per particle: position and mass, velocity and V_p^0 (two `vec4`),
 /// F_E, C_p and V_p^0 τ_p (three `mat3x3` of 48 bytes in storage layout),
@@ -15,13 +17,18 @@ pub const BYTES_PER_PARTICLE: u64 = 16 + 16 + 3 * 48 + 8 + 12 + 9;
 const BINNING_BYTES_PER_NODE: u64 = 1;
 
 /// Grid quantities summed by the scatter: mass and momentum, plus the force
-/// for PIC/FLIP; each is a 64-bit fixed-point sum.
-fn grid_quantities(transfer: Transfer) -> u64 {
+/// for PIC/FLIP or for the semi-implicit solve's products; each is a 64-bit
+/// fixed-point sum.
+fn grid_quantities(transfer: Transfer, implicit: bool) -> u64 {
     match transfer {
-        Transfer::Apic => 4,
-        Transfer::PicFlip => 7,
+        Transfer::Apic if !implicit => 4,
+        Transfer::Apic | Transfer::PicFlip => 7,
     }
 }
+
+/// Bytes per node of the semi-implicit solve: its node vectors (one `vec4`
+/// each) and a partial sum per 64 nodes, rounded up.
+const SOLVE_BYTES_PER_NODE: u64 = (SOLVE_VECTORS + SOLVE_PRODUCTS) * 16 + 1;
 
 /// The GPU memory a snow scene needs: dense grid plus particles.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -32,8 +39,11 @@ pub struct MemoryEstimate {
     pub nodes: u64,
     /// Bytes per particle.
     pub bytes_per_particle: u64,
-    /// Bytes per grid node (8 per summed quantity).
+    /// Bytes per grid node (8 per summed quantity, and the semi-implicit
+    /// solve's vectors).
     pub bytes_per_node: u64,
+    /// Whether the semi-implicit solve's buffers are counted.
+    pub implicit: bool,
 }
 
 impl MemoryEstimate {
@@ -42,11 +52,20 @@ impl MemoryEstimate {
         let domain = &scene.domain;
         let layout = GridLayout::new(domain.min, domain.max, domain.cell_size);
         let dims = layout.node_dims();
+        let implicit = matches!(scene.solver.integrator, Integrator::SemiImplicit(_));
+        let (solve_per_particle, solve_per_node) = if implicit {
+            (LINEARIZED_BYTES, SOLVE_BYTES_PER_NODE)
+        } else {
+            (0, 0)
+        };
         MemoryEstimate {
             particles,
             nodes: u64::from(dims.x) * u64::from(dims.y) * u64::from(dims.z),
-            bytes_per_particle: BYTES_PER_PARTICLE,
-            bytes_per_node: 8 * grid_quantities(scene.solver.transfer) + BINNING_BYTES_PER_NODE,
+            bytes_per_particle: BYTES_PER_PARTICLE + solve_per_particle,
+            bytes_per_node: 8 * grid_quantities(scene.solver.transfer, implicit)
+                + BINNING_BYTES_PER_NODE
+                + solve_per_node,
+            implicit,
         }
     }
 
@@ -57,9 +76,17 @@ impl MemoryEstimate {
 
     /// The largest single buffer: one grid quantity's word (4 bytes per
     /// node) or one particle matrix array (48 bytes per particle; the work
-    /// items take at most 8 bytes and a fraction).
+    /// items take at most 8 bytes and a fraction); with the semi-implicit
+    /// solve, its larger buffer of node vectors or its stress differentials.
     pub fn largest_buffer_bytes(&self) -> u64 {
-        (self.nodes * 4).max(self.particles * 48)
+        let explicit = (self.nodes * 4).max(self.particles * 48);
+        if self.implicit {
+            explicit
+                .max(self.nodes * SOLVE_VECTORS * 16)
+                .max(self.particles * LINEARIZED_BYTES)
+        } else {
+            explicit
+        }
     }
 
     /// How many particles fit in `budget` bytes beside this grid.

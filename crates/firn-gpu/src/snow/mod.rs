@@ -1,5 +1,6 @@
-//! The MPM substep on the GPU (thesis §3.4, explicit integrator), the same
-//! step as `firn_mpm::Simulation`, which is its reference.
+//! The MPM substep on the GPU (thesis §3.4, with the explicit or the
+//! semi-implicit integrator), the same step as `firn_mpm::Simulation`,
+//! which is its reference.
 //!
 //! Each stage is a pair of files with one stem, a Rust file that makes its
 //! pipelines and records its dispatches and a WGSL file under
@@ -17,21 +18,26 @@
 //!    into 64-bit fixed-point sums ([`fixed_point`]);
 //! 5. `grid_update`: v_i = p_i / m_i, forces, gravity, the wind's drag
 //!    ([`wind`], `[wind]` scenes) and grid collisions (steps 4 and 5);
-//! 6. `g2p`: grid to particle, the snow model (SVD, plastic clamp,
+//! 6. `implicit` (semi-implicit integrator): the solve of step 6,
+//!    (M + β Δt² H) v^{n+1} = M v* by conjugate residuals, which applies
+//!    the grid collisions itself;
+//! 7. `g2p`: grid to particle, the snow model (SVD, plastic clamp,
 //!    hardened stress), particle collisions and advection (steps 7 to 10),
 //!    with the maxima for the next Δt reduced per workgroup, then by atomics;
-//! 7. `spindrift` (`[wind.spindrift]` scenes): loose surface snow lifts
+//! 8. `spindrift` (`[wind.spindrift]` scenes): loose surface snow lifts
 //!    into the wind, the drift moves, lands and escapes; the particles keep
 //!    one buffer, each with a phase (snow, drift, escaped) that the stages
 //!    above read to skip all but the snow.
 //!
-//! Step 6, the semi-implicit solve (`firn_mpm::implicit`), has no GPU stage
-//! yet. The physics the stages share is WGSL in `shaders/common/` (B-spline
-//! weights, SVD, snow model, colliders); the bindings are named once in
+//! The physics the stages share is WGSL in `shaders/common/` (B-spline
+//! weights, SVD, snow model, colliders, stress differential); the bindings
+//! are named once in
 //! [`bindings`], the structs in `shaders/snow/layout.wgsl` and `layout.rs`.
 //!
 //! The host records batches of substeps, sized from the last Δt to just
-//! reach the frame's end, and reads back one 48-byte state per batch; the
+//! reach the frame's end, and reads back one 48-byte state per batch (with
+//! the semi-implicit integrator, also the solve's state every few
+//! iterations: `implicit.rs`); the
 //! particles come back only when a frame is written ([`GpuSnow::snapshot`]).
 //! The grid is dense; [`MemoryEstimate`] says what a scene needs before
 //! anything is allocated.
@@ -43,6 +49,7 @@ mod buffers;
 pub mod fixed_point;
 mod g2p;
 mod grid_update;
+mod implicit;
 mod layout;
 mod memory;
 mod p2g;
@@ -53,9 +60,12 @@ mod wind;
 use std::sync::Arc;
 
 use firn_core::Scene;
-use firn_core::scene::{Integrator, Material, SceneKind, TimeStep, Transfer, Wind};
+use firn_core::scene::{
+    ImplicitSettings, Integrator, Material, SceneKind, TimeStep, Transfer, Wind,
+};
 use firn_mpm::constitutive::{MaterialConstants, max_wave_speed_squared};
 use firn_mpm::grid::GridLayout;
+use firn_mpm::implicit::SolverStats;
 use firn_mpm::{Escaped, SimulationError, Snapshot};
 use glam::{Mat3, Vec3};
 
@@ -64,7 +74,7 @@ use crate::context::GpuContext;
 use crate::draw::{ParticleArrays, SnowArrays, StridedArray};
 use crate::error::GpuError;
 use binning::BinningBuffers;
-use buffers::{ColliderBuffers, GridBuffers, ParticleBuffers, SnowBuffers};
+use buffers::{ColliderBuffers, GridBuffers, ParticleBuffers, SnowBuffers, SolveBuffers};
 use fixed_point::{QUANTITY_NAMES, Scales};
 use layout::{GpuMat3, GpuMaterial, GpuPlastic, NO_PARTICLE, Params, StepState, pack_colliders};
 use spindrift::{PHASE_SNOW, ReadBack, SpindriftParams, joined, split_phases};
@@ -131,16 +141,18 @@ impl GpuSnow {
         let layout = GridLayout::new(domain.min, domain.max, domain.cell_size);
         let mut params = run_params(&scene, &layout, &scales, particles.len());
         params.flags[1] = context.limits.max_compute_workgroups_per_dimension;
+        let implicit = is_implicit(&scene);
         let all_colliders = firn_mpm::contact::ColliderSet::new(domain, &scene.colliders);
         let packed = pack_colliders(all_colliders.colliders());
         let buffers = SnowBuffers {
             materials,
             colliders: ColliderBuffers::upload(&context, &packed),
             particles: ParticleBuffers::upload(&context, &particles, &material_words),
-            grid: GridBuffers::new(&context, estimate.nodes, scene.solver.transfer),
+            grid: GridBuffers::new(&context, estimate.nodes, scene.solver.transfer, implicit),
             binning: BinningBuffers::new(&context, estimate.particles, estimate.nodes),
             wind: WindBuffers::upload(&context, &scene),
             spindrift: spindrift::params_buffer(&context, &scene),
+            solve: SolveBuffers::new(&context, estimate.particles, estimate.nodes, implicit),
         };
         let state = StepState {
             max_speed_bits: snapshot.max_speed_squared.to_bits(),
@@ -153,6 +165,7 @@ impl GpuSnow {
             &context,
             scene.solver.transfer,
             stages_of(&scene),
+            implicit,
             &params,
             &state,
             &buffers,
@@ -183,12 +196,6 @@ impl GpuSnow {
             return Err(GpuError::Unsupported {
                 what: "this is a flow scene, not a snow scene".into(),
                 fix: "run it through firn_gpu::GpuFlow".into(),
-            });
-        }
-        if let Integrator::SemiImplicit(_) = scene.solver.integrator {
-            return Err(GpuError::Unsupported {
-                what: "the semi-implicit integrator is not yet on the GPU".into(),
-                fix: "run with --backend cpu, or set integrator = \"explicit\" in [solver]".into(),
             });
         }
         if let Some(wind) = &scene.wind
@@ -300,10 +307,16 @@ impl GpuSnow {
         let time = &self.scene.time;
         let speed = f32::from_bits(state.max_speed_bits).max(0.0).sqrt();
         let wave_speed = f32::from_bits(state.max_wave_bits).max(0.0).sqrt();
+        // The semi-implicit step is not bound by elastic waves.
+        let limiting_wave_speed = if is_implicit(&self.scene) {
+            0.0
+        } else {
+            wave_speed
+        };
         let dt = match time.step {
             TimeStep::Fixed { dt } => dt,
-            TimeStep::Adaptive { cfl, max_dt } if speed + wave_speed > 0.0 => {
-                (cfl * self.scene.domain.cell_size / (speed + wave_speed)).min(max_dt)
+            TimeStep::Adaptive { cfl, max_dt } if speed + limiting_wave_speed > 0.0 => {
+                (cfl * self.scene.domain.cell_size / (speed + limiting_wave_speed)).min(max_dt)
             }
             TimeStep::Adaptive { max_dt, .. } => max_dt,
         };
@@ -321,6 +334,9 @@ impl GpuSnow {
 
     /// What to change when a substep blew up.
     fn instability_hint(&self, dt: f32) -> String {
+        if let Integrator::SemiImplicit(settings) = self.scene.solver.integrator {
+            return self.implicit_hint(dt, settings);
+        }
         let h = self.scene.domain.cell_size;
         let wave_speed = self.last.wave_speed_squared.max(1e-12).sqrt();
         let step_fix = match self.scene.time.step {
@@ -339,6 +355,41 @@ impl GpuSnow {
              in cells of h = {h} m, or snow was pushed through a wall: {step_fix}, and check \
              that moving colliders stay inside [domain]"
         )
+    }
+
+    /// What to change when a semi-implicit substep blew up: the solve's
+    /// limit if solves stopped short, else the step (as on the CPU).
+    fn implicit_hint(&self, dt: f32, settings: ImplicitSettings) -> String {
+        let step_fix = match self.scene.time.step {
+            TimeStep::Fixed { dt } => {
+                format!("in [time] set dt = {:.1e} (now {dt:.1e})", dt * 0.25)
+            }
+            TimeStep::Adaptive { cfl, max_dt } => format!(
+                "in [time] set cfl = {:.2} (now {cfl}) or dt = {:.1e} (now {max_dt:.1e})",
+                cfl * 0.5,
+                max_dt * 0.5
+            ),
+        };
+        let stats = self.solver_stats().unwrap_or_default();
+        let fix = if stats.unconverged_steps > 0 {
+            format!(
+                "{} of {} linear solves stopped at solver_max_iterations = {}; in [solver] raise \
+                 solver_max_iterations, or {step_fix}",
+                stats.unconverged_steps, stats.steps, settings.max_iterations
+            )
+        } else {
+            step_fix
+        };
+        format!(
+            "the semi-implicit step Δt = {dt:.2e} s is too large, or snow was pushed through a \
+             wall: {fix}, and check that moving colliders stay inside [domain]"
+        )
+    }
+
+    /// The semi-implicit solves' statistics since this run came to the GPU
+    /// (with that integrator only), as `firn_mpm::Simulation::solver_stats`.
+    pub fn solver_stats(&self) -> Option<SolverStats> {
+        self.substep.solver_stats()
     }
 
     fn particle_position(&self, index: usize) -> Result<Vec3, GpuError> {
@@ -504,6 +555,11 @@ fn gpu_materials(constants: &[MaterialConstants], materials: &[Material]) -> Vec
         .collect()
 }
 
+/// Whether `scene` runs the semi-implicit integrator.
+fn is_implicit(scene: &Scene) -> bool {
+    matches!(scene.solver.integrator, Integrator::SemiImplicit(_))
+}
+
 /// Which optional stages `scene` needs: the wind's drag, and spindrift.
 fn stages_of(scene: &Scene) -> (bool, bool) {
     let wind = scene.wind.as_ref();
@@ -537,9 +593,18 @@ fn run_params(scene: &Scene, layout: &GridLayout, scales: &Scales, particles: us
         flags: [
             u32::from(scene.solver.transfer == Transfer::PicFlip),
             0,
-            0,
+            u32::from(is_implicit(scene)),
             0,
         ],
+        implicit: match scene.solver.integrator {
+            Integrator::SemiImplicit(settings) => [
+                settings.beta,
+                settings.tolerance,
+                settings.max_iterations as f32,
+                0.0,
+            ],
+            Integrator::Explicit => [0.0; 4],
+        },
     }
 }
 

@@ -7,14 +7,19 @@
 //! 3. `binning.rs` (binned scatter only): the counting sort;
 //! 4. `p2g.rs`: the scatter, thesis steps 1 and 3;
 //! 5. `grid_update.rs`: steps 4 and 5;
-//! 6. `g2p.rs`: the gather, steps 7 to 10;
-//! 7. `spindrift.rs` (`[wind.spindrift]` only): snow lifts, drift moves.
+//! 6. `implicit.rs` (semi-implicit integrator only): step 6, the solve;
+//! 7. `g2p.rs`: the gather, steps 7 to 10;
+//! 8. `spindrift.rs` (`[wind.spindrift]` only): snow lifts, drift moves.
 //!
 //! [`Substep::run_batch`] records a batch of substeps in one submission and
-//! reads back the step state.
+//! reads back the step state. With the semi-implicit integrator each
+//! substep is submitted in parts instead: up to its solve, then a few
+//! iterations at a time until the solve's state, read back in between,
+//! says it has stopped, then the rest.
 
 use bytemuck::Zeroable;
 use firn_core::scene::Transfer;
+use firn_mpm::implicit::{SolveReport, SolverStats};
 
 use super::begin_step::BeginStep;
 use super::bindings::StepBindings;
@@ -22,6 +27,7 @@ use super::binning::Binning;
 use super::buffers::SnowBuffers;
 use super::g2p::G2p;
 use super::grid_update::GridUpdate;
+use super::implicit::{ITERATIONS_PER_READ, ImplicitSolve, SolveGroups, read_header};
 use super::layout::{Params, StepState};
 use super::p2g::{BinnedP2g, P2g, Scatter, binned_fits};
 use super::spindrift::SpindriftStage;
@@ -78,18 +84,24 @@ pub struct Substep {
     grid_update: GridUpdate,
     g2p: G2p,
     spindrift: SpindriftStage,
+    /// The semi-implicit solve, with that integrator only.
+    implicit: Option<ImplicitSolve>,
+    /// What the semi-implicit solves did so far.
+    solver_stats: SolverStats,
     mode: Scatter,
     particle_groups: (u32, u32, u32),
     node_groups: (u32, u32, u32),
 }
 
 impl Substep {
-    /// Builds the stages of `transfer`, with the wind's drag when `windy`
-    /// and spindrift when `drifting`, and binds every buffer.
+    /// Builds the stages of `transfer`, with the wind's drag when `windy`,
+    /// spindrift when `drifting` and the semi-implicit solve when
+    /// `implicit`, and binds every buffer.
     pub fn new(
         context: &GpuContext,
         transfer: Transfer,
         (windy, drifting): (bool, bool),
+        implicit: bool,
         params: &Params,
         state: &StepState,
         buffers: &SnowBuffers,
@@ -131,9 +143,11 @@ impl Substep {
                 Scatter::Atomic
             },
             binned,
-            grid_update: GridUpdate::new(&program, windy),
+            grid_update: GridUpdate::new(&program, windy, implicit),
             g2p: G2p::new(&program, transfer),
             spindrift: SpindriftStage::new(&program, drifting),
+            implicit: implicit.then(|| ImplicitSolve::new(&program)),
+            solver_stats: SolverStats::default(),
             particle_groups: workgroups(params.dims[3], limit),
             node_groups: workgroups(buffers.grid.nodes as u32, limit),
             params: params_buffer,
@@ -190,22 +204,81 @@ impl Substep {
     /// Records and runs `substeps` substeps over `buffers` (those after the
     /// frame's end do nothing), then reads the state back.
     pub fn run_batch(
-        &self,
+        &mut self,
         context: &GpuContext,
         substeps: u32,
         buffers: &SnowBuffers,
     ) -> Result<StepState, GpuError> {
-        let mut encoder = context
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("snow substeps"),
-            });
-        for _ in 0..substeps {
-            self.record(&mut encoder, buffers);
+        match &self.implicit {
+            Some(solve) => {
+                for _ in 0..substeps {
+                    let Some((report, active_nodes)) =
+                        self.run_implicit_substep(context, solve, buffers)?
+                    else {
+                        break;
+                    };
+                    self.solver_stats.record(report, active_nodes);
+                }
+            }
+            None => {
+                let mut encoder = command_encoder(context);
+                for _ in 0..substeps {
+                    self.record(&mut encoder, buffers);
+                }
+                context.queue.submit([encoder.finish()]);
+            }
         }
-        context.queue.submit([encoder.finish()]);
         let state = read_back::<StepState>(context, &[(&self.state, 1)])?;
         Ok(state[0].first().copied().unwrap_or_else(StepState::zeroed))
+    }
+
+    /// What the semi-implicit solves did so far (with that integrator).
+    pub fn solver_stats(&self) -> Option<SolverStats> {
+        self.implicit.as_ref().map(|_| self.solver_stats)
+    }
+
+    /// Runs one substep with the semi-implicit solve, submitted in parts;
+    /// returns how the solve went and the nodes with mass, or `None` when
+    /// the frame had already ended (nothing ran).
+    fn run_implicit_substep(
+        &self,
+        context: &GpuContext,
+        solve: &ImplicitSolve,
+        buffers: &SnowBuffers,
+    ) -> Result<Option<(SolveReport, u64)>, GpuError> {
+        let groups = SolveGroups {
+            particles: self.particle_groups,
+            nodes: self.node_groups,
+        };
+        let state = &buffers.solve.state;
+        let mut encoder = command_encoder(context);
+        self.record_until_solve(&mut encoder, buffers);
+        solve.record_start(&mut encoder, &self.bind_group, state, groups);
+        loop {
+            {
+                let mut pass = compute_pass(&mut encoder, "semi-implicit solve", &self.bind_group);
+                solve.record_iterations(&mut pass, ITERATIONS_PER_READ, groups);
+            }
+            context.queue.submit([encoder.finish()]);
+            let header = read_header(context, state)?;
+            encoder = command_encoder(context);
+            if header.solved == 0 {
+                return Ok(None);
+            }
+            if header.running == 0 {
+                let mut pass = compute_pass(&mut encoder, "snow substep", &self.bind_group);
+                solve.record_store(&mut pass, self.node_groups);
+                self.record_after_grid(&mut pass);
+                drop(pass);
+                context.queue.submit([encoder.finish()]);
+                let report = SolveReport {
+                    iterations: header.iterations,
+                    residual: header.residual,
+                    converged: header.converged != 0,
+                };
+                return Ok(Some((report, u64::from(header.active_nodes))));
+            }
+        }
     }
 
     /// Records the wind's drag in the grid update from now on when `windy`,
@@ -215,8 +288,14 @@ impl Substep {
         self.spindrift.set_enabled(drifting);
     }
 
-    /// Records one substep, stage by stage.
+    /// Records one substep of the explicit integrator, stage by stage.
     fn record(&self, encoder: &mut wgpu::CommandEncoder, buffers: &SnowBuffers) {
+        self.record_until_solve(encoder, buffers);
+        self.record_after_grid(&mut compute_pass(encoder, "snow substep", &self.bind_group));
+    }
+
+    /// Records a substep up to and including the grid update.
+    fn record_until_solve(&self, encoder: &mut wgpu::CommandEncoder, buffers: &SnowBuffers) {
         self.begin_step
             .record(&mut compute_pass(encoder, "snow substep", &self.bind_group));
         buffers.grid.clear(encoder);
@@ -235,9 +314,23 @@ impl Substep {
                 self.particle_groups,
             ),
         }
-        let mut pass = compute_pass(encoder, "snow substep", &self.bind_group);
-        self.grid_update.record(&mut pass, self.node_groups);
-        self.g2p.record(&mut pass, self.particle_groups);
-        self.spindrift.record(&mut pass, self.particle_groups);
+        self.grid_update.record(
+            &mut compute_pass(encoder, "snow substep", &self.bind_group),
+            self.node_groups,
+        );
     }
+
+    /// Records the gather and spindrift, after the grid's new velocities.
+    fn record_after_grid(&self, pass: &mut wgpu::ComputePass) {
+        self.g2p.record(pass, self.particle_groups);
+        self.spindrift.record(pass, self.particle_groups);
+    }
+}
+
+fn command_encoder(context: &GpuContext) -> wgpu::CommandEncoder {
+    context
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("snow substeps"),
+        })
 }
