@@ -38,8 +38,8 @@ pub fn run(args: &RunArgs, mpi: &MpiRun) -> Result<(), Failure> {
         scene_file,
         &Placement::Cpu,
         &described,
-        |recording| {
-            let stepper = RootStepper::start(exchange.clone(), recording.solver())?;
+        |solver| {
+            let stepper = RootStepper::start(exchange.clone(), solver)?;
             Ok(Some(Box::new(stepper)))
         },
     );

@@ -20,11 +20,12 @@
 //!    every rank the same next Δt.
 
 use firn_core::Scene;
+use firn_io::IoError;
 use firn_mpm::binning::block_key;
 use firn_mpm::grid::GridLayout;
 use firn_mpm::simulation::REORDER_INTERVAL;
 use firn_mpm::{Particles, PermuteBuffers, Simulation, SimulationError, Snapshot};
-use firn_run::RunError;
+use firn_run::{RunDirectory, RunError, caches, checkpoint};
 
 use crate::exchange::{Exchange, join_u64, split_u64};
 use crate::packing::{KeyedParticles, WORDS_PER_PARTICLE};
@@ -253,6 +254,78 @@ impl<E: Exchange> RankSnow<E> {
         })
     }
 
+    /// Writes this rank's own particles as part `rank` of frame `index`'s
+    /// VTK cache in `run`, atomically; then every rank learns whether every
+    /// rank wrote its piece (a failure anywhere is everyone's, with the
+    /// lowest failing rank's message). Returns the piece's path relative
+    /// to the run directory. Every rank must call it.
+    pub fn write_vtk_piece(&mut self, index: u32, run: &RunDirectory) -> Result<String, RunError> {
+        let name = RunDirectory::vtk_piece_name(index, self.rank());
+        let written = caches::write_snow_vtk_piece(
+            &self.simulation,
+            self.owned(),
+            index,
+            &run.path().join(&name),
+        );
+        self.agree_written(written)?;
+        Ok(name)
+    }
+
+    /// Writes this rank's piece of the checkpoint after frame `frame` of
+    /// the scene `scene_json` in `run`, atomically: its own particles and
+    /// their keys. Every rank learns whether every piece was written.
+    /// Returns the piece's path relative to the run directory and the
+    /// particles of all pieces. Every rank must call it.
+    pub fn write_checkpoint_piece(
+        &mut self,
+        frame: u32,
+        scene_json: &serde_json::Value,
+        run: &RunDirectory,
+    ) -> Result<(String, u64), RunError> {
+        let name = RunDirectory::checkpoint_piece_name(frame, self.rank());
+        let path = run.path().join(&name);
+        let written =
+            firn_io::ensure_writable_dir(path.parent().unwrap_or(run.path())).and_then(|()| {
+                checkpoint::write_piece(&self.own_snapshot(), &self.keys, frame, scene_json, &path)
+            });
+        self.agree_written(written)?;
+        let owned = self.owned() as u64;
+        let total = self.timed(Phase::Agreement, |exchange| exchange.sum_u64(&[owned]));
+        Ok((name, total[0]))
+    }
+
+    /// This rank's own particles and the run's counters, as a snapshot.
+    fn own_snapshot(&self) -> Snapshot {
+        let mut particles = self.simulation.particles().clone();
+        particles.truncate(self.owned());
+        let (max_speed_squared, max_wave_speed_squared) = self.simulation.motion_bounds();
+        Snapshot {
+            time: self.simulation.time(),
+            steps: self.simulation.steps(),
+            max_speed_squared,
+            max_wave_speed_squared,
+            particles,
+            // Refused under MPI (`driver::refusal`): no scene split here has drift.
+            drift: Default::default(),
+            escaped: Default::default(),
+        }
+    }
+
+    /// Every rank learns whether every rank's file was `written`; the
+    /// failure of the lowest failing rank is everyone's.
+    fn agree_written(&mut self, written: Result<(), IoError>) -> Result<(), RunError> {
+        let failure = written.as_ref().err().map(|error| (0, error.to_string()));
+        match self.first_failure(failure) {
+            None => Ok(()),
+            Some((rank, _)) if rank == self.rank() => Err(written.expect_err("failed").into()),
+            Some((rank, message)) => Err(RunError::Rank {
+                rank,
+                ranks: self.exchange.size(),
+                message,
+            }),
+        }
+    }
+
     /// Runs `exchange_with` on the exchange, timing it as part of `phase`.
     fn timed<T>(&mut self, phase: Phase, exchange_with: impl FnOnce(&E) -> T) -> T {
         let started = std::time::Instant::now();
@@ -398,31 +471,41 @@ impl<E: Exchange> RankSnow<E> {
     /// of the lowest key (then the lowest rank) is everyone's.
     fn agree(&mut self, result: Result<f32, SimulationError>) -> Result<f32, RunError> {
         let own_failure = result.as_ref().err().map(|error| self.keyed(error));
-        let status = match &own_failure {
-            None => Vec::new(),
-            Some((key, error)) => {
-                let mut words = split_u64(*key).to_vec();
-                words.extend(text_to_words(&error.to_string()));
-                words
-            }
-        };
-        let statuses = self.timed(Phase::Agreement, |exchange| exchange.all_gather(&status));
-        let first = statuses
-            .iter()
-            .enumerate()
-            .filter(|(_, words)| !words.is_empty())
-            .min_by_key(|(rank, words)| (join_u64(words[0], words[1]), *rank));
-        match (first, own_failure, result) {
+        let failure = own_failure
+            .as_ref()
+            .map(|(key, error)| (*key, error.to_string()));
+        match (self.first_failure(failure), own_failure, result) {
             (None, _, result) => Ok(result.expect("no rank failed")),
             (Some((rank, _)), Some((_, error)), _) if rank == self.exchange.rank() => {
                 Err(RunError::Snow(error))
             }
-            (Some((rank, words)), _, _) => Err(RunError::Rank {
+            (Some((rank, message)), _, _) => Err(RunError::Rank {
                 rank,
                 ranks: self.exchange.size(),
-                message: words_to_text(&words[2..]),
+                message,
             }),
         }
+    }
+
+    /// Every rank's failure, if any (a key that orders failures, and a
+    /// message): the rank and message of the failure with the lowest key,
+    /// then the lowest rank, on every rank; `None` when no rank failed.
+    fn first_failure(&mut self, failure: Option<(u64, String)>) -> Option<(usize, String)> {
+        let status = match &failure {
+            None => Vec::new(),
+            Some((key, message)) => {
+                let mut words = split_u64(*key).to_vec();
+                words.extend(text_to_words(message));
+                words
+            }
+        };
+        let statuses = self.timed(Phase::Agreement, |exchange| exchange.all_gather(&status));
+        statuses
+            .iter()
+            .enumerate()
+            .filter(|(_, words)| !words.is_empty())
+            .min_by_key(|(rank, words)| (join_u64(words[0], words[1]), *rank))
+            .map(|(rank, words)| (rank, words_to_text(&words[2..])))
     }
 
     /// `error` with its particle named by key (its one-process index), and
