@@ -1,12 +1,16 @@
-//! [`Exchange`] over MPI (rsmpi): the counts by `MPI_Alltoall`, the words
-//! by `MPI_Alltoallv`.
+//! [`Exchange`] over MPI (rsmpi): the particles by `MPI_Alltoallv` (their
+//! counts by `MPI_Alltoall`); the reductions by `MPI_Allreduce`, the
+//! renumbering's offsets by `MPI_Exscan`, rank 0's commands and a failing
+//! rank's message by `MPI_Bcast`, so that no rank receives O(ranks) words
+//! outside the particle exchange.
 
 use std::rc::Rc;
 
 use mpi::Count;
+use mpi::collective::SystemOperation;
 use mpi::datatype::{Partition, PartitionMut};
 use mpi::topology::SimpleCommunicator;
-use mpi::traits::{Communicator, CommunicatorCollectives};
+use mpi::traits::{Communicator, CommunicatorCollectives, Root};
 
 use crate::exchange::Exchange;
 
@@ -79,6 +83,52 @@ impl Exchange for MpiExchange {
             .zip(&receive_counts)
             .map(|(&start, &count)| receive[start as usize..(start + count) as usize].to_vec())
             .collect()
+    }
+
+    fn broadcast_from(&self, root: usize, words: Vec<u32>) -> Vec<u32> {
+        let process = self.world.process_at_rank(root as mpi::Rank);
+        let mut length = words.len() as u64;
+        process.broadcast_into(&mut length);
+        let mut words = if self.rank() == root {
+            words
+        } else {
+            vec![0; length as usize]
+        };
+        process.broadcast_into(&mut words[..]);
+        words
+    }
+
+    fn barrier(&self) {
+        self.world.barrier();
+    }
+
+    fn max_f32(&self, values: &[f32]) -> Vec<f32> {
+        let mut result = vec![0.0; values.len()];
+        self.world
+            .all_reduce_into(values, &mut result[..], SystemOperation::max());
+        result
+    }
+
+    fn sum_u64(&self, counts: &[u64]) -> Vec<u64> {
+        let mut result = vec![0; counts.len()];
+        self.world
+            .all_reduce_into(counts, &mut result[..], SystemOperation::sum());
+        result
+    }
+
+    fn min_u64(&self, values: &[u64]) -> Vec<u64> {
+        let mut result = vec![0; values.len()];
+        self.world
+            .all_reduce_into(values, &mut result[..], SystemOperation::min());
+        result
+    }
+
+    fn exclusive_sum_u64(&self, value: u64) -> u64 {
+        let mut below = 0u64;
+        self.world
+            .exclusive_scan_into(&value, &mut below, SystemOperation::sum());
+        // MPI leaves rank 0's result undefined.
+        if self.rank() == 0 { 0 } else { below }
     }
 }
 

@@ -421,12 +421,10 @@ impl<E: Exchange> RankSnow<E> {
         let mut order: Vec<u32> = (0..own.len() as u32).collect();
         order.sort_by_key(|&p| blocks[p as usize]);
         own.permute(&order, &mut self.buffers);
-        let count = split_u64(own.len() as u64);
-        let counts = self.timed(Phase::Renumbering, |exchange| exchange.all_gather(&count));
-        let first: u64 = counts[..self.exchange.rank()]
-            .iter()
-            .map(|words| join_u64(words[0], words[1]))
-            .sum();
+        let count = own.len() as u64;
+        let first = self.timed(Phase::Renumbering, |exchange| {
+            exchange.exclusive_sum_u64(count)
+        });
         for (key, place) in own.keys.iter_mut().zip(first..) {
             *key = place;
         }
@@ -490,22 +488,26 @@ impl<E: Exchange> RankSnow<E> {
     /// Every rank's failure, if any (a key that orders failures, and a
     /// message): the rank and message of the failure with the lowest key,
     /// then the lowest rank, on every rank; `None` when no rank failed.
+    /// One minimum over the ranks finds it (key · ranks + rank), and only
+    /// when a rank failed does it broadcast its message.
     fn first_failure(&mut self, failure: Option<(u64, String)>) -> Option<(usize, String)> {
-        let status = match &failure {
-            None => Vec::new(),
-            Some((key, message)) => {
-                let mut words = split_u64(*key).to_vec();
-                words.extend(text_to_words(message));
-                words
-            }
+        let (me, ranks) = (self.rank(), self.exchange.size() as u64);
+        let mine = failure
+            .as_ref()
+            .map_or(u64::MAX, |(key, _)| key * ranks + me as u64);
+        let first = self.timed(Phase::Agreement, |exchange| exchange.min_u64(&[mine]))[0];
+        if first == u64::MAX {
+            return None;
+        }
+        let rank = (first % ranks) as usize;
+        let message = match failure {
+            Some((_, message)) if rank == me => text_to_words(&message),
+            _ => Vec::new(),
         };
-        let statuses = self.timed(Phase::Agreement, |exchange| exchange.all_gather(&status));
-        statuses
-            .iter()
-            .enumerate()
-            .filter(|(_, words)| !words.is_empty())
-            .min_by_key(|(rank, words)| (join_u64(words[0], words[1]), *rank))
-            .map(|(rank, words)| (rank, words_to_text(&words[2..])))
+        let words = self.timed(Phase::Agreement, |exchange| {
+            exchange.broadcast_from(rank, message)
+        });
+        Some((rank, words_to_text(&words)))
     }
 
     /// `error` with its particle named by key (its one-process index), and
