@@ -8,10 +8,9 @@
 //! 2. **renumbering**, on the substeps where one process sorts its array
 //!    by block ([`REORDER_INTERVAL`]): each particle's key becomes its
 //!    place in that sorted array, the particles of lower ranks first;
-//! 3. **ghosts**: copies of the particles of the block columns within
-//!    reach of the nodes the slab reads (one column each side, wind
-//!    included, see [`GHOST_COLUMNS`]), sorted by key after the own
-//!    particles;
+//! 3. **ghosts**: copies of the particles of the blocks within reach of
+//!    the nodes the slab reads (one block in every axis, wind included,
+//!    see [`GHOST_BLOCKS`]), sorted by key after the own particles;
 //! 4. the substep itself on own and ghost particles, every block summing
 //!    its particles in key order, hence in the one-process order;
 //! 5. **agreement**: a failure anywhere stops every rank with the failing
@@ -29,20 +28,22 @@ use firn_run::{RunDirectory, RunError, caches, checkpoint};
 
 use crate::exchange::{Exchange, join_u64, split_u64};
 use crate::packing::{KeyedParticles, WORDS_PER_PARTICLE};
-use crate::slabs::Slabs;
+use crate::slabs::{Slabs, ghost_reach};
 
 /// The slabs move when the busiest rank holds this much more than its
-/// share of the particles (1.1: 10 % more).
-pub const REBALANCE_ABOVE: f64 = 1.1;
+/// share of the particles (1.02: 2 % more). A slab may end at any block,
+/// so a new cut balances to within about one block's particles.
+pub const REBALANCE_ABOVE: f64 = 1.02;
 
-/// Block columns of ghosts either side of a slab. A particle in cell c
-/// reaches nodes c − 1 … c + 2 with either transfer (cubic, or quadratic
-/// from ⌊x/h − ½⌋), so the particles of a slab of block columns
-/// x0 … x1 − 1 read nodes 4·x0 − 1 … 4·x1 + 1, and those nodes hear only
-/// from cells 4·x0 − 3 … 4·x1 + 2, within one block column of the slab. The
-/// wind's drag also reads the node upwind (4·x0 − 2 or 4·x1 + 2), which
-/// hears from cells 4·x0 − 4 … 4·x1 + 3: still one column.
-const GHOST_COLUMNS: u32 = 1;
+/// Blocks of ghosts around each own block, in every axis. A particle in
+/// cell c reaches nodes c − 1 … c + 2 with either transfer (cubic, or
+/// quadratic from ⌊x/h − ½⌋), so the particles of blocks b0 … b1 − 1 along
+/// an axis read nodes 4·b0 − 1 … 4·b1 + 1, and those nodes hear only from
+/// cells 4·b0 − 3 … 4·b1 + 2, within one block. The wind's drag also reads
+/// the node upwind (4·b0 − 2 or 4·b1 + 2), which hears from cells
+/// 4·b0 − 4 … 4·b1 + 3: still one block. Those blocks lie within
+/// [`crate::slabs::ghost_reach`] block indices of the slab's ends.
+const GHOST_BLOCKS: u32 = 1;
 
 /// The steps of a substep in which a rank exchanges with the others.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -344,13 +345,9 @@ impl<E: Exchange> RankSnow<E> {
         own
     }
 
-    /// The block column of every particle.
-    fn columns(&self, particles: &Particles) -> Vec<u32> {
-        particles
-            .position
-            .iter()
-            .map(|&x| self.layout.block_coord(block_key(&self.layout, x)).x as u32)
-            .collect()
+    /// The block index of every particle.
+    fn blocks(&self, particles: &Particles) -> Vec<u32> {
+        block_indices(particles, &self.layout)
     }
 
     /// Moves the slabs when the particle counts per rank grew too uneven
@@ -359,10 +356,7 @@ impl<E: Exchange> RankSnow<E> {
         if self.exchange.size() == 1 {
             return;
         }
-        let mut histogram = vec![0u64; self.layout.blocks.x as usize];
-        for column in self.columns(&own.particles) {
-            histogram[column as usize] += 1;
-        }
+        let histogram = block_histogram(&self.blocks(&own.particles), &self.layout);
         let histogram = self.timed(Phase::Balance, |exchange| exchange.sum_u64(&histogram));
         let now = self.slabs.imbalance(&histogram);
         if now <= REBALANCE_ABOVE {
@@ -380,11 +374,11 @@ impl<E: Exchange> RankSnow<E> {
     /// is), reordered in one pass and only when a particle left or came.
     fn migrate(&mut self, mut own: KeyedParticles) -> KeyedParticles {
         let me = self.exchange.rank();
-        let columns = self.columns(&own.particles);
+        let blocks = self.blocks(&own.particles);
         let mut outgoing = vec![Vec::new(); self.exchange.size()];
         let mut kept = Vec::with_capacity(own.len());
-        for (p, &column) in columns.iter().enumerate() {
-            let owner = self.slabs.owner(column);
+        for (p, &block) in blocks.iter().enumerate() {
+            let owner = self.slabs.owner(block);
             if owner == me {
                 kept.push(p as u32);
             } else {
@@ -434,16 +428,17 @@ impl<E: Exchange> RankSnow<E> {
     /// key, after sending every other rank the ghosts it needs.
     fn with_ghosts(&mut self, mut own: KeyedParticles) -> KeyedParticles {
         let me = self.exchange.rank();
-        let columns = self.columns(&own.particles);
+        let blocks = self.blocks(&own.particles);
+        let reach = GHOST_BLOCKS * ghost_reach(self.layout.blocks);
         let mut outgoing = vec![Vec::new(); self.exchange.size()];
         for (rank, words) in outgoing.iter_mut().enumerate() {
             if rank == me {
                 continue;
             }
-            let [below, above] = self.slabs.ghost_columns(rank, GHOST_COLUMNS);
-            for (p, column) in columns.iter().enumerate() {
-                if below.contains(column) || above.contains(column) {
-                    own.pack(p, words);
+            let [below, above] = self.slabs.ghost_blocks(rank, reach);
+            for (p, block) in blocks.iter().enumerate() {
+                if below.contains(block) || above.contains(block) {
+                    own.pack_ghost(p, words);
                     self.traffic.ghosts_sent += 1;
                 }
             }
@@ -452,7 +447,7 @@ impl<E: Exchange> RankSnow<E> {
         let incoming = self.timed(Phase::Ghosts, |exchange| exchange.exchange(outgoing));
         let mut ghosts = KeyedParticles::default();
         for words in &incoming {
-            ghosts.unpack(words);
+            ghosts.unpack_ghosts(words);
         }
         ghosts.sort_by_key(&mut self.buffers);
         own.append(&mut ghosts);
@@ -559,19 +554,30 @@ fn merge_by_key(first: &[u32], second: &[u32], keys: &[u64]) -> Vec<u32> {
     merged
 }
 
+/// The block index of every particle (as the binning sorts them).
+fn block_indices(particles: &Particles, layout: &GridLayout) -> Vec<u32> {
+    particles
+        .position
+        .iter()
+        .map(|&x| block_key(layout, x) as u32)
+        .collect()
+}
+
+/// Particles per block index, of the particles in `blocks`.
+fn block_histogram(blocks: &[u32], layout: &GridLayout) -> Vec<u64> {
+    let mut histogram = vec![0u64; layout.blocks.element_product() as usize];
+    for &block in blocks {
+        histogram[block as usize] += 1;
+    }
+    histogram
+}
+
 /// What rank 0 sends each rank to start: the time, the substeps, the speed
 /// bounds and the slabs, then the rank's particles keyed by their place.
 fn parts_of(snapshot: &Snapshot, layout: &GridLayout, ranks: usize) -> Vec<Vec<u32>> {
     let particles = &snapshot.particles;
-    let columns: Vec<u32> = particles
-        .position
-        .iter()
-        .map(|&x| layout.block_coord(block_key(layout, x)).x as u32)
-        .collect();
-    let mut histogram = vec![0u64; layout.blocks.x as usize];
-    for &column in &columns {
-        histogram[column as usize] += 1;
-    }
+    let blocks = block_indices(particles, layout);
+    let histogram = block_histogram(&blocks, layout);
     let slabs = Slabs::balanced(&histogram, ranks);
     let mut header = Vec::new();
     header.extend(split_u64(snapshot.time.to_bits()));
@@ -580,8 +586,8 @@ fn parts_of(snapshot: &Snapshot, layout: &GridLayout, ranks: usize) -> Vec<Vec<u
     header.push(snapshot.max_wave_speed_squared.to_bits());
     header.extend(slabs.to_words());
     let mut parts = vec![header; ranks];
-    for (p, &column) in columns.iter().enumerate() {
-        crate::packing::pack(particles, p as u64, p, &mut parts[slabs.owner(column)]);
+    for (p, &block) in blocks.iter().enumerate() {
+        crate::packing::pack(particles, p as u64, p, &mut parts[slabs.owner(block)]);
     }
     parts
 }
