@@ -57,6 +57,15 @@ pub trait Exchange {
         result
     }
 
+    /// The largest of every rank's `values`, element by element.
+    fn max_u64(&self, values: &[u64]) -> Vec<u64> {
+        let complements: Vec<u64> = values.iter().map(|&v| u64::MAX - v).collect();
+        self.min_u64(&complements)
+            .into_iter()
+            .map(|least| u64::MAX - least)
+            .collect()
+    }
+
     /// The sum of `value` over the ranks below this one (0 on rank 0).
     fn exclusive_sum_u64(&self, value: u64) -> u64 {
         self.all_gather(&split_u64(value))[..self.rank()]

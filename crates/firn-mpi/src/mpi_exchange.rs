@@ -123,6 +123,13 @@ impl Exchange for MpiExchange {
         result
     }
 
+    fn max_u64(&self, values: &[u64]) -> Vec<u64> {
+        let mut result = vec![0; values.len()];
+        self.world
+            .all_reduce_into(values, &mut result[..], SystemOperation::max());
+        result
+    }
+
     fn exclusive_sum_u64(&self, value: u64) -> u64 {
         let mut below = 0u64;
         self.world

@@ -351,9 +351,21 @@ impl<E: Exchange> RankSnow<E> {
     }
 
     /// Moves the slabs when the particle counts per rank grew too uneven
-    /// (every rank sees the same counts, so all move them alike).
+    /// (every rank sees the same counts, so all move them alike). Each
+    /// substep the ranks reduce two numbers, the busiest rank's particles
+    /// and the total; only when they are over [`REBALANCE_ABOVE`] do they
+    /// sum the per-block histogram that places the new cuts.
     fn rebalance(&mut self, own: &KeyedParticles) {
-        if self.exchange.size() == 1 {
+        let ranks = self.exchange.size();
+        if ranks == 1 {
+            return;
+        }
+        let owned = own.len() as u64;
+        let [busiest, total] = self.timed(Phase::Balance, |exchange| {
+            let busiest = exchange.max_u64(&[owned])[0];
+            [busiest, exchange.sum_u64(&[owned])[0]]
+        });
+        if total == 0 || (busiest * ranks as u64) as f64 <= REBALANCE_ABOVE * total as f64 {
             return;
         }
         let histogram = block_histogram(&self.blocks(&own.particles), &self.layout);
