@@ -24,10 +24,20 @@ use crate::volumes::snow_volumes;
 
 /// Writes frame `index` of `state` in every cache format of its scene into
 /// `run`, and updates the collection `pvd` with a VTK frame; returns the
-/// files' paths relative to the run directory. `vtk_pieces`, when given,
-/// are the frame's VTK files already written in pieces (part, path; a run
-/// split between MPI ranks): they are listed in `pvd` in place of one file.
+/// files' paths relative to the run directory.
 pub fn write_frame(
+    state: HostState<'_>,
+    index: u32,
+    run: &RunDirectory,
+    pvd: &mut PvdCollection,
+) -> Result<Vec<String>, IoError> {
+    write_frame_with_pieces(state, index, run, pvd, None)
+}
+
+/// [`write_frame`], where `vtk_pieces`, when given, are the frame's VTK
+/// files already written in pieces (part, path; a run split between MPI
+/// ranks): they are listed in `pvd` in place of one file.
+pub fn write_frame_with_pieces(
     state: HostState<'_>,
     index: u32,
     run: &RunDirectory,

@@ -418,7 +418,7 @@ impl Recording {
             .and_then(|stepper| stepper.write_vtk_pieces(index, time, &self.run))
             .transpose()?;
         let host = self.solver.host()?;
-        let files = caches::write_frame(host, index, &self.run, &mut self.pvd, pieces)?;
+        let files = caches::write_frame_with_pieces(host, index, &self.run, &mut self.pvd, pieces)?;
         let scene = host.scene();
         if !scene.render.enabled {
             return Ok((files, Vec::new()));
