@@ -405,3 +405,45 @@ fn a_run_killed_on_two_ranks_resumes_on_three_with_the_one_process_bytes() {
     let pieces = fs::read_to_string(split.join("checkpoint-pieces.json")).unwrap();
     assert!(pieces.contains("frame_00004_rank_0002"), "{pieces}");
 }
+
+#[test]
+fn a_rank_that_cannot_write_its_piece_stops_every_rank_with_its_message() {
+    if !have_mpirun() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let text = fs::read_to_string(crossing_scene())
+        .unwrap()
+        .replace("formats = [\"ply\"]", "formats = [\"ply\", \"vtk\"]");
+    let scene = dir.path().join("crossing-vtk.toml");
+    fs::write(&scene, text).unwrap();
+    let out = dir.path().join("split");
+    // A folder where rank 1's piece of frame 2 goes: its rename fails.
+    fs::create_dir_all(out.join("vtk/frame_00002_part_0001.vtp/blocked")).unwrap();
+    let output = mpirun(
+        2,
+        &[
+            "run",
+            scene.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--frames",
+            "3",
+        ],
+    );
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("rank 1 of 2"), "{stderr}");
+    assert!(stderr.contains("frame_00002_part_0001.vtp"), "{stderr}");
+    assert_eq!(
+        stderr.matches("error:").count(),
+        1,
+        "one rank reports: {stderr}"
+    );
+    let listed = collection(&out);
+    assert_eq!(listed.len(), 2, "frames 0 and 1 listed, not frame 2");
+    assert!(
+        !out.join("ply/frame_00002.ply").exists(),
+        "frame 2 not written"
+    );
+}
