@@ -19,6 +19,16 @@ pub trait Exchange {
     /// call it, the same number of times.
     fn exchange(&self, outgoing: Vec<Vec<u32>>) -> Vec<Vec<u32>>;
 
+    /// [`Exchange::exchange`] between neighbours: only the ranks in
+    /// `partners` (a relation every rank sees alike, and symmetric: `r`
+    /// lists `s` exactly when `s` lists `r`) send to or receive from this
+    /// one, and `outgoing` to every other rank is empty. Every rank must
+    /// call it.
+    fn exchange_with(&self, outgoing: Vec<Vec<u32>>, partners: &[usize]) -> Vec<Vec<u32>> {
+        let _ = partners;
+        self.exchange(outgoing)
+    }
+
     /// Sends `words` to every rank; returns every rank's words, by rank.
     fn all_gather(&self, words: &[u32]) -> Vec<Vec<u32>> {
         self.exchange(vec![words.to_vec(); self.size()])

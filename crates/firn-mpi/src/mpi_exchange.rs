@@ -1,5 +1,7 @@
-//! [`Exchange`] over MPI (rsmpi): the particles by `MPI_Alltoallv` (their
-//! counts by `MPI_Alltoall`); the reductions by `MPI_Allreduce`, the
+//! [`Exchange`] over MPI (rsmpi): the particles between neighbours by
+//! `MPI_Isend` / `MPI_Recv` (a probed length) to and from each neighbour
+//! only, else by `MPI_Alltoallv` (their counts by `MPI_Alltoall`); the
+//! reductions by `MPI_Allreduce`, the
 //! renumbering's offsets by `MPI_Exscan`, rank 0's commands and a failing
 //! rank's message by `MPI_Bcast`, so that no rank receives O(ranks) words
 //! outside the particle exchange.
@@ -10,7 +12,7 @@ use mpi::Count;
 use mpi::collective::SystemOperation;
 use mpi::datatype::{Partition, PartitionMut};
 use mpi::topology::SimpleCommunicator;
-use mpi::traits::{Communicator, CommunicatorCollectives, Root};
+use mpi::traits::{Communicator, CommunicatorCollectives, Destination, Root, Source};
 
 use crate::exchange::Exchange;
 
@@ -35,6 +37,10 @@ impl MpiExchange {
         self.world.abort(code)
     }
 }
+
+/// The tag of the messages between neighbours ([`Exchange::exchange_with`]);
+/// everything else goes by collectives.
+const NEIGHBOUR_TAG: mpi::Tag = 7;
 
 /// Offsets of consecutive blocks of `counts` words.
 fn displacements(counts: &[Count]) -> Vec<Count> {
@@ -83,6 +89,31 @@ impl Exchange for MpiExchange {
             .zip(&receive_counts)
             .map(|(&start, &count)| receive[start as usize..(start + count) as usize].to_vec())
             .collect()
+    }
+
+    fn exchange_with(&self, outgoing: Vec<Vec<u32>>, partners: &[usize]) -> Vec<Vec<u32>> {
+        let mut incoming = vec![Vec::new(); self.size()];
+        mpi::request::scope(|scope| {
+            let sends: Vec<_> = partners
+                .iter()
+                .map(|&rank| {
+                    self.world
+                        .process_at_rank(rank as mpi::Rank)
+                        .immediate_send_with_tag(scope, &outgoing[rank][..], NEIGHBOUR_TAG)
+                })
+                .collect();
+            for &rank in partners {
+                let (words, _) = self
+                    .world
+                    .process_at_rank(rank as mpi::Rank)
+                    .receive_vec_with_tag::<u32>(NEIGHBOUR_TAG);
+                incoming[rank] = words;
+            }
+            for send in sends {
+                send.wait();
+            }
+        });
+        incoming
     }
 
     fn broadcast_from(&self, root: usize, words: Vec<u32>) -> Vec<u32> {

@@ -345,6 +345,17 @@ impl<E: Exchange> RankSnow<E> {
         own
     }
 
+    /// The ghost reach in block indices ([`GHOST_BLOCKS`] blocks in every
+    /// axis).
+    fn reach(&self) -> u32 {
+        GHOST_BLOCKS * ghost_reach(self.layout.blocks)
+    }
+
+    /// The ranks this one exchanges ghosts with.
+    fn neighbours(&self) -> Vec<usize> {
+        self.slabs.neighbours(self.rank(), self.reach())
+    }
+
     /// The block index of every particle.
     fn blocks(&self, particles: &Particles) -> Vec<u32> {
         block_indices(particles, &self.layout)
@@ -384,22 +395,33 @@ impl<E: Exchange> RankSnow<E> {
     /// Sends the particles outside this rank's slab to their owners and
     /// takes in those that entered it; the result is sorted by key (`own`
     /// is), reordered in one pass and only when a particle left or came.
+    /// The migrants go to the neighbours only, unless one went further (a
+    /// rebalance, a particle past the ghost reach) anywhere: then to all.
     fn migrate(&mut self, mut own: KeyedParticles) -> KeyedParticles {
         let me = self.exchange.rank();
         let blocks = self.blocks(&own.particles);
+        let neighbours = self.neighbours();
         let mut outgoing = vec![Vec::new(); self.exchange.size()];
         let mut kept = Vec::with_capacity(own.len());
+        let mut far = false;
         for (p, &block) in blocks.iter().enumerate() {
             let owner = self.slabs.owner(block);
             if owner == me {
                 kept.push(p as u32);
             } else {
+                far |= !neighbours.contains(&owner);
                 own.pack(p, &mut outgoing[owner]);
                 self.traffic.migrated += 1;
             }
         }
         self.count_sent(&outgoing);
-        let incoming = self.timed(Phase::Migration, |exchange| exchange.exchange(outgoing));
+        let incoming = self.timed(Phase::Migration, |exchange| {
+            if exchange.max_u64(&[u64::from(far)])[0] == 1 {
+                exchange.exchange(outgoing)
+            } else {
+                exchange.exchange_with(outgoing, &neighbours)
+            }
+        });
         let stayed = own.len();
         for words in &incoming {
             own.unpack(words);
@@ -437,16 +459,14 @@ impl<E: Exchange> RankSnow<E> {
     }
 
     /// The own particles followed by the ghosts this rank needs, sorted by
-    /// key, after sending every other rank the ghosts it needs.
+    /// key, after sending each neighbour the ghosts it needs.
     fn with_ghosts(&mut self, mut own: KeyedParticles) -> KeyedParticles {
-        let me = self.exchange.rank();
         let blocks = self.blocks(&own.particles);
-        let reach = GHOST_BLOCKS * ghost_reach(self.layout.blocks);
+        let reach = self.reach();
+        let neighbours = self.neighbours();
         let mut outgoing = vec![Vec::new(); self.exchange.size()];
-        for (rank, words) in outgoing.iter_mut().enumerate() {
-            if rank == me {
-                continue;
-            }
+        for &rank in &neighbours {
+            let words = &mut outgoing[rank];
             let [below, above] = self.slabs.ghost_blocks(rank, reach);
             for (p, block) in blocks.iter().enumerate() {
                 if below.contains(block) || above.contains(block) {
@@ -456,7 +476,9 @@ impl<E: Exchange> RankSnow<E> {
             }
         }
         self.count_sent(&outgoing);
-        let incoming = self.timed(Phase::Ghosts, |exchange| exchange.exchange(outgoing));
+        let incoming = self.timed(Phase::Ghosts, |exchange| {
+            exchange.exchange_with(outgoing, &neighbours)
+        });
         let mut ghosts = KeyedParticles::default();
         for words in &incoming {
             ghosts.unpack_ghosts(words);

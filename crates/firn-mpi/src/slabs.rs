@@ -86,6 +86,26 @@ impl Slabs {
         ]
     }
 
+    /// The other ranks whose blocks lie within `reach` block indices of
+    /// `rank`'s (a symmetric relation; none for an empty slab): the only
+    /// ranks it exchanges ghosts with, and migrants with when no particle
+    /// went further.
+    pub fn neighbours(&self, rank: usize, reach: u32) -> Vec<usize> {
+        let own = self.blocks(rank);
+        if own.is_empty() {
+            return Vec::new();
+        }
+        (0..self.ranks())
+            .filter(|&other| {
+                let theirs = self.blocks(other);
+                other != rank
+                    && !theirs.is_empty()
+                    && theirs.start < own.end + reach
+                    && own.start < theirs.end + reach
+            })
+            .collect()
+    }
+
     /// The busiest rank's particles over the mean, for particle counts per
     /// block `histogram` (1 is perfect balance).
     pub fn imbalance(&self, histogram: &[u64]) -> f64 {
@@ -155,6 +175,17 @@ mod tests {
                 assert!(neighbour.abs_diff(index(x, y, z)) <= reach);
             }
         }
+    }
+
+    #[test]
+    fn neighbours_are_the_ranks_within_reach_both_ways() {
+        let slabs = Slabs::from_words(&[0, 10, 12, 30, 30, 40]);
+        assert_eq!(slabs.neighbours(0, 3), [1, 2]);
+        assert_eq!(slabs.neighbours(1, 3), [0, 2]);
+        assert_eq!(slabs.neighbours(2, 3), [0, 1, 4]);
+        assert_eq!(slabs.neighbours(3, 3), Vec::<usize>::new());
+        assert_eq!(slabs.neighbours(4, 3), [2]);
+        assert_eq!(slabs.neighbours(0, 1), [1]);
     }
 
     #[test]
