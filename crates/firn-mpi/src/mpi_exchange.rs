@@ -1,10 +1,10 @@
 //! [`Exchange`] over MPI (rsmpi): the particles between neighbours by
-//! `MPI_Isend` / `MPI_Recv` (a probed length) to and from each neighbour
-//! only, else by `MPI_Alltoallv` (their counts by `MPI_Alltoall`); the
-//! reductions by `MPI_Allreduce`, the
-//! renumbering's offsets by `MPI_Exscan`, rank 0's commands and a failing
-//! rank's message by `MPI_Bcast`, so that no rank receives O(ranks) words
-//! outside the particle exchange.
+//! `MPI_Isend` and a probed `MPI_Recv` to and from each neighbour only,
+//! other particle messages by `MPI_Alltoallv` (their counts by
+//! `MPI_Alltoall`); the reductions by `MPI_Allreduce`, the renumbering's
+//! offsets by `MPI_Exscan`, rank 0's commands and a failing rank's message
+//! by `MPI_Bcast`: a substep without far migrants costs each rank messages
+//! to its neighbours and O(log ranks) rounds of reductions.
 
 use std::rc::Rc;
 
