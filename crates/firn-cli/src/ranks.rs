@@ -38,8 +38,8 @@ pub fn run(args: &RunArgs, mpi: &MpiRun) -> Result<(), Failure> {
         scene_file,
         &Placement::Cpu,
         &described,
-        |recording| {
-            let stepper = RootStepper::start(exchange.clone(), recording.solver())?;
+        |solver| {
+            let stepper = RootStepper::start(exchange.clone(), solver)?;
             Ok(Some(Box::new(stepper)))
         },
     );
@@ -77,16 +77,18 @@ fn said(failure: Failure) -> Failure {
 /// cannot run split), every rank stops with exit code 2, and the lowest
 /// such rank says why.
 fn agree_on<T>(exchange: &MpiExchange, verdict: Result<T, Failure>) -> Result<T, Failure> {
-    let failed = u32::from(verdict.is_err());
-    let failures = exchange.all_gather(&[failed]);
-    let first_failing = failures.iter().position(|flags| flags[0] == 1);
+    let mine = match verdict {
+        Ok(_) => u64::MAX,
+        Err(_) => exchange.rank() as u64,
+    };
+    let first_failing = exchange.min_u64(&[mine])[0];
     let verdict = match (first_failing, verdict) {
-        (None, verdict) => return verdict,
-        (Some(rank), Err(failure)) if rank == exchange.rank() => Err(said(failure)),
-        (Some(_), _) => Err(Failure::BadInput(String::new())),
+        (u64::MAX, verdict) => return verdict,
+        (rank, Err(failure)) if rank == exchange.rank() as u64 => Err(said(failure)),
+        (_, _) => Err(Failure::BadInput(String::new())),
     };
     // No rank exits (and has mpirun end the job) before the message is out.
-    exchange.all_gather(&[]);
+    exchange.barrier();
     verdict
 }
 
@@ -155,7 +157,7 @@ fn measure_split(
         part.step(f64::MAX).map_err(failed)?;
     }
     let before = part.traffic();
-    exchange.all_gather(&[]);
+    exchange.barrier();
     let started = Instant::now();
     for _ in 0..args.steps {
         part.step(f64::MAX).map_err(failed)?;

@@ -110,7 +110,7 @@ pub(crate) fn record(
     scene_file: Option<PathBuf>,
     placement: &Placement,
     described: &str,
-    stepper_for: impl FnOnce(&Recording) -> Result<Option<Box<dyn Stepper>>, RunError>,
+    stepper_for: impl FnOnce(&Solver) -> Result<Option<Box<dyn Stepper>>, RunError>,
 ) -> Result<(), Failure> {
     // Before anything is written: a scene past the machine leaves no trace.
     Budget::of(&scene)
@@ -135,14 +135,24 @@ pub(crate) fn record(
         bar: None,
         log_lines: !args.quiet && !std::io::stderr().is_terminal(),
     };
-    let mut recording = if args.resume {
-        Recording::resume(scene, run, placement).map_err(resume_failure)?
+    let (mut recording, mut stepper) = if args.resume {
+        let recording = Recording::resume(scene, run, placement).map_err(resume_failure)?;
+        let stepper = stepper_for(recording.solver()).map_err(failed)?;
+        (recording, stepper)
     } else {
         let solver = Solver::new(scene, placement)
             .map_err(|error| Failure::BadInput(format!("error: {error}")))?;
-        Recording::start(solver, run, scene_file, &mut terminal).map_err(failed)?
+        let mut stepper = stepper_for(&solver).map_err(failed)?;
+        let recording = Recording::start_with(
+            solver,
+            run,
+            scene_file,
+            &mut terminal,
+            stepper.as_deref_mut(),
+        )
+        .map_err(failed)?;
+        (recording, stepper)
     };
-    let mut stepper = stepper_for(&recording).map_err(failed)?;
     if !args.quiet {
         announce(&recording, last_frame, described);
     }

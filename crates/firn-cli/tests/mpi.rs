@@ -228,3 +228,222 @@ fn the_semi_implicit_integrator_is_refused_on_several_ranks() {
     assert!(stderr.contains("semi-implicit"), "{stderr}");
     assert!(!out.join("manifest.json").exists(), "nothing is written");
 }
+
+/// The particle positions, as bits, of a frame's PLY cache, sorted.
+fn ply_positions(path: &Path) -> Vec<[u32; 3]> {
+    let cloud = firn_io::read_ply(path).unwrap();
+    let mut positions: Vec<[u32; 3]> = cloud
+        .positions()
+        .unwrap()
+        .iter()
+        .map(|p| p.to_array().map(f32::to_bits))
+        .collect();
+    positions.sort_unstable();
+    positions
+}
+
+/// The points of a VTK PolyData piece, as bits: its `Points` array,
+/// base64 of a u64 byte count and the little-endian floats.
+fn vtp_positions(path: &Path) -> Vec<[u32; 3]> {
+    use base64::Engine;
+    let text = fs::read_to_string(path).unwrap();
+    let points = &text[text.find("<Points>").expect("a Points element")..];
+    let start = points.find("format=\"binary\">").unwrap() + "format=\"binary\">".len();
+    let end = points.find("</DataArray>").unwrap();
+    let bytes = base64::engine::general_purpose::STANDARD
+        .decode(points[start..end].trim())
+        .unwrap();
+    let (count, data) = bytes.split_at(8);
+    assert_eq!(
+        u64::from_le_bytes(count.try_into().unwrap()) as usize,
+        data.len()
+    );
+    data.chunks_exact(12)
+        .map(|point| {
+            std::array::from_fn(|axis| {
+                u32::from_le_bytes(point[4 * axis..4 * axis + 4].try_into().unwrap())
+            })
+        })
+        .collect()
+}
+
+/// The files of each frame of a run's PVD collection, by time in order:
+/// (part, file) per piece.
+fn collection(run: &Path) -> Vec<Vec<(u32, String)>> {
+    let text = fs::read_to_string(run.join("particles.pvd")).unwrap();
+    let attribute = |line: &str, name: &str| {
+        let start = line.find(&format!("{name}=\"")).unwrap() + name.len() + 2;
+        line[start..start + line[start..].find('"').unwrap()].to_string()
+    };
+    let mut frames: Vec<(String, Vec<(u32, String)>)> = Vec::new();
+    for line in text.lines().filter(|line| line.contains("<DataSet")) {
+        let time = attribute(line, "timestep");
+        let piece = (
+            attribute(line, "part").parse().unwrap(),
+            attribute(line, "file"),
+        );
+        match frames.last_mut() {
+            Some((last, pieces)) if *last == time => pieces.push(piece),
+            _ => frames.push((time, vec![piece])),
+        }
+    }
+    frames.into_iter().map(|(_, pieces)| pieces).collect()
+}
+
+#[test]
+fn every_rank_writes_its_vtk_piece_and_the_pieces_hold_every_particle_once() {
+    if !have_mpirun() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let text = fs::read_to_string(crossing_scene())
+        .unwrap()
+        .replace("formats = [\"ply\"]", "formats = [\"ply\", \"vtk\"]");
+    let scene = dir.path().join("crossing-vtk.toml");
+    fs::write(&scene, text).unwrap();
+    let out = dir.path().join("split");
+    let output = mpirun(
+        3,
+        &[
+            "run",
+            scene.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--frames",
+            "2",
+        ],
+    );
+    assert_success(&output, "3 ranks");
+    let frames = collection(&out);
+    assert_eq!(frames.len(), 3, "frames 0 to 2 in the collection");
+    for (index, pieces) in frames.iter().enumerate() {
+        let parts: Vec<u32> = pieces.iter().map(|(part, _)| *part).collect();
+        assert_eq!(parts, [0, 1, 2], "frame {index}: one piece per rank");
+        let mut together: Vec<[u32; 3]> = pieces
+            .iter()
+            .flat_map(|(_, file)| vtp_positions(&out.join(file)))
+            .collect();
+        together.sort_unstable();
+        let merged = ply_positions(&out.join(format!("ply/frame_{index:05}.ply")));
+        assert!(!merged.is_empty());
+        assert!(
+            together == merged,
+            "frame {index}: the pieces hold {} particles, the frame {}",
+            together.len(),
+            merged.len()
+        );
+    }
+}
+
+#[test]
+fn a_run_killed_on_two_ranks_resumes_on_three_with_the_one_process_bytes() {
+    use std::os::unix::process::CommandExt;
+    if !have_mpirun() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let scene = crossing_scene();
+    let scene = scene.to_str().unwrap();
+    let alone = dir.path().join("alone");
+    let output = firn(&[
+        "run",
+        scene,
+        "--out",
+        alone.to_str().unwrap(),
+        "--frames",
+        "4",
+        "--threads",
+        "1",
+        "--quiet",
+    ]);
+    assert_success(&output, "one process");
+    let split = dir.path().join("split");
+    let out = split.to_str().unwrap();
+    let mut killed = Command::new("mpirun")
+        .args(["--oversubscribe", "-np", "2"])
+        .arg(firn_binary())
+        .args(["run", scene, "--out", out, "--frames", "4"])
+        .args(["--threads", "1", "--quiet"])
+        .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+        .process_group(0)
+        .spawn()
+        .expect("mpirun starts");
+    // The checkpoint is taken after frame 2 (checkpoint_every = 2): kill
+    // the whole job while it simulates frame 4.
+    let frame_3 = split.join("ply/frame_00003.ply");
+    while !frame_3.exists() {
+        assert!(
+            killed.try_wait().unwrap().is_none(),
+            "the run ended before frame 3"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let group = format!("-{}", killed.id());
+    let kill = Command::new("kill")
+        .args(["-KILL", "--", &group])
+        .status()
+        .unwrap();
+    assert!(kill.success(), "kill -KILL {group}");
+    let status = killed.wait().unwrap();
+    assert!(!status.success(), "the run was killed");
+    assert!(
+        !split.join("ply/frame_00004.ply").exists(),
+        "killed before frame 4"
+    );
+    assert_success(
+        &mpirun(
+            3,
+            &["run", scene, "--out", out, "--frames", "4", "--resume"],
+        ),
+        "resumed on 3 ranks",
+    );
+    assert!(
+        frames(&alone) == frames(&split),
+        "the resumed frames differ"
+    );
+    let pieces = fs::read_to_string(split.join("checkpoint-pieces.json")).unwrap();
+    assert!(pieces.contains("frame_00004_rank_0002"), "{pieces}");
+}
+
+#[test]
+fn a_rank_that_cannot_write_its_piece_stops_every_rank_with_its_message() {
+    if !have_mpirun() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let text = fs::read_to_string(crossing_scene())
+        .unwrap()
+        .replace("formats = [\"ply\"]", "formats = [\"ply\", \"vtk\"]");
+    let scene = dir.path().join("crossing-vtk.toml");
+    fs::write(&scene, text).unwrap();
+    let out = dir.path().join("split");
+    // A folder where rank 1's piece of frame 2 goes: its rename fails.
+    fs::create_dir_all(out.join("vtk/frame_00002_part_0001.vtp/blocked")).unwrap();
+    let output = mpirun(
+        2,
+        &[
+            "run",
+            scene.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--frames",
+            "3",
+        ],
+    );
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("rank 1 of 2"), "{stderr}");
+    assert!(stderr.contains("frame_00002_part_0001.vtp"), "{stderr}");
+    assert_eq!(
+        stderr.matches("error:").count(),
+        1,
+        "one rank reports: {stderr}"
+    );
+    let listed = collection(&out);
+    assert_eq!(listed.len(), 2, "frames 0 and 1 listed, not frame 2");
+    assert!(
+        !out.join("ply/frame_00002.ply").exists(),
+        "frame 2 not written"
+    );
+}

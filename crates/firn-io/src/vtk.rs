@@ -39,6 +39,9 @@ pub fn write_vtp(path: &Path, frame: &FrameData) -> Result<(), IoError> {
 pub struct PvdEntry {
     /// Simulation time in seconds.
     pub time: f64,
+    /// Which piece of the frame the file holds (0 for a frame in one file;
+    /// a run split between MPI ranks writes one piece per rank).
+    pub part: u32,
     /// Path of the frame's file, relative to the `.pvd` file.
     pub file: String,
 }
@@ -64,12 +67,19 @@ impl PvdCollection {
     /// Records `file` at `time`, replacing an earlier entry for the same file
     /// and keeping the entries in time order.
     pub fn push(&mut self, time: f64, file: impl Into<String>) {
+        self.push_part(time, 0, file);
+    }
+
+    /// Records `file` as piece `part` of the frame at `time`, replacing an
+    /// earlier entry for the same file and keeping the entries in time
+    /// order (the pieces of a frame in the order pushed).
+    pub fn push_part(&mut self, time: f64, part: u32, file: impl Into<String>) {
         let file = file.into();
         self.entries.retain(|entry| entry.file != file);
         let position = self
             .entries
             .partition_point(|entry| entry.time.total_cmp(&time).is_le());
-        self.entries.insert(position, PvdEntry { time, file });
+        self.entries.insert(position, PvdEntry { time, part, file });
     }
 
     /// Drops entries later than `time`, e.g. frames a resumed run will redo.
@@ -102,8 +112,9 @@ impl PvdCollection {
         ];
         lines.extend(self.entries.iter().map(|entry| {
             format!(
-                r#"    <DataSet timestep="{}" group="" part="0" file="{}"/>"#,
+                r#"    <DataSet timestep="{}" group="" part="{}" file="{}"/>"#,
                 entry.time,
+                entry.part,
                 xml::escape(&entry.file)
             )
         }));
@@ -124,7 +135,7 @@ impl PvdCollection {
         let mut collection = Self::new();
         for data_set in xml::elements_named(body, "DataSet")? {
             let entry = parse_entry(&data_set)?;
-            collection.push(entry.time, entry.file);
+            collection.push_part(entry.time, entry.part, entry.file);
         }
         Ok(collection)
     }
@@ -140,8 +151,13 @@ fn parse_entry(data_set: &xml::Element) -> Result<PvdEntry, String> {
     let time = timestep
         .parse()
         .map_err(|_| format!("invalid timestep `{timestep}`"))?;
+    let part = match data_set.attribute("part") {
+        None => 0,
+        Some(part) => part.parse().map_err(|_| format!("invalid part `{part}`"))?,
+    };
     Ok(PvdEntry {
         time,
+        part,
         file: required("file")?.to_string(),
     })
 }
@@ -467,7 +483,13 @@ mod tests {
         let mut collection = PvdCollection::new();
         collection.push(0.04, "frame_0001.vtp");
         collection.push(0.08, "odd & \"quoted\".vtp");
+        collection.push_part(0.08, 1, "frame_0002_rank_0001.vtp");
         collection.write(&path).unwrap();
+        let text = fs::read_to_string(&path).unwrap();
+        assert!(
+            text.contains(r#"part="1" file="frame_0002_rank_0001.vtp""#),
+            "{text}"
+        );
 
         assert_eq!(PvdCollection::read(&path).unwrap(), collection);
     }

@@ -1,14 +1,20 @@
 //! A split run recorded by rank 0: rank 0 runs [`firn_run::Recording`] as
 //! one process would, with a [`RootStepper`] that has every rank step its
-//! slab to the end of each frame and gathers the whole state back for the
-//! frame's caches and checkpoints (so they are the one process's, byte for
-//! byte, and `--resume` works with any rank count). The other ranks
-//! [`follow`] rank 0's [`Command`]s.
+//! slab to the end of each frame. Every rank writes its own particles: a
+//! VTK piece per frame (rank 0 lists the pieces in the ParaView
+//! collection) and a checkpoint piece with their keys (rank 0 writes the
+//! manifest naming the pieces once all are written), so `--resume` works
+//! on any rank count. Rank 0 also gathers the state of each frame for the
+//! caches that are one file of the whole run (the PLY frames in the
+//! one-process order, byte for byte; volumes, meshes, pictures). The other
+//! ranks [`follow`] rank 0's [`Command`]s.
 
 use firn_core::Scene;
+use firn_core::scene::CacheFormat;
+use firn_run::checkpoint::{self, PieceManifest};
 use firn_run::recording::Stepper;
 use firn_run::simulation::SolverState;
-use firn_run::{Placement, RunError, Solver};
+use firn_run::{Placement, RunDirectory, RunError, Solver};
 
 use crate::exchange::{Exchange, join_u64, split_u64};
 use crate::rank::RankSnow;
@@ -22,6 +28,16 @@ pub enum Command {
     Advance {
         /// The end of the frame.
         until: f64,
+    },
+    /// Write the own particles as a VTK piece of frame `frame`.
+    Pieces {
+        /// The frame.
+        frame: u32,
+    },
+    /// Write the own piece of the checkpoint after frame `frame`.
+    Checkpoint {
+        /// The frame.
+        frame: u32,
     },
     /// The run is over; exit with `code`.
     Stop {
@@ -39,6 +55,8 @@ impl Command {
                 vec![1, high, low]
             }
             Command::Stop { code } => vec![2, code as u32],
+            Command::Pieces { frame } => vec![3, frame],
+            Command::Checkpoint { frame } => vec![4, frame],
         }
     }
 
@@ -49,6 +67,8 @@ impl Command {
                 until: f64::from_bits(join_u64(*high, *low)),
             },
             [2, code] => Command::Stop { code: *code as i32 },
+            [3, frame] => Command::Pieces { frame: *frame },
+            [4, frame] => Command::Checkpoint { frame: *frame },
             other => panic!("rank 0 sent an unknown command {other:?}"),
         }
     }
@@ -130,11 +150,79 @@ impl<E: Exchange> Stepper for RootStepper<E> {
         *solver = Solver::restore(scene, SolverState::Snow(snapshot), &Placement::Cpu)?;
         Ok(substeps)
     }
+
+    fn write_vtk_pieces(
+        &mut self,
+        index: u32,
+        _time: f64,
+        run: &RunDirectory,
+    ) -> Option<Result<Vec<(u32, String)>, RunError>> {
+        let scene = self.rank.simulation().scene();
+        if !scene.output.formats.contains(&CacheFormat::Vtk) {
+            return None;
+        }
+        Command::Pieces { frame: index }.send(self.rank.exchange());
+        let ranks = self.rank.exchange().size();
+        Some(self.rank.write_vtk_piece(index, run).map(|_| {
+            (0..ranks)
+                .map(|rank| (rank as u32, RunDirectory::vtk_piece_name(index, rank)))
+                .collect()
+        }))
+    }
+
+    fn write_checkpoint(
+        &mut self,
+        frame: u32,
+        scene_json: &serde_json::Value,
+        run: &RunDirectory,
+    ) -> Option<Result<(), RunError>> {
+        Command::Checkpoint { frame }.send(self.rank.exchange());
+        let ranks = self.rank.exchange().size();
+        let written = self
+            .rank
+            .write_checkpoint_piece(frame, scene_json, run)
+            .and_then(|(_, particles)| {
+                let manifest = PieceManifest {
+                    frame,
+                    particles,
+                    pieces: (0..ranks)
+                        .map(|rank| RunDirectory::checkpoint_piece_name(frame, rank))
+                        .collect(),
+                };
+                checkpoint::write_piece_manifest(&manifest, &run.piece_manifest_path())?;
+                remove_stale_pieces(run, &manifest);
+                Ok(())
+            });
+        Some(written)
+    }
+}
+
+/// Removes the checkpoint pieces that `manifest` (written) no longer names
+/// (best effort: a stale piece left behind is never read).
+fn remove_stale_pieces(run: &RunDirectory, manifest: &PieceManifest) {
+    let folder = run.path().join(RunDirectory::checkpoint_piece_name(0, 0));
+    let Some(Ok(entries)) = folder.parent().map(std::fs::read_dir) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let path = entry.path();
+        let named = path
+            .strip_prefix(run.path())
+            .ok()
+            .and_then(|relative| relative.to_str())
+            .is_some_and(|relative| manifest.pieces.iter().any(|piece| piece == relative));
+        if !named {
+            // Best effort, as said.
+            let _ = std::fs::remove_file(path);
+        }
+    }
 }
 
 /// A rank other than 0: does what rank 0 says until it says stop; returns
-/// the run's exit code.
+/// the run's exit code. Its pieces go into the scene's run directory.
 pub fn follow<E: Exchange + Clone>(exchange: E, scene: &Scene) -> i32 {
+    let run = RunDirectory::new(scene.output.directory.clone());
+    let scene_json = checkpoint::scene_json(scene);
     let mut part: Option<RankSnow<E>> = None;
     loop {
         match Command::receive(&exchange) {
@@ -143,14 +231,25 @@ pub fn follow<E: Exchange + Clone>(exchange: E, scene: &Scene) -> i32 {
                 part = Some(RankSnow::scatter(exchange.clone(), scene.clone(), None));
             }
             Command::Advance { until } => {
-                let rank = part
-                    .as_mut()
-                    .expect("rank 0 starts the ranks before stepping");
+                let rank = started(&mut part);
                 // Every rank learns of a failure; rank 0 reports it.
                 if rank.advance_to(until).is_ok() {
                     rank.gather();
                 }
             }
+            // Every rank learns of a failure; rank 0 reports it.
+            Command::Pieces { frame } => {
+                let _ = started(&mut part).write_vtk_piece(frame, &run);
+            }
+            Command::Checkpoint { frame } => {
+                let _ = started(&mut part).write_checkpoint_piece(frame, &scene_json, &run);
+            }
         }
     }
+}
+
+/// A follower's part, which rank 0 starts before any other command.
+fn started<E: Exchange>(part: &mut Option<RankSnow<E>>) -> &mut RankSnow<E> {
+    part.as_mut()
+        .expect("rank 0 starts the ranks before any other command")
 }

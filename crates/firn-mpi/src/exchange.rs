@@ -1,7 +1,10 @@
-//! The one collective the ranks use: every rank hands every rank (itself
-//! included) a buffer of 32-bit words and gets back what each rank handed
-//! it, by sender. Reductions, broadcasts and gathers are made from it, so a
-//! transport only implements [`Exchange::exchange`].
+//! The collectives the ranks use. The one a transport must implement is
+//! [`Exchange::exchange`]: every rank hands every rank (itself included) a
+//! buffer of 32-bit words and gets back what each rank handed it, by
+//! sender. The reductions, the scan, the broadcasts and the barrier have
+//! default implementations made from it (all-gathers, O(ranks) words per
+//! rank), which a transport overrides with its own scalable collectives
+//! (MPI's `MPI_Allreduce`, `MPI_Exscan`, `MPI_Bcast`, `MPI_Barrier`).
 
 use std::sync::{Arc, Barrier, Mutex};
 
@@ -16,6 +19,16 @@ pub trait Exchange {
     /// call it, the same number of times.
     fn exchange(&self, outgoing: Vec<Vec<u32>>) -> Vec<Vec<u32>>;
 
+    /// [`Exchange::exchange`] between neighbours: only the ranks in
+    /// `partners` (a relation every rank sees alike, and symmetric: `r`
+    /// lists `s` exactly when `s` lists `r`) send to or receive from this
+    /// one, and `outgoing` to every other rank is empty. Every rank must
+    /// call it.
+    fn exchange_with(&self, outgoing: Vec<Vec<u32>>, partners: &[usize]) -> Vec<Vec<u32>> {
+        let _ = partners;
+        self.exchange(outgoing)
+    }
+
     /// Sends `words` to every rank; returns every rank's words, by rank.
     fn all_gather(&self, words: &[u32]) -> Vec<Vec<u32>> {
         self.exchange(vec![words.to_vec(); self.size()])
@@ -23,12 +36,52 @@ pub trait Exchange {
 
     /// Rank 0's `words` on every rank (the others' `words` are ignored).
     fn broadcast(&self, words: Vec<u32>) -> Vec<u32> {
-        let outgoing = if self.rank() == 0 {
+        self.broadcast_from(0, words)
+    }
+
+    /// Rank `root`'s `words` on every rank (the others' `words` are
+    /// ignored).
+    fn broadcast_from(&self, root: usize, words: Vec<u32>) -> Vec<u32> {
+        let outgoing = if self.rank() == root {
             vec![words; self.size()]
         } else {
             vec![Vec::new(); self.size()]
         };
-        self.exchange(outgoing).swap_remove(0)
+        self.exchange(outgoing).swap_remove(root)
+    }
+
+    /// Returns once every rank has called it.
+    fn barrier(&self) {
+        self.exchange(vec![Vec::new(); self.size()]);
+    }
+
+    /// The smallest of every rank's `values`, element by element.
+    fn min_u64(&self, values: &[u64]) -> Vec<u64> {
+        let words: Vec<u32> = values.iter().flat_map(|&v| split_u64(v)).collect();
+        let mut result = values.to_vec();
+        for theirs in self.all_gather(&words) {
+            for (least, pair) in result.iter_mut().zip(theirs.chunks_exact(2)) {
+                *least = (*least).min(join_u64(pair[0], pair[1]));
+            }
+        }
+        result
+    }
+
+    /// The largest of every rank's `values`, element by element.
+    fn max_u64(&self, values: &[u64]) -> Vec<u64> {
+        let complements: Vec<u64> = values.iter().map(|&v| u64::MAX - v).collect();
+        self.min_u64(&complements)
+            .into_iter()
+            .map(|least| u64::MAX - least)
+            .collect()
+    }
+
+    /// The sum of `value` over the ranks below this one (0 on rank 0).
+    fn exclusive_sum_u64(&self, value: u64) -> u64 {
+        self.all_gather(&split_u64(value))[..self.rank()]
+            .iter()
+            .map(|words| join_u64(words[0], words[1]))
+            .sum()
     }
 
     /// Every rank's `words` on rank 0, by rank; `None` on the others.

@@ -9,12 +9,14 @@
 //! order and every node gets the one-process bits without any partial sums
 //! sent (docs/architecture.md, "MPI").
 //!
-//! The ranks talk through one collective, [`exchange::Exchange`]: each rank
-//! hands every rank a buffer of words. [`exchange::ThreadRanks`] runs ranks
-//! as threads of one process (the tests); with the `mpi` feature,
-//! `MpiExchange` runs them on MPI (`mpirun -np N firn run SCENE`).
-//! [`driver`] plugs the ranks into [`firn_run::Recording`]: rank 0 writes
-//! the frames and checkpoints of the whole run, the others follow.
+//! The ranks talk through [`exchange::Exchange`]: particles by an
+//! all-to-all of word buffers, and reductions, a scan and broadcasts.
+//! [`exchange::ThreadRanks`] runs ranks as threads of one process (the
+//! tests); with the `mpi` feature, `MpiExchange` runs them on MPI
+//! (`mpirun -np N firn run SCENE`). [`driver`] plugs the ranks into
+//! [`firn_run::Recording`]: every rank writes its own VTK pieces and
+//! checkpoint pieces, rank 0 the caches of the whole run, and the others
+//! follow rank 0's commands.
 
 pub mod driver;
 pub mod exchange;

@@ -1,12 +1,18 @@
-//! [`Exchange`] over MPI (rsmpi): the counts by `MPI_Alltoall`, the words
-//! by `MPI_Alltoallv`.
+//! [`Exchange`] over MPI (rsmpi): the particles between neighbours by
+//! `MPI_Isend` and a probed `MPI_Recv` to and from each neighbour only,
+//! other particle messages by `MPI_Alltoallv` (their counts by
+//! `MPI_Alltoall`); the reductions by `MPI_Allreduce`, the renumbering's
+//! offsets by `MPI_Exscan`, rank 0's commands and a failing rank's message
+//! by `MPI_Bcast`: a substep without far migrants costs each rank messages
+//! to its neighbours and O(log ranks) rounds of reductions.
 
 use std::rc::Rc;
 
 use mpi::Count;
+use mpi::collective::SystemOperation;
 use mpi::datatype::{Partition, PartitionMut};
 use mpi::topology::SimpleCommunicator;
-use mpi::traits::{Communicator, CommunicatorCollectives};
+use mpi::traits::{Communicator, CommunicatorCollectives, Destination, Root, Source};
 
 use crate::exchange::Exchange;
 
@@ -31,6 +37,10 @@ impl MpiExchange {
         self.world.abort(code)
     }
 }
+
+/// The tag of the messages between neighbours ([`Exchange::exchange_with`]);
+/// everything else goes by collectives.
+const NEIGHBOUR_TAG: mpi::Tag = 7;
 
 /// Offsets of consecutive blocks of `counts` words.
 fn displacements(counts: &[Count]) -> Vec<Count> {
@@ -79,6 +89,84 @@ impl Exchange for MpiExchange {
             .zip(&receive_counts)
             .map(|(&start, &count)| receive[start as usize..(start + count) as usize].to_vec())
             .collect()
+    }
+
+    fn exchange_with(&self, outgoing: Vec<Vec<u32>>, partners: &[usize]) -> Vec<Vec<u32>> {
+        let mut incoming = vec![Vec::new(); self.size()];
+        mpi::request::scope(|scope| {
+            let sends: Vec<_> = partners
+                .iter()
+                .map(|&rank| {
+                    self.world
+                        .process_at_rank(rank as mpi::Rank)
+                        .immediate_send_with_tag(scope, &outgoing[rank][..], NEIGHBOUR_TAG)
+                })
+                .collect();
+            for &rank in partners {
+                let (words, _) = self
+                    .world
+                    .process_at_rank(rank as mpi::Rank)
+                    .receive_vec_with_tag::<u32>(NEIGHBOUR_TAG);
+                incoming[rank] = words;
+            }
+            for send in sends {
+                send.wait();
+            }
+        });
+        incoming
+    }
+
+    fn broadcast_from(&self, root: usize, words: Vec<u32>) -> Vec<u32> {
+        let process = self.world.process_at_rank(root as mpi::Rank);
+        let mut length = words.len() as u64;
+        process.broadcast_into(&mut length);
+        let mut words = if self.rank() == root {
+            words
+        } else {
+            vec![0; length as usize]
+        };
+        process.broadcast_into(&mut words[..]);
+        words
+    }
+
+    fn barrier(&self) {
+        self.world.barrier();
+    }
+
+    fn max_f32(&self, values: &[f32]) -> Vec<f32> {
+        let mut result = vec![0.0; values.len()];
+        self.world
+            .all_reduce_into(values, &mut result[..], SystemOperation::max());
+        result
+    }
+
+    fn sum_u64(&self, counts: &[u64]) -> Vec<u64> {
+        let mut result = vec![0; counts.len()];
+        self.world
+            .all_reduce_into(counts, &mut result[..], SystemOperation::sum());
+        result
+    }
+
+    fn min_u64(&self, values: &[u64]) -> Vec<u64> {
+        let mut result = vec![0; values.len()];
+        self.world
+            .all_reduce_into(values, &mut result[..], SystemOperation::min());
+        result
+    }
+
+    fn max_u64(&self, values: &[u64]) -> Vec<u64> {
+        let mut result = vec![0; values.len()];
+        self.world
+            .all_reduce_into(values, &mut result[..], SystemOperation::max());
+        result
+    }
+
+    fn exclusive_sum_u64(&self, value: u64) -> u64 {
+        let mut below = 0u64;
+        self.world
+            .exclusive_scan_into(&value, &mut below, SystemOperation::sum());
+        // MPI leaves rank 0's result undefined.
+        if self.rank() == 0 { 0 } else { below }
     }
 }
 

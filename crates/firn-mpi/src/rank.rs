@@ -8,10 +8,9 @@
 //! 2. **renumbering**, on the substeps where one process sorts its array
 //!    by block ([`REORDER_INTERVAL`]): each particle's key becomes its
 //!    place in that sorted array, the particles of lower ranks first;
-//! 3. **ghosts**: copies of the particles of the block columns within
-//!    reach of the nodes the slab reads (one column each side, wind
-//!    included, see [`GHOST_COLUMNS`]), sorted by key after the own
-//!    particles;
+//! 3. **ghosts**: copies of the particles of the blocks within reach of
+//!    the nodes the slab reads (one block in every axis, wind included,
+//!    see [`GHOST_BLOCKS`]), sorted by key after the own particles;
 //! 4. the substep itself on own and ghost particles, every block summing
 //!    its particles in key order, hence in the one-process order;
 //! 5. **agreement**: a failure anywhere stops every rank with the failing
@@ -20,28 +19,31 @@
 //!    every rank the same next Δt.
 
 use firn_core::Scene;
+use firn_io::IoError;
 use firn_mpm::binning::block_key;
 use firn_mpm::grid::GridLayout;
 use firn_mpm::simulation::REORDER_INTERVAL;
 use firn_mpm::{Particles, PermuteBuffers, Simulation, SimulationError, Snapshot};
-use firn_run::RunError;
+use firn_run::{RunDirectory, RunError, caches, checkpoint};
 
 use crate::exchange::{Exchange, join_u64, split_u64};
 use crate::packing::{KeyedParticles, WORDS_PER_PARTICLE};
-use crate::slabs::Slabs;
+use crate::slabs::{Slabs, ghost_reach};
 
 /// The slabs move when the busiest rank holds this much more than its
-/// share of the particles (1.1: 10 % more).
-pub const REBALANCE_ABOVE: f64 = 1.1;
+/// share of the particles (1.02: 2 % more). A slab may end at any block,
+/// so a new cut balances to within about one block's particles.
+pub const REBALANCE_ABOVE: f64 = 1.02;
 
-/// Block columns of ghosts either side of a slab. A particle in cell c
-/// reaches nodes c − 1 … c + 2 with either transfer (cubic, or quadratic
-/// from ⌊x/h − ½⌋), so the particles of a slab of block columns
-/// x0 … x1 − 1 read nodes 4·x0 − 1 … 4·x1 + 1, and those nodes hear only
-/// from cells 4·x0 − 3 … 4·x1 + 2, within one block column of the slab. The
-/// wind's drag also reads the node upwind (4·x0 − 2 or 4·x1 + 2), which
-/// hears from cells 4·x0 − 4 … 4·x1 + 3: still one column.
-const GHOST_COLUMNS: u32 = 1;
+/// Blocks of ghosts around each own block, in every axis. A particle in
+/// cell c reaches nodes c − 1 … c + 2 with either transfer (cubic, or
+/// quadratic from ⌊x/h − ½⌋), so the particles of blocks b0 … b1 − 1 along
+/// an axis read nodes 4·b0 − 1 … 4·b1 + 1, and those nodes hear only from
+/// cells 4·b0 − 3 … 4·b1 + 2, within one block. The wind's drag also reads
+/// the node upwind (4·b0 − 2 or 4·b1 + 2), which hears from cells
+/// 4·b0 − 4 … 4·b1 + 3: still one block. Those blocks lie within
+/// [`crate::slabs::ghost_reach`] block indices of the slab's ends.
+const GHOST_BLOCKS: u32 = 1;
 
 /// The steps of a substep in which a rank exchanges with the others.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -253,6 +255,78 @@ impl<E: Exchange> RankSnow<E> {
         })
     }
 
+    /// Writes this rank's own particles as part `rank` of frame `index`'s
+    /// VTK cache in `run`, atomically; then every rank learns whether every
+    /// rank wrote its piece (a failure anywhere is everyone's, with the
+    /// lowest failing rank's message). Returns the piece's path relative
+    /// to the run directory. Every rank must call it.
+    pub fn write_vtk_piece(&mut self, index: u32, run: &RunDirectory) -> Result<String, RunError> {
+        let name = RunDirectory::vtk_piece_name(index, self.rank());
+        let written = caches::write_snow_vtk_piece(
+            &self.simulation,
+            self.owned(),
+            index,
+            &run.path().join(&name),
+        );
+        self.agree_written(written)?;
+        Ok(name)
+    }
+
+    /// Writes this rank's piece of the checkpoint after frame `frame` of
+    /// the scene `scene_json` in `run`, atomically: its own particles and
+    /// their keys. Every rank learns whether every piece was written.
+    /// Returns the piece's path relative to the run directory and the
+    /// particles of all pieces. Every rank must call it.
+    pub fn write_checkpoint_piece(
+        &mut self,
+        frame: u32,
+        scene_json: &serde_json::Value,
+        run: &RunDirectory,
+    ) -> Result<(String, u64), RunError> {
+        let name = RunDirectory::checkpoint_piece_name(frame, self.rank());
+        let path = run.path().join(&name);
+        let written =
+            firn_io::ensure_writable_dir(path.parent().unwrap_or(run.path())).and_then(|()| {
+                checkpoint::write_piece(&self.own_snapshot(), &self.keys, frame, scene_json, &path)
+            });
+        self.agree_written(written)?;
+        let owned = self.owned() as u64;
+        let total = self.timed(Phase::Agreement, |exchange| exchange.sum_u64(&[owned]));
+        Ok((name, total[0]))
+    }
+
+    /// This rank's own particles and the run's counters, as a snapshot.
+    fn own_snapshot(&self) -> Snapshot {
+        let mut particles = self.simulation.particles().clone();
+        particles.truncate(self.owned());
+        let (max_speed_squared, max_wave_speed_squared) = self.simulation.motion_bounds();
+        Snapshot {
+            time: self.simulation.time(),
+            steps: self.simulation.steps(),
+            max_speed_squared,
+            max_wave_speed_squared,
+            particles,
+            // Refused under MPI (`driver::refusal`): no scene split here has drift.
+            drift: Default::default(),
+            escaped: Default::default(),
+        }
+    }
+
+    /// Every rank learns whether every rank's file was `written`; the
+    /// failure of the lowest failing rank is everyone's.
+    fn agree_written(&mut self, written: Result<(), IoError>) -> Result<(), RunError> {
+        let failure = written.as_ref().err().map(|error| (0, error.to_string()));
+        match self.first_failure(failure) {
+            None => Ok(()),
+            Some((rank, _)) if rank == self.rank() => Err(written.expect_err("failed").into()),
+            Some((rank, message)) => Err(RunError::Rank {
+                rank,
+                ranks: self.exchange.size(),
+                message,
+            }),
+        }
+    }
+
     /// Runs `exchange_with` on the exchange, timing it as part of `phase`.
     fn timed<T>(&mut self, phase: Phase, exchange_with: impl FnOnce(&E) -> T) -> T {
         let started = std::time::Instant::now();
@@ -271,25 +345,41 @@ impl<E: Exchange> RankSnow<E> {
         own
     }
 
-    /// The block column of every particle.
-    fn columns(&self, particles: &Particles) -> Vec<u32> {
-        particles
-            .position
-            .iter()
-            .map(|&x| self.layout.block_coord(block_key(&self.layout, x)).x as u32)
-            .collect()
+    /// The ghost reach in block indices ([`GHOST_BLOCKS`] blocks in every
+    /// axis).
+    fn reach(&self) -> u32 {
+        GHOST_BLOCKS * ghost_reach(self.layout.blocks)
+    }
+
+    /// The ranks this one exchanges ghosts with.
+    fn neighbours(&self) -> Vec<usize> {
+        self.slabs.neighbours(self.rank(), self.reach())
+    }
+
+    /// The block index of every particle.
+    fn blocks(&self, particles: &Particles) -> Vec<u32> {
+        block_indices(particles, &self.layout)
     }
 
     /// Moves the slabs when the particle counts per rank grew too uneven
-    /// (every rank sees the same counts, so all move them alike).
+    /// (every rank sees the same counts, so all move them alike). Each
+    /// substep the ranks reduce two numbers, the busiest rank's particles
+    /// and the total; only when they are over [`REBALANCE_ABOVE`] do they
+    /// sum the per-block histogram that places the new cuts.
     fn rebalance(&mut self, own: &KeyedParticles) {
-        if self.exchange.size() == 1 {
+        let ranks = self.exchange.size();
+        if ranks == 1 {
             return;
         }
-        let mut histogram = vec![0u64; self.layout.blocks.x as usize];
-        for column in self.columns(&own.particles) {
-            histogram[column as usize] += 1;
+        let owned = own.len() as u64;
+        let [busiest, total] = self.timed(Phase::Balance, |exchange| {
+            let busiest = exchange.max_u64(&[owned])[0];
+            [busiest, exchange.sum_u64(&[owned])[0]]
+        });
+        if total == 0 || (busiest * ranks as u64) as f64 <= REBALANCE_ABOVE * total as f64 {
+            return;
         }
+        let histogram = block_histogram(&self.blocks(&own.particles), &self.layout);
         let histogram = self.timed(Phase::Balance, |exchange| exchange.sum_u64(&histogram));
         let now = self.slabs.imbalance(&histogram);
         if now <= REBALANCE_ABOVE {
@@ -305,22 +395,33 @@ impl<E: Exchange> RankSnow<E> {
     /// Sends the particles outside this rank's slab to their owners and
     /// takes in those that entered it; the result is sorted by key (`own`
     /// is), reordered in one pass and only when a particle left or came.
+    /// The migrants go to the neighbours only, unless one went further (a
+    /// rebalance, a particle past the ghost reach) anywhere: then to all.
     fn migrate(&mut self, mut own: KeyedParticles) -> KeyedParticles {
         let me = self.exchange.rank();
-        let columns = self.columns(&own.particles);
+        let blocks = self.blocks(&own.particles);
+        let neighbours = self.neighbours();
         let mut outgoing = vec![Vec::new(); self.exchange.size()];
         let mut kept = Vec::with_capacity(own.len());
-        for (p, &column) in columns.iter().enumerate() {
-            let owner = self.slabs.owner(column);
+        let mut far = false;
+        for (p, &block) in blocks.iter().enumerate() {
+            let owner = self.slabs.owner(block);
             if owner == me {
                 kept.push(p as u32);
             } else {
+                far |= !neighbours.contains(&owner);
                 own.pack(p, &mut outgoing[owner]);
                 self.traffic.migrated += 1;
             }
         }
         self.count_sent(&outgoing);
-        let incoming = self.timed(Phase::Migration, |exchange| exchange.exchange(outgoing));
+        let incoming = self.timed(Phase::Migration, |exchange| {
+            if exchange.max_u64(&[u64::from(far)])[0] == 1 {
+                exchange.exchange(outgoing)
+            } else {
+                exchange.exchange_with(outgoing, &neighbours)
+            }
+        });
         let stayed = own.len();
         for words in &incoming {
             own.unpack(words);
@@ -348,40 +449,39 @@ impl<E: Exchange> RankSnow<E> {
         let mut order: Vec<u32> = (0..own.len() as u32).collect();
         order.sort_by_key(|&p| blocks[p as usize]);
         own.permute(&order, &mut self.buffers);
-        let count = split_u64(own.len() as u64);
-        let counts = self.timed(Phase::Renumbering, |exchange| exchange.all_gather(&count));
-        let first: u64 = counts[..self.exchange.rank()]
-            .iter()
-            .map(|words| join_u64(words[0], words[1]))
-            .sum();
+        let count = own.len() as u64;
+        let first = self.timed(Phase::Renumbering, |exchange| {
+            exchange.exclusive_sum_u64(count)
+        });
         for (key, place) in own.keys.iter_mut().zip(first..) {
             *key = place;
         }
     }
 
     /// The own particles followed by the ghosts this rank needs, sorted by
-    /// key, after sending every other rank the ghosts it needs.
+    /// key, after sending each neighbour the ghosts it needs.
     fn with_ghosts(&mut self, mut own: KeyedParticles) -> KeyedParticles {
-        let me = self.exchange.rank();
-        let columns = self.columns(&own.particles);
+        let blocks = self.blocks(&own.particles);
+        let reach = self.reach();
+        let neighbours = self.neighbours();
         let mut outgoing = vec![Vec::new(); self.exchange.size()];
-        for (rank, words) in outgoing.iter_mut().enumerate() {
-            if rank == me {
-                continue;
-            }
-            let [below, above] = self.slabs.ghost_columns(rank, GHOST_COLUMNS);
-            for (p, column) in columns.iter().enumerate() {
-                if below.contains(column) || above.contains(column) {
-                    own.pack(p, words);
+        for &rank in &neighbours {
+            let words = &mut outgoing[rank];
+            let [below, above] = self.slabs.ghost_blocks(rank, reach);
+            for (p, block) in blocks.iter().enumerate() {
+                if below.contains(block) || above.contains(block) {
+                    own.pack_ghost(p, words);
                     self.traffic.ghosts_sent += 1;
                 }
             }
         }
         self.count_sent(&outgoing);
-        let incoming = self.timed(Phase::Ghosts, |exchange| exchange.exchange(outgoing));
+        let incoming = self.timed(Phase::Ghosts, |exchange| {
+            exchange.exchange_with(outgoing, &neighbours)
+        });
         let mut ghosts = KeyedParticles::default();
         for words in &incoming {
-            ghosts.unpack(words);
+            ghosts.unpack_ghosts(words);
         }
         ghosts.sort_by_key(&mut self.buffers);
         own.append(&mut ghosts);
@@ -398,31 +498,45 @@ impl<E: Exchange> RankSnow<E> {
     /// of the lowest key (then the lowest rank) is everyone's.
     fn agree(&mut self, result: Result<f32, SimulationError>) -> Result<f32, RunError> {
         let own_failure = result.as_ref().err().map(|error| self.keyed(error));
-        let status = match &own_failure {
-            None => Vec::new(),
-            Some((key, error)) => {
-                let mut words = split_u64(*key).to_vec();
-                words.extend(text_to_words(&error.to_string()));
-                words
-            }
-        };
-        let statuses = self.timed(Phase::Agreement, |exchange| exchange.all_gather(&status));
-        let first = statuses
-            .iter()
-            .enumerate()
-            .filter(|(_, words)| !words.is_empty())
-            .min_by_key(|(rank, words)| (join_u64(words[0], words[1]), *rank));
-        match (first, own_failure, result) {
+        let failure = own_failure
+            .as_ref()
+            .map(|(key, error)| (*key, error.to_string()));
+        match (self.first_failure(failure), own_failure, result) {
             (None, _, result) => Ok(result.expect("no rank failed")),
             (Some((rank, _)), Some((_, error)), _) if rank == self.exchange.rank() => {
                 Err(RunError::Snow(error))
             }
-            (Some((rank, words)), _, _) => Err(RunError::Rank {
+            (Some((rank, message)), _, _) => Err(RunError::Rank {
                 rank,
                 ranks: self.exchange.size(),
-                message: words_to_text(&words[2..]),
+                message,
             }),
         }
+    }
+
+    /// Every rank's failure, if any (a key that orders failures, and a
+    /// message): the rank and message of the failure with the lowest key,
+    /// then the lowest rank, on every rank; `None` when no rank failed.
+    /// One minimum over the ranks finds it (key · ranks + rank), and only
+    /// when a rank failed does it broadcast its message.
+    fn first_failure(&mut self, failure: Option<(u64, String)>) -> Option<(usize, String)> {
+        let (me, ranks) = (self.rank(), self.exchange.size() as u64);
+        let mine = failure
+            .as_ref()
+            .map_or(u64::MAX, |(key, _)| key * ranks + me as u64);
+        let first = self.timed(Phase::Agreement, |exchange| exchange.min_u64(&[mine]))[0];
+        if first == u64::MAX {
+            return None;
+        }
+        let rank = (first % ranks) as usize;
+        let message = match failure {
+            Some((_, message)) if rank == me => text_to_words(&message),
+            _ => Vec::new(),
+        };
+        let words = self.timed(Phase::Agreement, |exchange| {
+            exchange.broadcast_from(rank, message)
+        });
+        Some((rank, words_to_text(&words)))
     }
 
     /// `error` with its particle named by key (its one-process index), and
@@ -474,19 +588,30 @@ fn merge_by_key(first: &[u32], second: &[u32], keys: &[u64]) -> Vec<u32> {
     merged
 }
 
+/// The block index of every particle (as the binning sorts them).
+fn block_indices(particles: &Particles, layout: &GridLayout) -> Vec<u32> {
+    particles
+        .position
+        .iter()
+        .map(|&x| block_key(layout, x) as u32)
+        .collect()
+}
+
+/// Particles per block index, of the particles in `blocks`.
+fn block_histogram(blocks: &[u32], layout: &GridLayout) -> Vec<u64> {
+    let mut histogram = vec![0u64; layout.blocks.element_product() as usize];
+    for &block in blocks {
+        histogram[block as usize] += 1;
+    }
+    histogram
+}
+
 /// What rank 0 sends each rank to start: the time, the substeps, the speed
 /// bounds and the slabs, then the rank's particles keyed by their place.
 fn parts_of(snapshot: &Snapshot, layout: &GridLayout, ranks: usize) -> Vec<Vec<u32>> {
     let particles = &snapshot.particles;
-    let columns: Vec<u32> = particles
-        .position
-        .iter()
-        .map(|&x| layout.block_coord(block_key(layout, x)).x as u32)
-        .collect();
-    let mut histogram = vec![0u64; layout.blocks.x as usize];
-    for &column in &columns {
-        histogram[column as usize] += 1;
-    }
+    let blocks = block_indices(particles, layout);
+    let histogram = block_histogram(&blocks, layout);
     let slabs = Slabs::balanced(&histogram, ranks);
     let mut header = Vec::new();
     header.extend(split_u64(snapshot.time.to_bits()));
@@ -495,8 +620,8 @@ fn parts_of(snapshot: &Snapshot, layout: &GridLayout, ranks: usize) -> Vec<Vec<u
     header.push(snapshot.max_wave_speed_squared.to_bits());
     header.extend(slabs.to_words());
     let mut parts = vec![header; ranks];
-    for (p, &column) in columns.iter().enumerate() {
-        crate::packing::pack(particles, p as u64, p, &mut parts[slabs.owner(column)]);
+    for (p, &block) in blocks.iter().enumerate() {
+        crate::packing::pack(particles, p as u64, p, &mut parts[slabs.owner(block)]);
     }
     parts
 }

@@ -1,45 +1,57 @@
-//! The domain decomposition: the grid's block columns along x (the slowest
-//! axis of the block index, so a slab of whole columns is one contiguous
-//! range of block indices) cut into one slab per rank, balanced by particle
-//! count. Slabs of a few columns keep the ghost layers thin (two block
-//! columns each side, three with wind) and the exchange with two
-//! neighbours; recursive bisection would balance finer at the price of
-//! more neighbours.
+//! The domain decomposition: the grid's blocks in the order of their index
+//! (x slowest, then y, then z), cut into one contiguous range per rank
+//! ("slab"), balanced by particle count. A cut may fall at any block, so
+//! the balance is as fine as one block's particles. The blocks within one
+//! block of a slab in every axis lie within [`ghost_reach`] indices of its
+//! ends, so the ghost layers stay about one block column thick each side
+//! and a rank exchanges ghosts with its neighbours in the order only;
+//! recursive bisection would give thinner layers at the price of more
+//! neighbours.
 
 use std::ops::Range;
 
-/// Each rank's range of block columns along x: rank `r` owns the particles
-/// whose block has x in `starts[r]..starts[r + 1]`.
+use glam::UVec3;
+
+/// How far, in block indices, the blocks within one block of a block in
+/// every axis lie from it, for a grid of `blocks` blocks: a step of one
+/// block in x, y and z moves the index by `blocks.y · blocks.z`,
+/// `blocks.z` and 1.
+pub fn ghost_reach(blocks: UVec3) -> u32 {
+    blocks.y * blocks.z + blocks.z + 1
+}
+
+/// Each rank's range of block indices: rank `r` owns the particles whose
+/// block index is in `starts[r]..starts[r + 1]`.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Slabs {
     starts: Vec<u32>,
 }
 
 impl Slabs {
-    /// Slabs for `ranks` ranks over the block columns whose particle counts
-    /// are `histogram` (one entry per column): each slab ends at the column
+    /// Slabs for `ranks` ranks over the blocks whose particle counts are
+    /// `histogram` (one entry per block index): each slab ends at the block
     /// boundary nearest to its equal share of the particles.
     pub fn balanced(histogram: &[u64], ranks: usize) -> Slabs {
-        let columns = histogram.len() as u32;
+        let blocks = histogram.len() as u32;
         let total: u64 = histogram.iter().sum();
         let mut starts = vec![0u32; ranks + 1];
-        starts[ranks] = columns;
+        starts[ranks] = blocks;
         let mut before = 0u64;
-        let mut column = 0u32;
+        let mut block = 0u32;
         for (rank, start) in starts.iter_mut().enumerate().take(ranks).skip(1) {
             let share = (u128::from(total) * rank as u128 / ranks as u128) as u64;
-            // Move the cut past every column that keeps the count before it
+            // Move the cut past every block that keeps the count before it
             // within the share or brings it nearer.
-            while column < columns {
-                let after = before + histogram[column as usize];
+            while block < blocks {
+                let after = before + histogram[block as usize];
                 if after <= share || after.abs_diff(share) < before.abs_diff(share) {
                     before = after;
-                    column += 1;
+                    block += 1;
                 } else {
                     break;
                 }
             }
-            *start = column;
+            *start = block;
         }
         Slabs { starts }
     }
@@ -49,22 +61,22 @@ impl Slabs {
         self.starts.len() - 1
     }
 
-    /// The block columns of `rank`.
-    pub fn columns(&self, rank: usize) -> Range<u32> {
+    /// The block indices of `rank`.
+    pub fn blocks(&self, rank: usize) -> Range<u32> {
         self.starts[rank]..self.starts[rank + 1]
     }
 
-    /// The rank owning block column `column` (columns past the last belong
+    /// The rank owning block `block` (blocks past the last belong
     /// to the last rank).
-    pub fn owner(&self, column: u32) -> usize {
-        let after = self.starts[1..].partition_point(|&start| start <= column);
+    pub fn owner(&self, block: u32) -> usize {
+        let after = self.starts[1..].partition_point(|&start| start <= block);
         after.min(self.ranks() - 1)
     }
 
-    /// The columns whose particles `rank` needs as ghosts, `width` columns
-    /// either side of its slab (none for an empty slab).
-    pub fn ghost_columns(&self, rank: usize, width: u32) -> [Range<u32>; 2] {
-        let own = self.columns(rank);
+    /// The blocks whose particles `rank` needs as ghosts, `width` block
+    /// indices either side of its slab (none for an empty slab).
+    pub fn ghost_blocks(&self, rank: usize, width: u32) -> [Range<u32>; 2] {
+        let own = self.blocks(rank);
         if own.is_empty() {
             return [0..0, 0..0];
         }
@@ -74,8 +86,28 @@ impl Slabs {
         ]
     }
 
+    /// The other ranks whose blocks lie within `reach` block indices of
+    /// `rank`'s (a symmetric relation; none for an empty slab): the only
+    /// ranks it exchanges ghosts with, and migrants with when no particle
+    /// went further.
+    pub fn neighbours(&self, rank: usize, reach: u32) -> Vec<usize> {
+        let own = self.blocks(rank);
+        if own.is_empty() {
+            return Vec::new();
+        }
+        (0..self.ranks())
+            .filter(|&other| {
+                let theirs = self.blocks(other);
+                other != rank
+                    && !theirs.is_empty()
+                    && theirs.start < own.end + reach
+                    && own.start < theirs.end + reach
+            })
+            .collect()
+    }
+
     /// The busiest rank's particles over the mean, for particle counts per
-    /// column `histogram` (1 is perfect balance).
+    /// block `histogram` (1 is perfect balance).
     pub fn imbalance(&self, histogram: &[u64]) -> f64 {
         let total: u64 = histogram.iter().sum();
         if total == 0 {
@@ -83,7 +115,7 @@ impl Slabs {
         }
         let busiest = (0..self.ranks())
             .map(|rank| {
-                let range = self.columns(rank);
+                let range = self.blocks(rank);
                 histogram[range.start as usize..range.end as usize]
                     .iter()
                     .sum::<u64>()
@@ -111,27 +143,56 @@ mod tests {
     use super::*;
 
     #[test]
-    fn balanced_slabs_split_the_particles_evenly_and_cover_every_column() {
+    fn balanced_slabs_split_the_particles_evenly_and_cover_every_block() {
         let histogram = [0, 10, 10, 10, 10, 0, 0, 10];
         let slabs = Slabs::balanced(&histogram, 2);
-        assert_eq!(slabs.columns(0), 0..3);
-        assert_eq!(slabs.columns(1), 3..8);
+        assert_eq!(slabs.blocks(0), 0..3);
+        assert_eq!(slabs.blocks(1), 3..8);
         assert!((slabs.imbalance(&histogram) - 1.2).abs() < 1e-12);
         let four = Slabs::balanced(&histogram, 4);
-        assert_eq!(four.columns(0).start, 0);
-        assert_eq!(four.columns(3).end, 8);
+        assert_eq!(four.blocks(0).start, 0);
+        assert_eq!(four.blocks(3).end, 8);
         assert!((four.imbalance(&histogram) - 1.6).abs() < 1e-12);
-        for column in 0..8 {
-            let owner = four.owner(column);
-            assert!(four.columns(owner).contains(&column));
+        for block in 0..8 {
+            let owner = four.owner(block);
+            assert!(four.blocks(owner).contains(&block));
         }
     }
 
     #[test]
-    fn a_lone_heavy_column_gets_a_rank_of_its_own() {
+    fn the_ghost_reach_covers_every_neighbouring_block() {
+        let blocks = UVec3::new(5, 4, 3);
+        let index = |x: u32, y: u32, z: u32| (x * blocks.y + y) * blocks.z + z;
+        let reach = ghost_reach(blocks);
+        for (x, y, z) in [(1, 1, 1), (2, 2, 1), (3, 1, 1)] {
+            for offset in 0..27u32 {
+                let [dx, dy, dz] = [offset % 3, offset / 3 % 3, offset / 9].map(|d| d as i32 - 1);
+                let neighbour = index(
+                    (x as i32 + dx) as u32,
+                    (y as i32 + dy) as u32,
+                    (z as i32 + dz) as u32,
+                );
+                assert!(neighbour.abs_diff(index(x, y, z)) <= reach);
+            }
+        }
+    }
+
+    #[test]
+    fn neighbours_are_the_ranks_within_reach_both_ways() {
+        let slabs = Slabs::from_words(&[0, 10, 12, 30, 30, 40]);
+        assert_eq!(slabs.neighbours(0, 3), [1, 2]);
+        assert_eq!(slabs.neighbours(1, 3), [0, 2]);
+        assert_eq!(slabs.neighbours(2, 3), [0, 1, 4]);
+        assert_eq!(slabs.neighbours(3, 3), Vec::<usize>::new());
+        assert_eq!(slabs.neighbours(4, 3), [2]);
+        assert_eq!(slabs.neighbours(0, 1), [1]);
+    }
+
+    #[test]
+    fn a_lone_heavy_block_gets_a_rank_of_its_own() {
         let histogram = [1, 1, 100, 1, 1];
         let slabs = Slabs::balanced(&histogram, 3);
         let heavy = slabs.owner(2);
-        assert_eq!(slabs.columns(heavy), 2..3);
+        assert_eq!(slabs.blocks(heavy), 2..3);
     }
 }

@@ -7,6 +7,8 @@
 //! particles beside the snow, in `drift/` (PLY and VTK), as a `drift` grid
 //! in the snow's OpenVDB file and as a `Drift` prim in the USD stage.
 
+use std::path::Path;
+
 use firn_core::scene::{Attribute as SceneAttribute, CacheFormat, Scene};
 use firn_io::{
     Attribute, FloatGrid, FrameData, IoError, MeshData, PvdCollection, write_mesh_obj,
@@ -38,18 +40,71 @@ pub fn write_frame(
     run: &RunDirectory,
     pvd: &mut PvdCollection,
 ) -> Result<WrittenFrame, IoError> {
+    write_frame_with_pieces(state, index, run, pvd, None)
+}
+
+/// [`write_frame`], where `vtk_pieces`, when given, are the frame's VTK
+/// files already written in pieces (part, path; a run split between MPI
+/// ranks): they are listed in `pvd` in place of one file.
+pub fn write_frame_with_pieces(
+    state: HostState<'_>,
+    index: u32,
+    run: &RunDirectory,
+    pvd: &mut PvdCollection,
+    vtk_pieces: Option<Vec<(u32, String)>>,
+) -> Result<WrittenFrame, IoError> {
+    let mut collection = Collection { pvd, vtk_pieces };
     match state {
-        HostState::Snow(simulation) => write_snow_frame(simulation, index, run, pvd),
+        HostState::Snow(simulation) => write_snow_frame(simulation, index, run, &mut collection),
         HostState::Flow(flow) => {
             let frame = FrameData::new(index, flow.time(), flow.positions())
                 .with_attribute(Attribute::vector("velocity", flow.velocities()))
                 .with_attribute(Attribute::scalar("age", flow.ages()));
-            let files = write_caches(flow.scene(), &frame, None, &Volumes::default(), run, pvd)?;
+            let files = write_caches(
+                flow.scene(),
+                &frame,
+                None,
+                &Volumes::default(),
+                run,
+                &mut collection,
+            )?;
             Ok(WrittenFrame {
                 files,
                 surface: None,
             })
         }
+    }
+}
+
+/// The run's VTK collection, and the frame's VTK pieces where others wrote
+/// them.
+struct Collection<'a> {
+    pvd: &'a mut PvdCollection,
+    vtk_pieces: Option<Vec<(u32, String)>>,
+}
+
+impl Collection<'_> {
+    /// Writes `frame` as VTK at `name`, or takes the pieces written, and
+    /// lists the frame in the collection; returns the frame's files.
+    fn write_vtk(
+        &mut self,
+        frame: &FrameData,
+        name: String,
+        run: &RunDirectory,
+    ) -> Result<Vec<String>, IoError> {
+        let pieces = match self.vtk_pieces.take() {
+            Some(pieces) => pieces,
+            None => {
+                write_vtp(&run.path().join(&name), frame)?;
+                vec![(0, name)]
+            }
+        };
+        self.pvd.remove_after(frame.time - 1e-12);
+        for (part, file) in &pieces {
+            self.pvd.push_part(frame.time, *part, file.clone());
+        }
+        self.pvd.write(&run.collection_path())?;
+        Ok(pieces.into_iter().map(|(_, file)| file).collect())
     }
 }
 
@@ -65,28 +120,12 @@ fn write_snow_frame(
     simulation: &Simulation,
     index: u32,
     run: &RunDirectory,
-    pvd: &mut PvdCollection,
+    collection: &mut Collection<'_>,
 ) -> Result<WrittenFrame, IoError> {
     let scene = simulation.scene();
     let particles = simulation.particles();
-    let wanted = &scene.output.attributes;
-    let derived = DerivedAttributes {
-        density: if wanted.contains(&SceneAttribute::Density) {
-            simulation.densities()
-        } else {
-            Vec::new()
-        },
-        elastic_j: if wanted.contains(&SceneAttribute::ElasticJ) {
-            simulation.elastic_j()
-        } else {
-            Vec::new()
-        },
-        material: particles.material.iter().map(|&m| m as u32).collect(),
-    };
-    let mut frame = FrameData::new(index, simulation.time(), &particles.position);
-    for attribute in wanted {
-        frame = frame.with_attribute(attribute_data(*attribute, particles, &derived));
-    }
+    let derived = DerivedAttributes::of(simulation);
+    let frame = snow_frame(simulation, index, &derived, particles.len());
     let drift = scene.spindrift().map(|_| {
         let drift = simulation.drift();
         FrameData::new(index, simulation.time(), &drift.position)
@@ -108,7 +147,7 @@ fn write_snow_frame(
             .contains(&CacheFormat::Mesh)
             .then(|| scene_surface(scene, &particles.position, &particles.mass)),
     };
-    let mut files = write_caches(scene, &frame, drift.as_ref(), &volumes, run, pvd)?;
+    let mut files = write_caches(scene, &frame, drift.as_ref(), &volumes, run, collection)?;
     if let Some(drift) = &drift {
         files.extend(write_drift_frame(scene, drift, run)?);
     }
@@ -116,6 +155,61 @@ fn write_snow_frame(
         files,
         surface: volumes.surface,
     })
+}
+
+/// Writes the first `count` particles of `simulation` (a rank's own, in a
+/// run split between MPI ranks) at `path` as frame `index`'s VTK PolyData
+/// piece, with the scene's `[output] attributes`, atomically.
+pub fn write_snow_vtk_piece(
+    simulation: &Simulation,
+    count: usize,
+    index: u32,
+    path: &Path,
+) -> Result<(), IoError> {
+    let derived = DerivedAttributes::of(simulation);
+    write_vtp(path, &snow_frame(simulation, index, &derived, count))
+}
+
+impl DerivedAttributes {
+    /// The attributes of the scene's `[output] attributes` that
+    /// `simulation` does not store (empty where not wanted).
+    fn of(simulation: &Simulation) -> DerivedAttributes {
+        let wanted = &simulation.scene().output.attributes;
+        DerivedAttributes {
+            density: if wanted.contains(&SceneAttribute::Density) {
+                simulation.densities()
+            } else {
+                Vec::new()
+            },
+            elastic_j: if wanted.contains(&SceneAttribute::ElasticJ) {
+                simulation.elastic_j()
+            } else {
+                Vec::new()
+            },
+            material: simulation
+                .particles()
+                .material
+                .iter()
+                .map(|&m| m as u32)
+                .collect(),
+        }
+    }
+}
+
+/// Frame `index` of the first `count` particles of `simulation`, with the
+/// scene's `[output] attributes`.
+fn snow_frame<'a>(
+    simulation: &'a Simulation,
+    index: u32,
+    derived: &'a DerivedAttributes,
+    count: usize,
+) -> FrameData<'a> {
+    let particles = simulation.particles();
+    let mut frame = FrameData::new(index, simulation.time(), &particles.position[..count]);
+    for attribute in &simulation.scene().output.attributes {
+        frame = frame.with_attribute(attribute_data(*attribute, particles, derived, count));
+    }
+    frame
 }
 
 /// Writes a snow frame's drift (`[wind.spindrift]`, each particle with its
@@ -191,7 +285,7 @@ fn write_caches(
     drift: Option<&FrameData>,
     volumes: &Volumes,
     run: &RunDirectory,
-    pvd: &mut PvdCollection,
+    collection: &mut Collection<'_>,
 ) -> Result<Vec<String>, IoError> {
     let mut files = Vec::new();
     for &format in &scene.output.formats {
@@ -200,10 +294,8 @@ fn write_caches(
         match format {
             CacheFormat::Ply => write_ply(&path, frame)?,
             CacheFormat::Vtk => {
-                write_vtp(&path, frame)?;
-                pvd.remove_after(frame.time - 1e-12);
-                pvd.push(frame.time, name.clone());
-                pvd.write(&run.collection_path())?;
+                files.extend(collection.write_vtk(frame, name, run)?);
+                continue;
             }
             CacheFormat::Vdb => write_vdb(&path, &volumes.grids)?,
             CacheFormat::Mesh => {
@@ -238,18 +330,19 @@ fn write_caches(
     Ok(files)
 }
 
-/// The values of one cached attribute.
+/// The values of one cached attribute, of the first `count` particles.
 fn attribute_data<'a>(
     attribute: SceneAttribute,
     particles: &'a Particles,
     derived: &'a DerivedAttributes,
+    count: usize,
 ) -> Attribute<'a> {
     match attribute {
-        SceneAttribute::Velocity => Attribute::vector("velocity", &particles.velocity),
-        SceneAttribute::PlasticJ => Attribute::scalar("plastic_j", &particles.plastic_j),
-        SceneAttribute::ElasticJ => Attribute::scalar("elastic_j", &derived.elastic_j),
-        SceneAttribute::Density => Attribute::scalar("density", &derived.density),
-        SceneAttribute::Mass => Attribute::scalar("mass", &particles.mass),
-        SceneAttribute::Material => Attribute::integer("material", &derived.material),
+        SceneAttribute::Velocity => Attribute::vector("velocity", &particles.velocity[..count]),
+        SceneAttribute::PlasticJ => Attribute::scalar("plastic_j", &particles.plastic_j[..count]),
+        SceneAttribute::ElasticJ => Attribute::scalar("elastic_j", &derived.elastic_j[..count]),
+        SceneAttribute::Density => Attribute::scalar("density", &derived.density[..count]),
+        SceneAttribute::Mass => Attribute::scalar("mass", &particles.mass[..count]),
+        SceneAttribute::Material => Attribute::integer("material", &derived.material[..count]),
     }
 }

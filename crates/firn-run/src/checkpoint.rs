@@ -6,7 +6,7 @@
 //! none and reads as no drift); a flow checkpoint its snapshot's arrays.
 //! Either resumes on either backend.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use firn_core::Scene;
 use firn_core::scene::SceneKind;
@@ -14,7 +14,8 @@ use firn_flow::FlowSnapshot;
 use firn_io::{Checkpoint, IoError};
 use firn_mpm::{Drift, Escaped, Particles, Snapshot};
 
-use crate::error::CheckpointError;
+use crate::error::{CheckpointError, ResumeError, RunError};
+use crate::run_dir::RunDirectory;
 use crate::simulation::SolverState;
 
 /// A checkpoint read back.
@@ -352,4 +353,147 @@ mod tests {
         let faster = json!({ "name": "ball", "time": { "fps": 60.0 } });
         assert!(!same_physics(&faster, &before_compute));
     }
+}
+
+/// What rank 0 of a run split between MPI ranks writes beside the ranks'
+/// checkpoint pieces, once every piece is written: the frame, and the
+/// pieces that hold its particles. A particle's key (the `key` array of
+/// each piece) is its place in the one-process array, so the pieces,
+/// merged by key, are the one process's checkpoint on any rank count.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PieceManifest {
+    /// The frame the checkpoint was taken after.
+    pub frame: u32,
+    /// Particles over all pieces.
+    pub particles: u64,
+    /// The pieces, one per rank, relative to the run directory.
+    pub pieces: Vec<String>,
+}
+
+/// Writes one rank's piece of a split run's checkpoint at `path`,
+/// atomically: a snow checkpoint of its own particles (`snapshot`) and
+/// their keys, each particle's place in the one-process array.
+pub fn write_piece(
+    snapshot: &Snapshot,
+    keys: &[u64],
+    frame: u32,
+    scene_json: &serde_json::Value,
+    path: &Path,
+) -> Result<(), IoError> {
+    let mut checkpoint = snow_checkpoint(snapshot, frame, scene_json);
+    checkpoint.push_array("key", keys);
+    checkpoint.write(path)
+}
+
+/// Writes `manifest` at `path`, atomically.
+pub fn write_piece_manifest(manifest: &PieceManifest, path: &Path) -> Result<(), IoError> {
+    firn_io::write_atomically(path, |out| {
+        serde_json::to_writer_pretty(&mut *out, manifest).map_err(std::io::Error::other)?;
+        out.write_all(b"\n")
+    })
+}
+
+/// Reads the checkpoint pieces that the manifest at `path` names (paths
+/// relative to `run_path`) and merges them by key into the one process's
+/// checkpoint, refusing pieces that do not hold every particle exactly
+/// once at one time.
+pub fn read_pieces(
+    path: &Path,
+    run_path: &Path,
+    scene: &Scene,
+) -> Result<SavedCheckpoint, CheckpointError> {
+    let implausible = |reason: String| CheckpointError::Implausible {
+        path: path.to_path_buf(),
+        reason,
+    };
+    let text = std::fs::read_to_string(path).map_err(|source| IoError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let manifest: PieceManifest = serde_json::from_str(&text)
+        .map_err(|error| implausible(format!("it is not a piece manifest: {error}")))?;
+    let mut merged: Option<(SavedCheckpoint, Vec<u64>)> = None;
+    for piece in &manifest.pieces {
+        let piece_path = run_path.join(piece);
+        let checkpoint = Checkpoint::read(&piece_path)?;
+        let saved = read_snow(&checkpoint, &piece_path)?;
+        let SolverState::Snow(snapshot) = &saved.state else {
+            unreachable!("read_snow reads snow");
+        };
+        let keys = checkpoint.array_of_len::<u64>("key", snapshot.particles.len())?;
+        merged = Some(match merged {
+            None => (saved, keys),
+            Some((mut all, mut all_keys)) => {
+                let (SolverState::Snow(whole), SolverState::Snow(part)) =
+                    (&mut all.state, saved.state)
+                else {
+                    unreachable!("read_snow reads snow");
+                };
+                if saved.frame != all.frame || part.time.to_bits() != whole.time.to_bits() {
+                    return Err(implausible(format!(
+                        "piece {piece} is of frame {}, not {}",
+                        saved.frame, all.frame
+                    )));
+                }
+                whole.particles.append(part.particles);
+                all_keys.extend(keys);
+                (all, all_keys)
+            }
+        });
+    }
+    let (mut saved, keys) = merged.ok_or_else(|| implausible("it names no pieces".into()))?;
+    let SolverState::Snow(snapshot) = &mut saved.state else {
+        unreachable!("read_snow reads snow");
+    };
+    let mut order: Vec<u32> = (0..keys.len() as u32).collect();
+    order.sort_unstable_by_key(|&p| keys[p as usize]);
+    if let Some(place) = (0..keys.len()).find(|&place| keys[order[place] as usize] != place as u64)
+    {
+        return Err(implausible(format!(
+            "its pieces do not hold every particle of {} exactly once (no particle {place})",
+            keys.len()
+        )));
+    }
+    if saved.frame != manifest.frame || keys.len() as u64 != manifest.particles {
+        return Err(implausible(format!(
+            "its pieces hold {} particles of frame {}, the manifest says {} of frame {}",
+            keys.len(),
+            saved.frame,
+            manifest.particles,
+            manifest.frame
+        )));
+    }
+    snapshot
+        .particles
+        .permute(&order, &mut firn_mpm::PermuteBuffers::default());
+    check_plausible(&saved, scene).map_err(implausible)?;
+    Ok(saved)
+}
+
+/// The latest checkpoint of the run in `run` (one process's, or the
+/// pieces of a run split between MPI ranks, whichever was taken after the
+/// later frame), and the file it was read from.
+pub fn read_latest(
+    run: &RunDirectory,
+    scene: &Scene,
+) -> Result<(SavedCheckpoint, PathBuf), ResumeError> {
+    let whole = run.checkpoint_path();
+    let pieces = run.piece_manifest_path();
+    let read_whole = || read(&whole, scene).map(|saved| (saved, whole.clone()));
+    let read_split =
+        || read_pieces(&pieces, run.path(), scene).map(|saved| (saved, pieces.clone()));
+    let latest = match (whole.exists(), pieces.exists()) {
+        (false, false) => return Err(ResumeError::NoCheckpoint { path: whole }),
+        (true, false) => read_whole(),
+        (false, true) => read_split(),
+        (true, true) => read_whole().and_then(|one| {
+            let split = read_split()?;
+            Ok(if split.0.frame > one.0.frame {
+                split
+            } else {
+                one
+            })
+        }),
+    };
+    Ok(latest.map_err(RunError::from)?)
 }

@@ -43,6 +43,33 @@ pub struct Recording {
 pub trait Stepper {
     /// Brings `solver` to simulated time `until`; returns the substeps taken.
     fn advance_to(&mut self, solver: &mut Solver, until: f64) -> Result<u32, RunError>;
+
+    /// Writes frame `index` (at simulated time `time`) as VTK pieces, one
+    /// per part of the run, into `run` in place of the recording's one VTK
+    /// file; returns each piece's part and path relative to the run
+    /// directory. `None`: the stepper writes no pieces.
+    fn write_vtk_pieces(
+        &mut self,
+        index: u32,
+        time: f64,
+        run: &RunDirectory,
+    ) -> Option<Result<Vec<(u32, String)>, RunError>> {
+        let _ = (index, time, run);
+        None
+    }
+
+    /// Writes the checkpoint after frame `frame` of the scene `scene_json`
+    /// in pieces of its own, in place of the recording's one checkpoint
+    /// file. `None`: the stepper writes none.
+    fn write_checkpoint(
+        &mut self,
+        frame: u32,
+        scene_json: &serde_json::Value,
+        run: &RunDirectory,
+    ) -> Option<Result<(), RunError>> {
+        let _ = (frame, scene_json, run);
+        None
+    }
 }
 
 /// What a front door does while a run is recorded. Every method does
@@ -128,6 +155,18 @@ impl Recording {
         scene_file: Option<PathBuf>,
         observer: &mut dyn Observer,
     ) -> Result<Recording, RunError> {
+        Recording::start_with(solver, run, scene_file, observer, None)
+    }
+
+    /// [`Recording::start`] for a solver that `stepper` advances (the ranks
+    /// of a split run), which may write frame 0's VTK pieces.
+    pub fn start_with(
+        solver: Solver,
+        run: RunDirectory,
+        scene_file: Option<PathBuf>,
+        observer: &mut dyn Observer,
+        stepper: Option<&mut (dyn Stepper + '_)>,
+    ) -> Result<Recording, RunError> {
         let scene = solver.scene();
         let scene_json = scene_json(scene);
         let placement = solver.placement();
@@ -153,7 +192,7 @@ impl Recording {
             scene_json,
             solver_totals: None,
         };
-        recording.record_frame(0, 0, Duration::ZERO, observer)?;
+        recording.record_frame(0, 0, Duration::ZERO, observer, stepper)?;
         Ok(recording)
     }
 
@@ -164,14 +203,8 @@ impl Recording {
         run: RunDirectory,
         placement: &Placement,
     ) -> Result<Recording, ResumeError> {
-        let checkpoint_path = run.checkpoint_path();
-        if !checkpoint_path.exists() {
-            return Err(ResumeError::NoCheckpoint {
-                path: checkpoint_path,
-            });
-        }
+        let (saved, checkpoint_path) = checkpoint::read_latest(&run, &scene)?;
         let scene_json = scene_json(&scene);
-        let saved = checkpoint::read(&checkpoint_path, &scene).map_err(RunError::from)?;
         let solver = Solver::restore(scene, saved.state, placement)?;
         if !same_physics(&saved.scene_json, &scene_json) {
             return Err(ResumeError::SceneDiffers {
@@ -244,7 +277,7 @@ impl Recording {
         &mut self,
         last_frame: u32,
         observer: &mut dyn Observer,
-        mut stepper: Option<&mut dyn Stepper>,
+        mut stepper: Option<&mut (dyn Stepper + '_)>,
     ) -> Result<(), RunError> {
         let first_frame = self.frame;
         let started = Instant::now();
@@ -255,7 +288,13 @@ impl Recording {
             let substeps = self
                 .advance_to_frame(frame, stepper.as_deref_mut())
                 .map_err(|error| self.fail(error))?;
-            self.record_frame(frame, substeps, frame_started.elapsed(), observer)?;
+            self.record_frame(
+                frame,
+                substeps,
+                frame_started.elapsed(),
+                observer,
+                stepper.as_deref_mut(),
+            )?;
             substeps_total += u64::from(substeps);
             let asked = observer.frame_recorded(&Progress {
                 frame,
@@ -266,11 +305,11 @@ impl Recording {
                 elapsed: started.elapsed(),
             });
             if asked.is_break() {
-                return self.write_checkpoint();
+                return self.write_checkpoint(stepper);
             }
         }
         self.write_animations(observer)?;
-        self.write_checkpoint()?;
+        self.write_checkpoint(stepper)?;
         if last_frame >= self.solver.scene().time.frame_count() {
             self.manifest.status = RunStatus::Finished;
         }
@@ -338,9 +377,10 @@ impl Recording {
         substeps: u32,
         wall: Duration,
         observer: &mut dyn Observer,
+        mut stepper: Option<&mut (dyn Stepper + '_)>,
     ) -> Result<(), RunError> {
         let (files, images) = self
-            .write_frame_files(index, observer)
+            .write_frame_files(index, observer, stepper.as_deref_mut())
             .map_err(|error| self.fail(error))?;
         let particles = self.solver.particle_count().max(1) as f64;
         let wall_seconds = wall.as_secs_f64();
@@ -364,7 +404,7 @@ impl Recording {
         self.frame = index;
         let every = self.solver.scene().output.checkpoint_every;
         if every > 0 && index > 0 && index.is_multiple_of(every) {
-            self.write_checkpoint()?;
+            self.write_checkpoint(stepper)?;
         }
         self.write_manifest()
     }
@@ -375,9 +415,15 @@ impl Recording {
         &mut self,
         index: u32,
         observer: &mut dyn Observer,
+        stepper: Option<&mut (dyn Stepper + '_)>,
     ) -> Result<(Vec<String>, Vec<String>), RunError> {
+        let time = self.solver.time();
+        let pieces = stepper
+            .and_then(|stepper| stepper.write_vtk_pieces(index, time, &self.run))
+            .transpose()?;
         let host = self.solver.host()?;
-        let written = caches::write_frame(host, index, &self.run, &mut self.pvd)?;
+        let written =
+            caches::write_frame_with_pieces(host, index, &self.run, &mut self.pvd, pieces)?;
         let scene = host.scene();
         if !scene.render.enabled {
             return Ok((written.files, Vec::new()));
@@ -441,8 +487,17 @@ impl Recording {
         Ok(())
     }
 
-    /// Writes a checkpoint of the last frame recorded.
-    fn write_checkpoint(&mut self) -> Result<(), RunError> {
+    /// Writes a checkpoint of the last frame recorded (in the stepper's
+    /// pieces, where it writes them).
+    fn write_checkpoint(
+        &mut self,
+        stepper: Option<&mut (dyn Stepper + '_)>,
+    ) -> Result<(), RunError> {
+        let pieces = stepper
+            .and_then(|stepper| stepper.write_checkpoint(self.frame, &self.scene_json, &self.run));
+        if let Some(written) = pieces {
+            return written.map_err(|error| self.fail(error));
+        }
         let path = self.run.checkpoint_path();
         self.solver
             .state()

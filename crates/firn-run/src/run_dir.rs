@@ -7,6 +7,9 @@
 //! ply/frame_00001.ply       caches, one per frame and format
 //! vtk/frame_00001.vtp
 //! particles.pvd             the VTK frames by time (ParaView)
+//! vtk/frame_00001_part_0002.vtp          a split run's frames, one piece per rank
+//! checkpoint-pieces.json                 a split run's checkpoint: its pieces
+//! checkpoint/frame_00004_rank_0002.firnckpt
 //! images/points/frame_00001.png, images/points.gif, images/points.mp4
 //! ```
 
@@ -21,6 +24,9 @@ use crate::error::ReadRunError;
 
 /// File name of the checkpoint inside a run directory.
 pub const CHECKPOINT_FILE: &str = "checkpoint.firnckpt";
+
+/// File name of the manifest of a split run's checkpoint pieces.
+pub const PIECE_MANIFEST_FILE: &str = "checkpoint-pieces.json";
 
 /// File name of the ParaView collection of VTK frames.
 const COLLECTION_FILE: &str = "particles.pvd";
@@ -69,6 +75,26 @@ impl RunDirectory {
     /// The run's checkpoint.
     pub fn checkpoint_path(&self) -> PathBuf {
         self.path.join(CHECKPOINT_FILE)
+    }
+
+    /// The manifest of a split run's checkpoint pieces (one per rank).
+    pub fn piece_manifest_path(&self) -> PathBuf {
+        self.path.join(PIECE_MANIFEST_FILE)
+    }
+
+    /// Path of rank `rank`'s checkpoint piece after frame `frame`,
+    /// relative to the folder.
+    pub fn checkpoint_piece_name(frame: u32, rank: usize) -> String {
+        format!("checkpoint/frame_{frame:05}_rank_{rank:04}.firnckpt")
+    }
+
+    /// Path of part `part` of frame `index`'s VTK cache (a run split
+    /// between MPI ranks writes one part per rank), relative to the folder.
+    pub fn vtk_piece_name(index: u32, part: usize) -> String {
+        format!(
+            "{}/frame_{index:05}_part_{part:04}.vtp",
+            cache_folder(CacheFormat::Vtk)
+        )
     }
 
     /// The ParaView collection of the VTK frames.
