@@ -102,11 +102,7 @@ pub fn refusal(scene: &Scene, ranks: usize) -> Option<String> {
             scene.name
         ));
     }
-    if scene
-        .wind
-        .as_ref()
-        .is_some_and(|wind| wind.spindrift.is_some())
-    {
+    if scene.spindrift().is_some() {
         return Some(format!(
             "scene `{}` has [wind.spindrift], whose drift particles are not split between MPI ranks yet\n  fix: remove the [wind.spindrift] table (the wind still acts on the snow), or run with one rank",
             scene.name

@@ -562,11 +562,7 @@ fn is_implicit(scene: &Scene) -> bool {
 
 /// Which optional stages `scene` needs: the wind's drag, and spindrift.
 fn stages_of(scene: &Scene) -> (bool, bool) {
-    let wind = scene.wind.as_ref();
-    (
-        wind.is_some(),
-        wind.is_some_and(|wind| wind.spindrift.is_some()),
-    )
+    (scene.wind.is_some(), scene.spindrift().is_some())
 }
 
 /// 32-bit words in a `T`: the stride of an array of `T` in a renderer's terms.
