@@ -41,9 +41,10 @@
 //! so the solve works on P (M + β Δt² H) P. Velocities are f32 like the grid;
 //! dot products sum in f64, block by block in a fixed order.
 
+use firn_core::Scene;
 use firn_core::math::bspline::{StencilWeights, cubic_weights, quadratic_weights};
 use firn_core::math::svd::svd3;
-use firn_core::scene::{ImplicitSettings, Transfer};
+use firn_core::scene::{ImplicitSettings, Integrator, TimeStep, Transfer};
 use glam::{Mat3, Mat3A, Vec3, Vec3A};
 use rayon::prelude::*;
 
@@ -804,6 +805,34 @@ fn conjugate_residual<K: ForceKernel>(
         z_sz = next_z_sz;
     }
     report
+}
+
+/// What to change when a semi-implicit step of `scene` blew up, given the
+/// run's solver statistics `stats`: the linear solve's limit if solves
+/// stopped short, else the step (shared by the CPU and GPU backends).
+pub fn blow_up_fix(scene: &Scene, stats: SolverStats) -> String {
+    let step_fix = match scene.time.step {
+        TimeStep::Fixed { dt } => {
+            format!("in [time] set dt = {:.1e} (now {dt:.1e})", dt * 0.25)
+        }
+        TimeStep::Adaptive { cfl, max_dt } => format!(
+            "in [time] set cfl = {:.2} (now {cfl}) or dt = {:.1e} (now {max_dt:.1e})",
+            cfl * 0.5,
+            max_dt * 0.5
+        ),
+    };
+    match scene.solver.integrator {
+        Integrator::SemiImplicit(settings) if stats.unconverged_steps > 0 => format!(
+            "{} of {} linear solves stopped at solver_max_iterations = {} (last residual \
+             {:.1e}, tolerance {:.0e}); in [solver] raise solver_max_iterations, or {step_fix}",
+            stats.unconverged_steps,
+            stats.steps,
+            settings.max_iterations,
+            stats.last_residual,
+            settings.tolerance
+        ),
+        _ => step_fix,
+    }
 }
 
 #[cfg(test)]

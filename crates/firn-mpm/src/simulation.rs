@@ -709,32 +709,10 @@ impl Simulation {
         }
     }
 
-    /// What to change when a semi-implicit step blew up: the linear solve's
-    /// limit if it stopped short, else the step.
+    /// What to change when a semi-implicit step blew up
+    /// ([`crate::implicit::blow_up_fix`]).
     fn implicit_fix(&self) -> String {
-        let step_fix = match self.scene.time.step {
-            TimeStep::Fixed { dt } => {
-                format!("in [time] set dt = {:.1e} (now {dt:.1e})", dt * 0.25)
-            }
-            TimeStep::Adaptive { cfl, max_dt } => format!(
-                "in [time] set cfl = {:.2} (now {cfl}) or dt = {:.1e} (now {max_dt:.1e})",
-                cfl * 0.5,
-                max_dt * 0.5
-            ),
-        };
-        let stats = self.solver_stats().unwrap_or_default();
-        match self.scene.solver.integrator {
-            Integrator::SemiImplicit(settings) if stats.unconverged_steps > 0 => format!(
-                "{} of {} linear solves stopped at solver_max_iterations = {} (last residual \
-                 {:.1e}, tolerance {:.0e}); in [solver] raise solver_max_iterations, or {step_fix}",
-                stats.unconverged_steps,
-                stats.steps,
-                settings.max_iterations,
-                stats.last_residual,
-                settings.tolerance
-            ),
-            _ => step_fix,
-        }
+        crate::implicit::blow_up_fix(&self.scene, self.solver_stats().unwrap_or_default())
     }
 
     /// Everything needed to continue this run bit for bit.

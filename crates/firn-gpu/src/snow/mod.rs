@@ -60,9 +60,7 @@ mod wind;
 use std::sync::Arc;
 
 use firn_core::Scene;
-use firn_core::scene::{
-    ImplicitSettings, Integrator, Material, SceneKind, TimeStep, Transfer, Wind,
-};
+use firn_core::scene::{Integrator, Material, SceneKind, TimeStep, Transfer, Wind};
 use firn_mpm::constitutive::{MaterialConstants, max_wave_speed_squared};
 use firn_mpm::grid::GridLayout;
 use firn_mpm::implicit::SolverStats;
@@ -334,8 +332,8 @@ impl GpuSnow {
 
     /// What to change when a substep blew up.
     fn instability_hint(&self, dt: f32) -> String {
-        if let Integrator::SemiImplicit(settings) = self.scene.solver.integrator {
-            return self.implicit_hint(dt, settings);
+        if let Integrator::SemiImplicit(_) = self.scene.solver.integrator {
+            return self.implicit_hint(dt);
         }
         let h = self.scene.domain.cell_size;
         let wave_speed = self.last.wave_speed_squared.max(1e-12).sqrt();
@@ -359,27 +357,9 @@ impl GpuSnow {
 
     /// What to change when a semi-implicit substep blew up: the solve's
     /// limit if solves stopped short, else the step (as on the CPU).
-    fn implicit_hint(&self, dt: f32, settings: ImplicitSettings) -> String {
-        let step_fix = match self.scene.time.step {
-            TimeStep::Fixed { dt } => {
-                format!("in [time] set dt = {:.1e} (now {dt:.1e})", dt * 0.25)
-            }
-            TimeStep::Adaptive { cfl, max_dt } => format!(
-                "in [time] set cfl = {:.2} (now {cfl}) or dt = {:.1e} (now {max_dt:.1e})",
-                cfl * 0.5,
-                max_dt * 0.5
-            ),
-        };
-        let stats = self.solver_stats().unwrap_or_default();
-        let fix = if stats.unconverged_steps > 0 {
-            format!(
-                "{} of {} linear solves stopped at solver_max_iterations = {}; in [solver] raise \
-                 solver_max_iterations, or {step_fix}",
-                stats.unconverged_steps, stats.steps, settings.max_iterations
-            )
-        } else {
-            step_fix
-        };
+    fn implicit_hint(&self, dt: f32) -> String {
+        let fix =
+            firn_mpm::implicit::blow_up_fix(&self.scene, self.solver_stats().unwrap_or_default());
         format!(
             "the semi-implicit step Δt = {dt:.2e} s is too large, or snow was pushed through a \
              wall: {fix}, and check that moving colliders stay inside [domain]"
