@@ -96,15 +96,49 @@ impl Collection<'_> {
             Some(pieces) => pieces,
             None => {
                 write_vtp(&run.path().join(&name), frame)?;
-                vec![(0, name)]
+                vec![(0, name.clone())]
             }
         };
+        remove_other_vtk_files(run, &name, &pieces);
         self.pvd.remove_after(frame.time - 1e-12);
         for (part, file) in &pieces {
             self.pvd.push_part(frame.time, *part, file.clone());
         }
         self.pvd.write(&run.collection_path())?;
         Ok(pieces.into_iter().map(|(_, file)| file).collect())
+    }
+}
+
+/// Removes the files of the frame whose whole VTK file is `whole` (its
+/// name, `vtk/frame_NNNNN.vtp`) that `pieces` does not name: those an
+/// earlier run wrote in more pieces, or whole, before a resume on another
+/// rank count. Best effort: a stale file left behind is listed nowhere.
+fn remove_other_vtk_files(run: &RunDirectory, whole: &str, pieces: &[(u32, String)]) {
+    let whole_path = run.path().join(whole);
+    let (Some(folder), Some(stem)) = (
+        whole_path.parent(),
+        whole_path.file_stem().and_then(|stem| stem.to_str()),
+    ) else {
+        return;
+    };
+    let Ok(entries) = std::fs::read_dir(folder) else {
+        return;
+    };
+    let piece_prefix = format!("{stem}_part_");
+    for entry in entries.flatten() {
+        let path = entry.path();
+        let Some(file) = path.file_name().and_then(|file| file.to_str()) else {
+            continue;
+        };
+        let of_this_frame = file == format!("{stem}.vtp")
+            || (file.starts_with(&piece_prefix) && file.ends_with(".vtp"));
+        let kept = pieces
+            .iter()
+            .any(|(_, piece)| run.path().join(piece) == path);
+        if of_this_frame && !kept {
+            // Best effort, as said.
+            let _ = std::fs::remove_file(&path);
+        }
     }
 }
 

@@ -113,6 +113,37 @@ fn a_recorded_frame_cache_reads_back_as_written() {
     assert_eq!(cached.color_values(ColorBy::Uniform), Ok(None));
 }
 
+/// A run resumed by fewer MPI ranks, or by one process, rewrites each frame
+/// in fewer pieces: the pieces the earlier run wrote beyond them go, as
+/// nothing lists them any more.
+#[test]
+fn a_frame_rewritten_whole_leaves_no_stale_pieces() {
+    let folder = tempfile::tempdir().unwrap();
+    let vtk = folder.path().join("vtk");
+    std::fs::create_dir_all(&vtk).unwrap();
+    let stale = [1, 2].map(|part| RunDirectory::vtk_piece_name(2, part));
+    let other_frame = RunDirectory::vtk_piece_name(9, 1);
+    for name in stale.iter().chain([&other_frame]) {
+        std::fs::write(folder.path().join(name), "stale").unwrap();
+    }
+    let mut notes = Notes::default();
+    let mut recording = start(common::slab(), folder.path(), &mut notes);
+    recording
+        .run_to(2, &mut notes)
+        .expect("two frames are recorded");
+    for name in &stale {
+        assert!(
+            !folder.path().join(name).exists(),
+            "{name} is left beside the whole frame"
+        );
+    }
+    assert!(folder.path().join("vtk/frame_00002.vtp").is_file());
+    assert!(
+        folder.path().join(&other_frame).exists(),
+        "a frame not rewritten keeps its pieces"
+    );
+}
+
 #[test]
 fn pictures_and_animations_come_from_the_observer() {
     let folder = tempfile::tempdir().unwrap();
