@@ -116,6 +116,20 @@ impl BindGroupTable {
             entries: &self.layout_entries(),
         })
     }
+
+    /// The bind group layout of the bindings `numbers` of this table only
+    /// (one kernel's, [`crate::shaders::Reflection::bindings`]).
+    pub fn layout_of(&self, device: &wgpu::Device, numbers: &[u32]) -> wgpu::BindGroupLayout {
+        let entries: Vec<_> = self
+            .layout_entries()
+            .into_iter()
+            .filter(|entry| numbers.contains(&entry.binding))
+            .collect();
+        device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some(self.label),
+            entries: &entries,
+        })
+    }
 }
 
 /// Declares a bind group's table and its struct of named buffers:
@@ -176,15 +190,31 @@ macro_rules! bind_group {
                 device: &wgpu::Device,
                 layout: &wgpu::BindGroupLayout,
             ) -> wgpu::BindGroup {
+                self.bind_group_of(device, layout, &[$($number,)*])
+            }
+
+            /// A bind group of the buffers at `numbers` only, for `layout`
+            /// (made by [`BindGroupTable::layout_of`](crate::bindings::BindGroupTable::layout_of)
+            /// with the same numbers).
+            pub fn bind_group_of(
+                &self,
+                device: &wgpu::Device,
+                layout: &wgpu::BindGroupLayout,
+                numbers: &[u32],
+            ) -> wgpu::BindGroup {
+                let all = [$(($number, self.$field),)*];
+                let entries: Vec<_> = all
+                    .iter()
+                    .filter(|(number, _)| numbers.contains(number))
+                    .map(|(number, buffer)| wgpu::BindGroupEntry {
+                        binding: *number,
+                        resource: buffer.as_entire_binding(),
+                    })
+                    .collect();
                 device.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: Some($label),
                     layout,
-                    entries: &[$(
-                        wgpu::BindGroupEntry {
-                            binding: $number,
-                            resource: self.$field.as_entire_binding(),
-                        },
-                    )*],
+                    entries: &entries,
                 })
             }
         }

@@ -106,13 +106,19 @@ fn usable(adapters: Vec<wgpu::Adapter>) -> Vec<wgpu::Adapter> {
             let limits = adapter.limits();
             // Compute shaders with storage buffers are all firn needs.
             limits.max_storage_buffers_per_shader_stage >= MIN_STORAGE_BUFFERS
+                && limits.max_buffers_and_acceleration_structures_per_shader_stage >= MIN_BUFFERS
                 && limits.max_compute_invocations_per_workgroup >= 64
         })
         .collect()
 }
 
-/// Storage buffers the snow substep binds (one bind group for all its kernels).
-pub const MIN_STORAGE_BUFFERS: u32 = 32;
+/// The most storage buffers one kernel binds (the binned APIC scatter; each
+/// snow kernel binds only the buffers it uses, `snow/program.rs`).
+pub const MIN_STORAGE_BUFFERS: u32 = 22;
+
+/// The most buffers, storage and uniform together, one kernel binds (Metal
+/// offers 29 per shader stage).
+pub const MIN_BUFFERS: u32 = 23;
 
 /// Every adapter wgpu finds that can run firn's kernels, best first.
 pub fn adapters() -> Vec<AdapterReport> {
@@ -177,7 +183,15 @@ impl GpuContext {
     /// device that presents to its window; see [`rank_adapters`]), with the
     /// adapter's full limits, as [`GpuContext::new`] does.
     pub fn open(adapter: &wgpu::Adapter) -> Result<Arc<GpuContext>, GpuError> {
-        let limits = adapter.limits();
+        GpuContext::open_with_limits(adapter, adapter.limits())
+    }
+
+    /// Opens a device on `adapter` with `limits`, at most the adapter's own:
+    /// how the tests hold firn to adapters smaller than the one at hand.
+    pub fn open_with_limits(
+        adapter: &wgpu::Adapter,
+        limits: wgpu::Limits,
+    ) -> Result<Arc<GpuContext>, GpuError> {
         let descriptor = wgpu::DeviceDescriptor {
             label: Some("firn"),
             required_features: wgpu::Features::empty(),
@@ -213,7 +227,26 @@ pub const REQUIRE_GPU_VARIABLE: &str = "FIRN_REQUIRE_GPU";
 /// to get a software adapter) when there is none, unless
 /// `FIRN_REQUIRE_GPU=1`, which turns that into a panic.
 pub fn context_for_tests() -> Option<Arc<GpuContext>> {
-    match GpuContext::new(AdapterPolicy::AllowSoftware) {
+    context_for_tests_with_limits(|_| {})
+}
+
+/// [`context_for_tests`] with the adapter's limits changed by `adjust`
+/// first (lowered, to stand in for a smaller adapter).
+pub fn context_for_tests_with_limits(
+    adjust: impl FnOnce(&mut wgpu::Limits),
+) -> Option<Arc<GpuContext>> {
+    let opened = enumerate()
+        .into_iter()
+        .next()
+        .ok_or(GpuError::NoAdapter {
+            policy: AdapterPolicy::AllowSoftware,
+        })
+        .and_then(|adapter| {
+            let mut limits = adapter.limits();
+            adjust(&mut limits);
+            GpuContext::open_with_limits(&adapter, limits)
+        });
+    match opened {
         Ok(context) => Some(context),
         Err(error) => {
             let required = std::env::var(REQUIRE_GPU_VARIABLE).is_ok_and(|value| value == "1");

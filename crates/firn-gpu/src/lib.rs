@@ -29,7 +29,8 @@ pub mod shaders;
 pub mod snow;
 
 pub use context::{
-    AdapterPolicy, AdapterReport, GpuContext, adapters, choose, context_for_tests, rank_adapters,
+    AdapterPolicy, AdapterReport, GpuContext, adapters, choose, context_for_tests,
+    context_for_tests_with_limits, rank_adapters,
 };
 pub use error::GpuError;
 pub use flow::GpuFlow;

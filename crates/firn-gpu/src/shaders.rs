@@ -70,6 +70,59 @@ impl Program {
         })
     }
 
+    /// Which bindings each entry point of the program uses, from naga's
+    /// analysis of the program (the one wgpu runs when it compiles it).
+    pub fn reflect(&self) -> Reflection {
+        let source = self.source();
+        let module = naga::front::wgsl::parse_str(&source).unwrap_or_else(|error| {
+            panic!(
+                "{} does not parse (tests/validate.rs checks every program): {}",
+                self.name,
+                error.emit_to_string(&source)
+            )
+        });
+        let info = naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::empty(),
+        )
+        .validate(&module)
+        .unwrap_or_else(|error| {
+            panic!(
+                "{} does not validate (tests/validate.rs checks every program): {}",
+                self.name,
+                error.emit_to_string(&source)
+            )
+        });
+        let entry_points = module
+            .entry_points
+            .iter()
+            .enumerate()
+            .map(|(index, entry)| {
+                let uses = info.get_entry_point(index);
+                let bindings = module
+                    .global_variables
+                    .iter()
+                    .filter(|(handle, _)| !uses[*handle].is_empty())
+                    .filter_map(|(_, global)| {
+                        let binding = global.binding.as_ref()?;
+                        let kind = match global.space {
+                            naga::AddressSpace::Storage { .. } => BufferKind::Storage,
+                            naga::AddressSpace::Uniform => BufferKind::Uniform,
+                            _ => return None,
+                        };
+                        Some(UsedBinding {
+                            group: binding.group,
+                            number: binding.binding,
+                            kind,
+                        })
+                    })
+                    .collect();
+                (entry.name.clone(), bindings)
+            })
+            .collect();
+        Reflection { entry_points }
+    }
+
     /// The compute pipelines of entry points of the program, compiled once,
     /// each with its bind group layouts (group 0 first).
     pub fn compute_pipelines<const N: usize>(
@@ -87,6 +140,67 @@ impl Program {
             });
             compute_pipeline(device, &module, &layout, entry)
         })
+    }
+}
+
+/// Whether a binding is a storage or a uniform buffer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BufferKind {
+    /// `var<storage, ...>`.
+    Storage,
+    /// `var<uniform>`.
+    Uniform,
+}
+
+/// A buffer binding an entry point reads or writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct UsedBinding {
+    /// Its bind group.
+    pub group: u32,
+    /// Its binding number in the group.
+    pub number: u32,
+    /// Storage or uniform.
+    pub kind: BufferKind,
+}
+
+/// The bindings each entry point of a program uses ([`Program::reflect`]).
+///
+/// A kernel's pipeline layout then holds only its own buffers: the snow
+/// step binds 37 buffers in all, more than some adapters let one shader
+/// stage see (Metal: 29, storage and uniform together), while no single
+/// kernel uses more than [`crate::context::MIN_STORAGE_BUFFERS`] storage
+/// buffers.
+#[derive(Clone, Debug)]
+pub struct Reflection {
+    entry_points: Vec<(String, Vec<UsedBinding>)>,
+}
+
+impl Reflection {
+    /// The entry points' names and the bindings each uses.
+    pub fn entry_points(&self) -> impl Iterator<Item = (&str, &[UsedBinding])> {
+        self.entry_points
+            .iter()
+            .map(|(name, bindings)| (name.as_str(), bindings.as_slice()))
+    }
+
+    /// The binding numbers of `group` that entry point `entry` uses, in
+    /// increasing order.
+    ///
+    /// # Panics
+    /// If the program has no entry point `entry`.
+    pub fn bindings(&self, entry: &str, group: u32) -> Vec<u32> {
+        let (_, used) = self
+            .entry_points
+            .iter()
+            .find(|(name, _)| name == entry)
+            .unwrap_or_else(|| panic!("no entry point {entry}"));
+        let mut numbers: Vec<u32> = used
+            .iter()
+            .filter(|binding| binding.group == group)
+            .map(|binding| binding.number)
+            .collect();
+        numbers.sort_unstable();
+        numbers
     }
 }
 

@@ -1,13 +1,16 @@
 //! The bind group tables agree with the programs they declare bindings for,
 //! read back by naga from each program's text (no adapter needed): every
 //! binding a program declares is in its table's layout entries with the
-//! same name and access, every table entry is declared, and no `.wgsl` file
-//! declares a binding by hand.
+//! same name and access, every table entry is declared, no `.wgsl` file
+//! declares a binding by hand, and the adapter requirements
+//! (`MIN_STORAGE_BUFFERS`, `MIN_BUFFERS`) are what the largest kernel binds.
 
 use std::collections::BTreeMap;
 
 use firn_gpu::bindings::BindGroupTable;
-use firn_gpu::shaders::{PROGRAMS, Part, Program};
+use firn_gpu::context::{MIN_BUFFERS, MIN_STORAGE_BUFFERS};
+use firn_gpu::shaders::{BufferKind, PROGRAMS, Part, Program, SNOW_STEP};
+use firn_gpu::snow::bindings::StepBindings;
 
 /// A declared binding as naga reads it: its name and the buffer type a
 /// layout entry must have for it.
@@ -140,4 +143,46 @@ fn a_group_is_declared_by_one_table_per_program() {
         groups.dedup();
         assert_eq!(groups.len(), count, "{}", program.name);
     }
+}
+
+/// The buffers of `tables`: (storage, storage and uniform together).
+fn buffer_counts<'a>(tables: impl Iterator<Item = &'a BindGroupTable>) -> (u32, u32) {
+    tables.flat_map(|table| table.layout_entries()).fold(
+        (0, 0),
+        |(storage, all), entry| match entry.ty {
+            wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { .. },
+                ..
+            } => (storage + 1, all + 1),
+            _ => (storage, all + 1),
+        },
+    )
+}
+
+/// The adapter requirements are what the largest kernel binds: the snow
+/// step's kernels each bind only the buffers naga finds they use
+/// (`snow/program.rs`); the other programs bind their whole tables.
+#[test]
+fn the_adapter_requirements_are_the_largest_kernels_buffers() {
+    let mut most = (0, 0);
+    for program in PROGRAMS {
+        if program.name == SNOW_STEP.name {
+            for (_, used) in program.reflect().entry_points() {
+                let storage = used
+                    .iter()
+                    .filter(|binding| binding.kind == BufferKind::Storage)
+                    .count() as u32;
+                most = (most.0.max(storage), most.1.max(used.len() as u32));
+            }
+        } else {
+            let (storage, all) = buffer_counts(program.tables());
+            most = (most.0.max(storage), most.1.max(all));
+        }
+    }
+    assert_eq!(most, (MIN_STORAGE_BUFFERS, MIN_BUFFERS));
+    let (storage, all) = buffer_counts(std::iter::once(&StepBindings::TABLE));
+    assert!(
+        all > 29 && storage > MIN_STORAGE_BUFFERS,
+        "the step's table ({storage} storage, {all} in all) would fit one layout on Metal"
+    );
 }

@@ -7,7 +7,7 @@
 //! `bin_sort` puts each particle in its slot. The binned scatter itself is
 //! in `p2g.rs`.
 
-use super::substep::{StepProgram, compute_pass};
+use super::program::{Kernel, StepProgram, compute_pass};
 use crate::buffers::zeroed_storage_buffer;
 use crate::context::GpuContext;
 
@@ -43,20 +43,20 @@ impl BinningBuffers {
     }
 }
 
-/// The counting sort's pipelines.
+/// The counting sort's kernels.
 pub struct Binning {
-    count: wgpu::ComputePipeline,
-    offsets: wgpu::ComputePipeline,
-    sort: wgpu::ComputePipeline,
+    count: Kernel,
+    offsets: Kernel,
+    sort: Kernel,
 }
 
 impl Binning {
-    /// The pipelines of `bin_count`, `bin_offsets` and `bin_sort`.
+    /// The kernels `bin_count`, `bin_offsets` and `bin_sort`.
     pub fn new(program: &StepProgram) -> Binning {
         Binning {
-            count: program.pipeline("bin_count"),
-            offsets: program.pipeline("bin_offsets"),
-            sort: program.pipeline("bin_sort"),
+            count: program.kernel("bin_count"),
+            offsets: program.kernel("bin_offsets"),
+            sort: program.kernel("bin_sort"),
         }
     }
 
@@ -65,19 +65,15 @@ impl Binning {
     pub fn record(
         &self,
         encoder: &mut wgpu::CommandEncoder,
-        bind_group: &wgpu::BindGroup,
         buffers: &BinningBuffers,
-        (x, y, z): (u32, u32, u32),
+        groups: (u32, u32, u32),
     ) {
         encoder.clear_buffer(&buffers.bins, 0, None);
         {
-            let mut pass = compute_pass(encoder, "snow substep", bind_group);
-            pass.set_pipeline(&self.count);
-            pass.dispatch_workgroups(x, y, z);
-            pass.set_pipeline(&self.offsets);
-            pass.dispatch_workgroups(1, 1, 1);
-            pass.set_pipeline(&self.sort);
-            pass.dispatch_workgroups(x, y, z);
+            let mut pass = compute_pass(encoder, "snow substep");
+            self.count.dispatch(&mut pass, groups);
+            self.offsets.dispatch(&mut pass, (1, 1, 1));
+            self.sort.dispatch(&mut pass, groups);
         }
         encoder.copy_buffer_to_buffer(&buffers.work, 0, &buffers.indirect, 0, 12);
     }

@@ -12,11 +12,11 @@
 
 use firn_core::scene::Transfer;
 
-use super::substep::StepProgram;
+use super::program::{Kernel, StepProgram};
 
-/// The gather's pipeline for one transfer scheme.
+/// The gather's kernel for one transfer scheme.
 pub struct G2p {
-    pipeline: wgpu::ComputePipeline,
+    kernel: Kernel,
 }
 
 impl G2p {
@@ -27,13 +27,12 @@ impl G2p {
             Transfer::PicFlip => "gather_pic_flip",
         };
         G2p {
-            pipeline: program.pipeline(entry),
+            kernel: program.kernel(entry),
         }
     }
 
     /// Records the gather, one invocation per particle.
-    pub fn record(&self, pass: &mut wgpu::ComputePass, (x, y, z): (u32, u32, u32)) {
-        pass.set_pipeline(&self.pipeline);
-        pass.dispatch_workgroups(x, y, z);
+    pub fn record(&self, pass: &mut wgpu::ComputePass, groups: (u32, u32, u32)) {
+        self.kernel.dispatch(pass, groups);
     }
 }

@@ -9,21 +9,21 @@
 //! ([`super::implicit`]). One invocation per node; v_i and v_i* replace the
 //! momentum sums in the word planes for the gather.
 
-use super::substep::StepProgram;
+use super::program::{Kernel, StepProgram};
 
-/// The grid update's pipelines: without wind and with the wind's drag
+/// The grid update's kernels: without wind and with the wind's drag
 /// (`update_grid_in_wind`), each with the grid collisions or, for the
 /// semi-implicit solve that applies them itself, without
 /// (`update_grid_free*`); a run records the one its scene needs.
 pub struct GridUpdate {
-    calm: wgpu::ComputePipeline,
-    in_wind: wgpu::ComputePipeline,
+    calm: Kernel,
+    in_wind: Kernel,
     /// Whether the scene has a wind.
     windy: bool,
 }
 
 impl GridUpdate {
-    /// The pipelines of both entry points (both transfer schemes), with the
+    /// The kernels of both entry points (both transfer schemes), with the
     /// grid collisions unless `implicit`, recording the one with the wind's
     /// drag when `windy`.
     pub fn new(program: &StepProgram, windy: bool, implicit: bool) -> GridUpdate {
@@ -33,8 +33,8 @@ impl GridUpdate {
             ("update_grid", "update_grid_in_wind")
         };
         GridUpdate {
-            calm: program.pipeline(calm),
-            in_wind: program.pipeline(in_wind),
+            calm: program.kernel(calm),
+            in_wind: program.kernel(in_wind),
             windy,
         }
     }
@@ -45,13 +45,12 @@ impl GridUpdate {
     }
 
     /// Records the update, one invocation per node.
-    pub fn record(&self, pass: &mut wgpu::ComputePass, (x, y, z): (u32, u32, u32)) {
-        let pipeline = if self.windy {
+    pub fn record(&self, pass: &mut wgpu::ComputePass, groups: (u32, u32, u32)) {
+        let kernel = if self.windy {
             &self.in_wind
         } else {
             &self.calm
         };
-        pass.set_pipeline(pipeline);
-        pass.dispatch_workgroups(x, y, z);
+        kernel.dispatch(pass, groups);
     }
 }

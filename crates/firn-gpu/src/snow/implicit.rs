@@ -20,7 +20,7 @@
 //! product is summed in a fixed order (a tree per workgroup, then the
 //! partials in order by one workgroup), so the solve is deterministic.
 
-use super::substep::{StepProgram, compute_pass};
+use super::program::{Kernel, StepProgram, compute_pass};
 use crate::buffers::read_back;
 use crate::context::GpuContext;
 use crate::error::GpuError;
@@ -34,22 +34,22 @@ pub const ITERATIONS_PER_READ: u32 = 8;
 /// and the active-node count.
 const RESET_BYTES: u64 = 32;
 
-/// The solve's pipelines.
+/// The solve's kernels.
 pub struct ImplicitSolve {
-    linearize: wgpu::ComputePipeline,
-    load: wgpu::ComputePipeline,
-    begin: wgpu::ComputePipeline,
-    hessian_of_x: wgpu::ComputePipeline,
-    initial_residual: wgpu::ComputePipeline,
-    start: wgpu::ComputePipeline,
-    hessian_of_z: wgpu::ComputePipeline,
-    finish_product: wgpu::ComputePipeline,
-    curvature: wgpu::ComputePipeline,
-    next_direction: wgpu::ComputePipeline,
-    step_length: wgpu::ComputePipeline,
-    advance: wgpu::ComputePipeline,
-    residual: wgpu::ComputePipeline,
-    store: wgpu::ComputePipeline,
+    linearize: Kernel,
+    load: Kernel,
+    begin: Kernel,
+    hessian_of_x: Kernel,
+    initial_residual: Kernel,
+    start: Kernel,
+    hessian_of_z: Kernel,
+    finish_product: Kernel,
+    curvature: Kernel,
+    next_direction: Kernel,
+    step_length: Kernel,
+    advance: Kernel,
+    residual: Kernel,
+    store: Kernel,
 }
 
 /// The workgroup counts of a dispatch over the particles and over the nodes.
@@ -61,33 +61,24 @@ pub struct SolveGroups {
     pub nodes: (u32, u32, u32),
 }
 
-fn dispatch(
-    pass: &mut wgpu::ComputePass,
-    pipeline: &wgpu::ComputePipeline,
-    (x, y, z): (u32, u32, u32),
-) {
-    pass.set_pipeline(pipeline);
-    pass.dispatch_workgroups(x, y, z);
-}
-
 impl ImplicitSolve {
-    /// The pipelines of every kernel of the solve.
+    /// Every kernel of the solve.
     pub fn new(program: &StepProgram) -> ImplicitSolve {
         ImplicitSolve {
-            linearize: program.pipeline("linearize"),
-            load: program.pipeline("solve_load"),
-            begin: program.pipeline("solve_begin"),
-            hessian_of_x: program.pipeline("hessian_of_x"),
-            initial_residual: program.pipeline("solve_initial_residual"),
-            start: program.pipeline("solve_start"),
-            hessian_of_z: program.pipeline("hessian_of_z"),
-            finish_product: program.pipeline("solve_finish_product"),
-            curvature: program.pipeline("solve_curvature"),
-            next_direction: program.pipeline("solve_next_direction"),
-            step_length: program.pipeline("solve_step_length"),
-            advance: program.pipeline("solve_advance"),
-            residual: program.pipeline("solve_residual"),
-            store: program.pipeline("solve_store"),
+            linearize: program.kernel("linearize"),
+            load: program.kernel("solve_load"),
+            begin: program.kernel("solve_begin"),
+            hessian_of_x: program.kernel("hessian_of_x"),
+            initial_residual: program.kernel("solve_initial_residual"),
+            start: program.kernel("solve_start"),
+            hessian_of_z: program.kernel("hessian_of_z"),
+            finish_product: program.kernel("solve_finish_product"),
+            curvature: program.kernel("solve_curvature"),
+            next_direction: program.kernel("solve_next_direction"),
+            step_length: program.kernel("solve_step_length"),
+            advance: program.kernel("solve_advance"),
+            residual: program.kernel("solve_residual"),
+            store: program.kernel("solve_store"),
         }
     }
 
@@ -96,43 +87,42 @@ impl ImplicitSolve {
     pub fn record_start(
         &self,
         encoder: &mut wgpu::CommandEncoder,
-        bind_group: &wgpu::BindGroup,
         state: &wgpu::Buffer,
         groups: SolveGroups,
     ) {
         encoder.clear_buffer(state, 0, Some(RESET_BYTES));
-        let mut pass = compute_pass(encoder, "semi-implicit solve", bind_group);
-        dispatch(&mut pass, &self.linearize, groups.particles);
-        dispatch(&mut pass, &self.load, groups.nodes);
-        dispatch(&mut pass, &self.begin, (1, 1, 1));
-        dispatch(&mut pass, &self.hessian_of_x, groups.particles);
-        dispatch(&mut pass, &self.initial_residual, groups.nodes);
-        dispatch(&mut pass, &self.start, (1, 1, 1));
+        let mut pass = compute_pass(encoder, "semi-implicit solve");
+        self.linearize.dispatch(&mut pass, groups.particles);
+        self.load.dispatch(&mut pass, groups.nodes);
+        self.begin.dispatch(&mut pass, (1, 1, 1));
+        self.hessian_of_x.dispatch(&mut pass, groups.particles);
+        self.initial_residual.dispatch(&mut pass, groups.nodes);
+        self.start.dispatch(&mut pass, (1, 1, 1));
         self.record_direction(&mut pass, groups);
     }
 
     /// The product S z, then the next direction and its step length.
     fn record_direction(&self, pass: &mut wgpu::ComputePass, groups: SolveGroups) {
-        dispatch(pass, &self.hessian_of_z, groups.particles);
-        dispatch(pass, &self.finish_product, groups.nodes);
-        dispatch(pass, &self.curvature, (1, 1, 1));
-        dispatch(pass, &self.next_direction, groups.nodes);
-        dispatch(pass, &self.step_length, (1, 1, 1));
+        self.hessian_of_z.dispatch(pass, groups.particles);
+        self.finish_product.dispatch(pass, groups.nodes);
+        self.curvature.dispatch(pass, (1, 1, 1));
+        self.next_direction.dispatch(pass, groups.nodes);
+        self.step_length.dispatch(pass, (1, 1, 1));
     }
 
     /// Records `count` iterations: the step along the direction, the
     /// residual and the stopping test, then the next direction.
     pub fn record_iterations(&self, pass: &mut wgpu::ComputePass, count: u32, groups: SolveGroups) {
         for _ in 0..count {
-            dispatch(pass, &self.advance, groups.nodes);
-            dispatch(pass, &self.residual, (1, 1, 1));
+            self.advance.dispatch(pass, groups.nodes);
+            self.residual.dispatch(pass, (1, 1, 1));
             self.record_direction(pass, groups);
         }
     }
 
     /// Records the final velocities: the iterate through the colliders.
     pub fn record_store(&self, pass: &mut wgpu::ComputePass, node_groups: (u32, u32, u32)) {
-        dispatch(pass, &self.store, node_groups);
+        self.store.dispatch(pass, node_groups);
     }
 }
 

@@ -53,6 +53,7 @@ mod implicit;
 mod layout;
 mod memory;
 mod p2g;
+mod program;
 mod spindrift;
 mod substep;
 mod wind;

@@ -16,7 +16,7 @@
 
 use firn_core::scene::Transfer;
 
-use super::substep::StepProgram;
+use super::program::{Kernel, StepProgram};
 
 /// How the scatter adds particle contributions into the grid.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -38,9 +38,9 @@ pub fn binned_fits(limits: &wgpu::Limits) -> bool {
     limits.max_compute_workgroup_storage_size >= BINNED_WORKGROUP_BYTES
 }
 
-/// The atomic scatter's pipeline for one transfer scheme.
+/// The atomic scatter's kernel for one transfer scheme.
 pub struct P2g {
-    pipeline: wgpu::ComputePipeline,
+    kernel: Kernel,
 }
 
 impl P2g {
@@ -51,20 +51,19 @@ impl P2g {
             Transfer::PicFlip => "scatter_pic_flip",
         };
         P2g {
-            pipeline: program.pipeline(entry),
+            kernel: program.kernel(entry),
         }
     }
 
     /// Records the scatter, one invocation per particle.
-    pub fn record(&self, pass: &mut wgpu::ComputePass, (x, y, z): (u32, u32, u32)) {
-        pass.set_pipeline(&self.pipeline);
-        pass.dispatch_workgroups(x, y, z);
+    pub fn record(&self, pass: &mut wgpu::ComputePass, groups: (u32, u32, u32)) {
+        self.kernel.dispatch(pass, groups);
     }
 }
 
-/// The binned scatter's pipeline for one transfer scheme.
+/// The binned scatter's kernel for one transfer scheme.
 pub struct BinnedP2g {
-    pipeline: wgpu::ComputePipeline,
+    kernel: Kernel,
 }
 
 impl BinnedP2g {
@@ -75,14 +74,13 @@ impl BinnedP2g {
             Transfer::PicFlip => "scatter_binned_pic_flip",
         };
         BinnedP2g {
-            pipeline: program.pipeline(entry),
+            kernel: program.kernel(entry),
         }
     }
 
     /// Records the scatter, one workgroup per work item of the sort
     /// (`binning.rs`), as many as its `indirect` arguments say.
     pub fn record(&self, pass: &mut wgpu::ComputePass, indirect: &wgpu::Buffer) {
-        pass.set_pipeline(&self.pipeline);
-        pass.dispatch_workgroups_indirect(indirect, 0);
+        self.kernel.dispatch_indirect(pass, indirect, 0);
     }
 }

@@ -19,7 +19,7 @@ use firn_core::Scene;
 use firn_mpm::{Drift, Escaped, Particles};
 use glam::{Mat3, Vec3};
 
-use super::substep::StepProgram;
+use super::program::{Kernel, StepProgram};
 use crate::buffers::uniform_buffer;
 use crate::context::GpuContext;
 
@@ -81,8 +81,8 @@ pub fn params_buffer(context: &GpuContext, scene: &Scene) -> wgpu::Buffer {
 /// The two spindrift kernels, recorded after the gather where the scene has
 /// spindrift.
 pub struct SpindriftStage {
-    detach: wgpu::ComputePipeline,
-    carry: wgpu::ComputePipeline,
+    detach: Kernel,
+    carry: Kernel,
     enabled: bool,
 }
 
@@ -90,8 +90,8 @@ impl SpindriftStage {
     /// `detach_snow` and `carry_drift`, recorded when `enabled`.
     pub fn new(program: &StepProgram, enabled: bool) -> SpindriftStage {
         SpindriftStage {
-            detach: program.pipeline("detach_snow"),
-            carry: program.pipeline("carry_drift"),
+            detach: program.kernel("detach_snow"),
+            carry: program.kernel("carry_drift"),
             enabled,
         }
     }
@@ -103,14 +103,12 @@ impl SpindriftStage {
 
     /// Records detachment, then the drift's step, one invocation per
     /// particle.
-    pub fn record(&self, pass: &mut wgpu::ComputePass, (x, y, z): (u32, u32, u32)) {
+    pub fn record(&self, pass: &mut wgpu::ComputePass, groups: (u32, u32, u32)) {
         if !self.enabled {
             return;
         }
-        for pipeline in [&self.detach, &self.carry] {
-            pass.set_pipeline(pipeline);
-            pass.dispatch_workgroups(x, y, z);
-        }
+        self.detach.dispatch(pass, groups);
+        self.carry.dispatch(pass, groups);
     }
 }
 

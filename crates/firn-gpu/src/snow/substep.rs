@@ -1,6 +1,6 @@
 //! The substep recorder: the stages of one MPM substep in the order they
-//! run, each from its own file, all over one bind group
-//! ([`StepBindings`](super::bindings::StepBindings)):
+//! run, each from its own file, each kernel binding the buffers it uses of
+//! [`StepBindings`](super::bindings::StepBindings) (`program.rs`):
 //!
 //! 1. `begin_step.rs`: Δt and the stop conditions;
 //! 2. the grid's word planes cleared;
@@ -22,7 +22,6 @@ use firn_core::scene::Transfer;
 use firn_mpm::implicit::{SolveReport, SolverStats};
 
 use super::begin_step::BeginStep;
-use super::bindings::StepBindings;
 use super::binning::Binning;
 use super::buffers::SnowBuffers;
 use super::g2p::G2p;
@@ -30,41 +29,12 @@ use super::grid_update::GridUpdate;
 use super::implicit::{ITERATIONS_PER_READ, ImplicitSolve, SolveGroups, read_header};
 use super::layout::{Params, StepState};
 use super::p2g::{BinnedP2g, P2g, Scatter, binned_fits};
+use super::program::{StepProgram, compute_pass};
 use super::spindrift::SpindriftStage;
 use crate::buffers::{read_back, storage_buffer};
 use crate::context::GpuContext;
 use crate::dispatch::workgroups;
 use crate::error::GpuError;
-use crate::shaders::{SNOW_STEP, compute_pipeline};
-
-/// The step program compiled once, with its pipeline layout: the stages
-/// make their pipelines from it.
-pub struct StepProgram<'a> {
-    device: &'a wgpu::Device,
-    module: wgpu::ShaderModule,
-    layout: wgpu::PipelineLayout,
-}
-
-impl StepProgram<'_> {
-    /// The pipeline of entry point `entry`.
-    pub fn pipeline(&self, entry: &str) -> wgpu::ComputePipeline {
-        compute_pipeline(self.device, &self.module, &self.layout, entry)
-    }
-}
-
-/// A compute pass over the step's bind group.
-pub fn compute_pass<'e>(
-    encoder: &'e mut wgpu::CommandEncoder,
-    label: &str,
-    bind_group: &wgpu::BindGroup,
-) -> wgpu::ComputePass<'e> {
-    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-        label: Some(label),
-        timestamp_writes: None,
-    });
-    pass.set_bind_group(0, bind_group, &[]);
-    pass
-}
 
 /// The binned scatter and the sort it runs on, built where the adapter's
 /// workgroup memory allows.
@@ -77,7 +47,6 @@ struct Binned {
 pub struct Substep {
     params: wgpu::Buffer,
     state: wgpu::Buffer,
-    bind_group: wgpu::BindGroup,
     begin_step: BeginStep,
     binned: Option<Binned>,
     p2g: P2g,
@@ -116,19 +85,7 @@ impl Substep {
             },
         );
         let state_buffer = storage_buffer(context, "snow step state", std::slice::from_ref(state));
-        let layout = StepBindings::TABLE.layout(device);
-        let bind_group = buffers
-            .bindings(&params_buffer, &state_buffer)
-            .bind_group(device, &layout);
-        let program = StepProgram {
-            device,
-            module: SNOW_STEP.module(device),
-            layout: device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("snow step"),
-                bind_group_layouts: &[Some(&layout)],
-                immediate_size: 0,
-            }),
-        };
+        let program = StepProgram::new(device, buffers.bindings(&params_buffer, &state_buffer));
         let binned = binned_fits(&context.limits).then(|| Binned {
             binning: Binning::new(&program),
             scatter: BinnedP2g::new(&program, transfer),
@@ -152,7 +109,6 @@ impl Substep {
             node_groups: workgroups(buffers.grid.nodes as u32, limit),
             params: params_buffer,
             state: state_buffer,
-            bind_group,
         }
     }
 
@@ -253,10 +209,10 @@ impl Substep {
         let state = &buffers.solve.state;
         let mut encoder = command_encoder(context);
         self.record_until_solve(&mut encoder, buffers);
-        solve.record_start(&mut encoder, &self.bind_group, state, groups);
+        solve.record_start(&mut encoder, state, groups);
         loop {
             {
-                let mut pass = compute_pass(&mut encoder, "semi-implicit solve", &self.bind_group);
+                let mut pass = compute_pass(&mut encoder, "semi-implicit solve");
                 solve.record_iterations(&mut pass, ITERATIONS_PER_READ, groups);
             }
             context.queue.submit([encoder.finish()]);
@@ -266,7 +222,7 @@ impl Substep {
                 return Ok(None);
             }
             if header.running == 0 {
-                let mut pass = compute_pass(&mut encoder, "snow substep", &self.bind_group);
+                let mut pass = compute_pass(&mut encoder, "snow substep");
                 solve.record_store(&mut pass, self.node_groups);
                 self.record_after_grid(&mut pass);
                 drop(pass);
@@ -291,33 +247,29 @@ impl Substep {
     /// Records one substep of the explicit integrator, stage by stage.
     fn record(&self, encoder: &mut wgpu::CommandEncoder, buffers: &SnowBuffers) {
         self.record_until_solve(encoder, buffers);
-        self.record_after_grid(&mut compute_pass(encoder, "snow substep", &self.bind_group));
+        self.record_after_grid(&mut compute_pass(encoder, "snow substep"));
     }
 
     /// Records a substep up to and including the grid update.
     fn record_until_solve(&self, encoder: &mut wgpu::CommandEncoder, buffers: &SnowBuffers) {
         self.begin_step
-            .record(&mut compute_pass(encoder, "snow substep", &self.bind_group));
+            .record(&mut compute_pass(encoder, "snow substep"));
         buffers.grid.clear(encoder);
         match (&self.binned, self.mode) {
             (Some(binned), Scatter::Binned) => {
                 let groups = self.particle_groups;
                 let binning = &buffers.binning;
-                binned
-                    .binning
-                    .record(encoder, &self.bind_group, binning, groups);
-                let mut pass = compute_pass(encoder, "binned scatter", &self.bind_group);
+                binned.binning.record(encoder, binning, groups);
+                let mut pass = compute_pass(encoder, "binned scatter");
                 binned.scatter.record(&mut pass, &binning.indirect);
             }
             _ => self.p2g.record(
-                &mut compute_pass(encoder, "snow substep", &self.bind_group),
+                &mut compute_pass(encoder, "snow substep"),
                 self.particle_groups,
             ),
         }
-        self.grid_update.record(
-            &mut compute_pass(encoder, "snow substep", &self.bind_group),
-            self.node_groups,
-        );
+        self.grid_update
+            .record(&mut compute_pass(encoder, "snow substep"), self.node_groups);
     }
 
     /// Records the gather and spindrift, after the grid's new velocities.
