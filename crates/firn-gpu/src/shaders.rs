@@ -72,11 +72,15 @@ impl Program {
 
     /// Which bindings each entry point of the program uses, from naga's
     /// analysis of the program (the one wgpu runs when it compiles it).
+    ///
+    /// # Panics
+    /// With naga's message if the program does not parse or validate
+    /// (`tests/validate.rs` holds every program to both).
     pub fn reflect(&self) -> Reflection {
         let source = self.source();
         let module = naga::front::wgsl::parse_str(&source).unwrap_or_else(|error| {
             panic!(
-                "{} does not parse (tests/validate.rs checks every program): {}",
+                "{} does not parse:\n{}",
                 self.name,
                 error.emit_to_string(&source)
             )
@@ -88,7 +92,7 @@ impl Program {
         .validate(&module)
         .unwrap_or_else(|error| {
             panic!(
-                "{} does not validate (tests/validate.rs checks every program): {}",
+                "{} does not validate:\n{}",
                 self.name,
                 error.emit_to_string(&source)
             )

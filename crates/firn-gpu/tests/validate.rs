@@ -2,30 +2,15 @@
 
 use firn_gpu::shaders::PROGRAMS;
 
+/// [`Program::reflect`](firn_gpu::shaders::Program::reflect) parses and
+/// validates the program with naga and panics with naga's message if
+/// either fails.
 #[test]
 fn every_wgsl_program_validates_with_naga() {
     assert!(!PROGRAMS.is_empty());
     for program in PROGRAMS {
-        let source = program.source();
-        let module = naga::front::wgsl::parse_str(&source).unwrap_or_else(|error| {
-            panic!(
-                "{} does not parse:\n{}",
-                program.name,
-                error.emit_to_string(&source)
-            )
-        });
-        naga::valid::Validator::new(
-            naga::valid::ValidationFlags::all(),
-            naga::valid::Capabilities::empty(),
-        )
-        .validate(&module)
-        .unwrap_or_else(|error| {
-            panic!(
-                "{} does not validate:\n{}",
-                program.name,
-                error.emit_to_string(&source)
-            )
-        });
+        let reflection = program.reflect();
+        assert!(reflection.entry_points().next().is_some(), "{}", program.name);
     }
 }
 
