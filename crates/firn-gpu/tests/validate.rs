@@ -10,7 +10,11 @@ fn every_wgsl_program_validates_with_naga() {
     assert!(!PROGRAMS.is_empty());
     for program in PROGRAMS {
         let reflection = program.reflect();
-        assert!(reflection.entry_points().next().is_some(), "{}", program.name);
+        assert!(
+            reflection.entry_points().next().is_some(),
+            "{}",
+            program.name
+        );
     }
 }
 
