@@ -98,19 +98,6 @@ pub trait Real:
         Self::select(Self::int_eq(Self::int_and(bits, 1 << bit), 0), no, yes)
     }
 
-    /// `value` where `mask` holds, else +0: a select against +0, which lane
-    /// types whose masks fill whole lanes do with one bitwise and.
-    #[inline(always)]
-    fn keep(mask: Self::Mask, value: Self) -> Self {
-        Self::select(mask, value, Self::splat(0.0))
-    }
-    /// Per lane: −1 where bit `bit` of `bits` is set, else +1 (lane types may
-    /// move the bit into the sign of 1 instead of selecting).
-    #[inline(always)]
-    fn sign_of_bit(bits: Self::Int, bit: u32) -> Self {
-        Self::select_on_bit(bits, bit, Self::splat(-1.0), Self::splat(1.0))
-    }
-
     /// Simplex noise and its gradient, [`crate::noise::simplex3`]. The
     /// portable and AVX-512 lane types keep it out of line (one copy per lane
     /// type and instruction set, called three times per velocity), which keeps
@@ -474,14 +461,6 @@ macro_rules! bundle {
             #[inline(always)]
             fn select_on_bit(bits: Self::Int, bit: u32, yes: Self, no: Self) -> Self {
                 $name($(R::select_on_bit(bits.$field, bit, yes.$field, no.$field)),+)
-            }
-            #[inline(always)]
-            fn keep(mask: Self::Mask, value: Self) -> Self {
-                $name($(R::keep(mask.$field, value.$field)),+)
-            }
-            #[inline(always)]
-            fn sign_of_bit(bits: Self::Int, bit: u32) -> Self {
-                $name($(R::sign_of_bit(bits.$field, bit)),+)
             }
         }
     };

@@ -275,25 +275,6 @@ impl Real for Avx8 {
             Avx8(_mm256_blendv_ps(no.0, yes.0, _mm256_castsi256_ps(sign)))
         }
     }
-    #[inline(always)]
-    fn keep(mask: Avx8i, value: Avx8) -> Avx8 {
-        // SAFETY: Avx8 values exist only where the CPU has AVX2. Masks are
-        // comparison results, all ones or all zeros per lane, so the and
-        // gives the value or +0.
-        unsafe { Avx8(_mm256_and_ps(_mm256_castsi256_ps(mask.0), value.0)) }
-    }
-    #[inline(always)]
-    fn sign_of_bit(bits: Avx8i, bit: u32) -> Avx8 {
-        // SAFETY: Avx8 values exist only where the CPU has AVX2. The bit is
-        // shifted into the sign bit and or-ed into +1.
-        unsafe {
-            let sign = _mm256_and_si256(
-                _mm256_sll_epi32(bits.0, _mm_cvtsi32_si128(31 - bit as i32)),
-                _mm256_set1_epi32(i32::MIN),
-            );
-            Avx8(_mm256_or_ps(_mm256_set1_ps(1.0), _mm256_castsi256_ps(sign)))
-        }
-    }
 }
 
 /// Two AVX2 registers per batch (16 particles): see [`Pair`].

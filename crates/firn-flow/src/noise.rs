@@ -96,12 +96,13 @@ pub fn gradient<R: Real>(hash: R::Int) -> V3<R> {
     let low = R::int_and(hash, 0xFFFF);
     let x_nonzero = R::int_gt(low, 21_845);
     let z_zero = R::int_gt(low, 43_690);
-    let first = R::sign_of_bit(hash, 16);
-    let second = R::sign_of_bit(hash, 17);
+    let zero = R::splat(0.0);
+    let first = R::select_on_bit(hash, 16, R::splat(-1.0), R::splat(1.0));
+    let second = R::select_on_bit(hash, 17, R::splat(-1.0), R::splat(1.0));
     [
-        R::keep(x_nonzero, first),
-        R::select(x_nonzero, R::keep(z_zero, second), first),
-        R::keep(R::not(z_zero), second),
+        R::select(x_nonzero, first, zero),
+        R::select(x_nonzero, R::select(z_zero, second, zero), first),
+        R::select(z_zero, zero, second),
     ]
 }
 
