@@ -159,3 +159,23 @@ fn the_three_components_are_uncorrelated() {
     let [a, b, _] = components(&field, 2000);
     assert!(correlation(&a, &b) > 0.999);
 }
+
+/// The largest |n| and the root mean square of n at `count` random points.
+fn range_and_rms(count: usize) -> (f64, f64) {
+    let mut points = Points::new(10);
+    let (mut largest, mut squares): (f64, f64) = (0.0, 0.0);
+    for _ in 0..count {
+        let value = noise_f64(points.in_box(DVec3::splat(-500.0), DVec3::splat(500.0))).0;
+        largest = largest.max(value.abs());
+        squares += value * value;
+    }
+    (largest, (squares / count as f64).sqrt())
+}
+
+#[test]
+fn noise_scale_keeps_the_noise_just_inside_one() {
+    // NOISE_SCALE was set from 10⁷ points (its doc); 10⁶ see nearly the same.
+    let (largest, rms) = range_and_rms(1_000_000);
+    assert!(largest > 0.9 && largest <= 1.0, "largest |n| = {largest}");
+    assert!((0.3..0.5).contains(&rms), "rms = {rms}");
+}

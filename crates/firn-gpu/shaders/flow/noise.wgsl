@@ -19,14 +19,12 @@ struct NoiseSample {
     gradient: vec3<f32>,
 }
 
-// The multiply-xorshift finaliser of the lattice hash.
+// The xorshift-multiply-xorshift finaliser of the lattice hash (one multiply).
 fn mix_hash(input: u32) -> u32 {
     var h = input;
-    h = h ^ (h >> 16u);
-    h = h * 0x7FEB352Du;
     h = h ^ (h >> 15u);
-    h = h * 0x846CA68Bu;
-    return h ^ (h >> 16u);
+    h = h * 0x7FEB352Du;
+    return h ^ (h >> 13u);
 }
 
 // One of the twelve cube-edge midpoints: the zero axis from the low 16 bits,
