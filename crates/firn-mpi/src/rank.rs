@@ -8,41 +8,62 @@
 //! 2. **renumbering**, on the substeps where one process sorts its array
 //!    by block ([`REORDER_INTERVAL`]): each particle's key becomes its
 //!    place in that sorted array, the particles of lower ranks first;
-//! 3. **ghosts**: copies of the particles of the blocks within reach of
-//!    the nodes the slab reads (one block in every axis, wind included,
-//!    see [`GHOST_BLOCKS`]), sorted by key after the own particles;
+//! 3. **ghosts**: copies of the particles within reach of the nodes the
+//!    slab reads (three cells in every axis, four with wind, see
+//!    [`GHOST_CELLS`]), sorted by key after the own particles;
 //! 4. the substep itself on own and ghost particles, every block summing
 //!    its particles in key order, hence in the one-process order;
 //! 5. **agreement**: a failure anywhere stops every rank with the failing
 //!    rank's message (the lowest key first, as one process reports the
 //!    lowest index), and the largest speeds, reduced over the ranks, give
 //!    every rank the same next Δt.
+//!
+//! Steps 1 to 3 share one pass of block indices over the own particles
+//! (carried through the migration's and the renumbering's reorders), so
+//! a rank computes them once per substep besides the solver's binning.
 
 use firn_core::Scene;
+use firn_core::math::bspline::floor;
 use firn_io::IoError;
 use firn_mpm::binning::block_key;
-use firn_mpm::grid::GridLayout;
+use firn_mpm::grid::{BLOCK_WIDTH, GridLayout};
 use firn_mpm::simulation::REORDER_INTERVAL;
 use firn_mpm::{Particles, PermuteBuffers, Simulation, SimulationError, Snapshot};
 use firn_run::{RunDirectory, RunError, caches, checkpoint};
 
 use crate::exchange::{Exchange, join_u64, split_u64};
 use crate::packing::{KeyedParticles, WORDS_PER_PARTICLE};
-use crate::slabs::{Slabs, ghost_reach};
+use crate::slabs::{Slabs, cell_near_blocks, ghost_reach};
+use glam::IVec3;
 
 /// The slabs move when the busiest rank holds this much more than its
 /// share of the particles (1.02: 2 % more). A slab may end at any block,
 /// so a new cut balances to within about one block's particles.
 pub const REBALANCE_ABOVE: f64 = 1.02;
 
-/// Blocks of ghosts around each own block, in every axis. A particle in
-/// cell c reaches nodes c − 1 … c + 2 with either transfer (cubic, or
-/// quadratic from ⌊x/h − ½⌋), so the particles of blocks b0 … b1 − 1 along
-/// an axis read nodes 4·b0 − 1 … 4·b1 + 1, and those nodes hear only from
-/// cells 4·b0 − 3 … 4·b1 + 2, within one block. The wind's drag also reads
-/// the node upwind (4·b0 − 2 or 4·b1 + 2), which hears from cells
-/// 4·b0 − 4 … 4·b1 + 3: still one block. Those blocks lie within
-/// [`crate::slabs::ghost_reach`] block indices of the slab's ends.
+/// Cells of ghosts around each cell of a slab, in every axis. A particle
+/// in cell c reaches nodes c − 1 … c + 2 with either transfer (cubic from
+/// ⌊x/h⌋ − 1, or quadratic from ⌊x/h − ½⌋, which is c − 1 or c), so a
+/// node n hears from the particles of cells n − 2 … n + 1, and the nodes
+/// that the slab's cells c0 … c1 read hear from cells c0 − 3 … c1 + 3:
+/// three cells either side. The particles further away add nothing to
+/// those nodes, and every node the slab reads gets exactly the one
+/// process's terms: each block adds its partial sum only to the nodes its
+/// particles reached (`LocalNodes::add_to`), so a block whose particles
+/// near the slab are all here, and the others left out, sums the same.
+const GHOST_CELLS: i32 = 3;
+
+/// [`GHOST_CELLS`] with wind: the drag at a node also reads the mass of the
+/// node upwind along each axis (`AirDrag::exposure`), so the slab's nodes
+/// c0 − 2 … c1 + 3 must have the one process's masses, and those hear from
+/// cells c0 − 4 … c1 + 4.
+const WIND_GHOST_CELLS: i32 = 4;
+
+/// Blocks of ghost candidates around each own block, in every axis: the
+/// cells within [`WIND_GHOST_CELLS`] of a block lie within one block of it.
+/// Those blocks lie within [`crate::slabs::ghost_reach`] block indices of
+/// the slab's ends; [`cell_near_blocks`] then picks the ghosts among their
+/// particles.
 const GHOST_BLOCKS: u32 = 1;
 
 /// The steps of a substep in which a rank exchanges with the others.
@@ -196,17 +217,18 @@ impl<E: Exchange> RankSnow<E> {
     /// One substep of the whole run, never past `until`; returns its Δt.
     /// Every rank must call it.
     pub fn step(&mut self, until: f64) -> Result<f32, RunError> {
-        let mut own = self.take_own();
-        self.rebalance(&own);
-        own = self.migrate(own);
+        let own = self.take_own();
+        let blocks = self.blocks(&own.particles);
+        self.rebalance(&blocks);
+        let (mut own, mut blocks) = self.migrate(own, blocks);
         if self.simulation.steps().is_multiple_of(REORDER_INTERVAL) {
-            self.renumber(&mut own);
+            self.renumber(&mut own, &mut blocks);
         }
         let owned = own.len();
         let KeyedParticles {
             particles,
             mut keys,
-        } = self.with_ghosts(own);
+        } = self.with_ghosts(own, &blocks);
         keys.truncate(owned);
         self.keys = keys;
         self.simulation.set_part(particles, owned);
@@ -366,12 +388,12 @@ impl<E: Exchange> RankSnow<E> {
     /// substep the ranks reduce two numbers, the busiest rank's particles
     /// and the total; only when they are over [`REBALANCE_ABOVE`] do they
     /// sum the per-block histogram that places the new cuts.
-    fn rebalance(&mut self, own: &KeyedParticles) {
+    fn rebalance(&mut self, blocks: &[u32]) {
         let ranks = self.exchange.size();
         if ranks == 1 {
             return;
         }
-        let owned = own.len() as u64;
+        let owned = blocks.len() as u64;
         let [busiest, total] = self.timed(Phase::Balance, |exchange| {
             let busiest = exchange.max_u64(&[owned])[0];
             [busiest, exchange.sum_u64(&[owned])[0]]
@@ -379,7 +401,7 @@ impl<E: Exchange> RankSnow<E> {
         if total == 0 || (busiest * ranks as u64) as f64 <= REBALANCE_ABOVE * total as f64 {
             return;
         }
-        let histogram = block_histogram(&self.blocks(&own.particles), &self.layout);
+        let histogram = block_histogram(blocks, &self.layout);
         let histogram = self.timed(Phase::Balance, |exchange| exchange.sum_u64(&histogram));
         let now = self.slabs.imbalance(&histogram);
         if now <= REBALANCE_ABOVE {
@@ -394,12 +416,17 @@ impl<E: Exchange> RankSnow<E> {
 
     /// Sends the particles outside this rank's slab to their owners and
     /// takes in those that entered it; the result is sorted by key (`own`
-    /// is), reordered in one pass and only when a particle left or came.
-    /// The migrants go to the neighbours only, unless one went further (a
-    /// rebalance, a particle past the ghost reach) anywhere: then to all.
-    fn migrate(&mut self, mut own: KeyedParticles) -> KeyedParticles {
+    /// is), reordered in one pass and only when a particle left or came,
+    /// with the block index of each (`blocks`, those of `own`, reordered
+    /// alike). The migrants go to the neighbours only, unless one went
+    /// further (a rebalance, a particle past the ghost reach) anywhere:
+    /// then to all.
+    fn migrate(
+        &mut self,
+        mut own: KeyedParticles,
+        mut blocks: Vec<u32>,
+    ) -> (KeyedParticles, Vec<u32>) {
         let me = self.exchange.rank();
-        let blocks = self.blocks(&own.particles);
         let neighbours = self.neighbours();
         let mut outgoing = vec![Vec::new(); self.exchange.size()];
         let mut kept = Vec::with_capacity(own.len());
@@ -427,28 +454,31 @@ impl<E: Exchange> RankSnow<E> {
             own.unpack(words);
         }
         if kept.len() == stayed && own.len() == stayed {
-            return own;
+            return (own, blocks);
         }
+        let layout = &self.layout;
+        blocks.extend(
+            own.particles.position[stayed..]
+                .iter()
+                .map(|&x| block_key(layout, x) as u32),
+        );
         let mut arrived: Vec<u32> = (stayed as u32..own.len() as u32).collect();
         arrived.sort_unstable_by_key(|&p| own.keys[p as usize]);
         let order = merge_by_key(&kept, &arrived, &own.keys);
         own.permute(&order, &mut self.buffers);
-        own
+        let blocks = order.iter().map(|&p| blocks[p as usize]).collect();
+        (own, blocks)
     }
 
     /// Renumbers the particles as one process reorders its array: sorted
     /// by block (stably, so by key within a block), lower ranks' blocks
-    /// first; a particle's key becomes its place in that order.
-    fn renumber(&mut self, own: &mut KeyedParticles) {
-        let blocks: Vec<u32> = own
-            .particles
-            .position
-            .iter()
-            .map(|&x| block_key(&self.layout, x) as u32)
-            .collect();
+    /// first; a particle's key becomes its place in that order. `blocks`
+    /// (each particle's block index) is reordered alike.
+    fn renumber(&mut self, own: &mut KeyedParticles, blocks: &mut Vec<u32>) {
         let mut order: Vec<u32> = (0..own.len() as u32).collect();
         order.sort_by_key(|&p| blocks[p as usize]);
         own.permute(&order, &mut self.buffers);
+        *blocks = order.iter().map(|&p| blocks[p as usize]).collect();
         let count = own.len() as u64;
         let first = self.timed(Phase::Renumbering, |exchange| {
             exchange.exclusive_sum_u64(count)
@@ -459,17 +489,33 @@ impl<E: Exchange> RankSnow<E> {
     }
 
     /// The own particles followed by the ghosts this rank needs, sorted by
-    /// key, after sending each neighbour the ghosts it needs.
-    fn with_ghosts(&mut self, mut own: KeyedParticles) -> KeyedParticles {
-        let blocks = self.blocks(&own.particles);
+    /// key, after sending each neighbour the ghosts it needs: the particles
+    /// within [`GHOST_CELLS`] ([`WIND_GHOST_CELLS`] with wind) of its
+    /// slab's cells, found among those of the blocks within
+    /// [`GHOST_BLOCKS`] of it. `blocks` holds each own particle's block
+    /// index.
+    fn with_ghosts(&mut self, mut own: KeyedParticles, blocks: &[u32]) -> KeyedParticles {
         let reach = self.reach();
+        let cells = match self.simulation.scene().wind {
+            Some(_) => WIND_GHOST_CELLS,
+            None => GHOST_CELLS,
+        };
+        let grid_blocks = self.layout.blocks;
+        let last_cell = grid_blocks.as_ivec3() * BLOCK_WIDTH - IVec3::ONE;
         let neighbours = self.neighbours();
         let mut outgoing = vec![Vec::new(); self.exchange.size()];
         for &rank in &neighbours {
             let words = &mut outgoing[rank];
+            let theirs = self.slabs.blocks(rank);
             let [below, above] = self.slabs.ghost_blocks(rank, reach);
             for (p, block) in blocks.iter().enumerate() {
-                if below.contains(block) || above.contains(block) {
+                if !below.contains(block) && !above.contains(block) {
+                    continue;
+                }
+                // The cell clamped to the grid, as `block_key` clamps.
+                let (_, cell) = floor(self.layout.to_grid(own.particles.position[p]));
+                let cell = cell.clamp(IVec3::ZERO, last_cell);
+                if cell_near_blocks(cell, cells, &theirs, grid_blocks) {
                     own.pack_ghost(p, words);
                     self.traffic.ghosts_sent += 1;
                 }

@@ -3,14 +3,17 @@
 //! ("slab"), balanced by particle count. A cut may fall at any block, so
 //! the balance is as fine as one block's particles. The blocks within one
 //! block of a slab in every axis lie within [`ghost_reach`] indices of its
-//! ends, so the ghost layers stay about one block column thick each side
-//! and a rank exchanges ghosts with its neighbours in the order only;
-//! recursive bisection would give thinner layers at the price of more
-//! neighbours.
+//! ends, so a rank exchanges ghosts with its neighbours in the order only,
+//! and [`cell_near_blocks`] picks the ghosts among those blocks' particles
+//! by cell: layers three or four cells thick around the slab's cells
+//! (where a cut falls inside a block layer, the slab's faces are a
+//! staircase of blocks, and the layer follows it). Recursive bisection
+//! would give thinner layers at the price of more neighbours.
 
 use std::ops::Range;
 
-use glam::UVec3;
+use firn_mpm::grid::BLOCK_WIDTH;
+use glam::{IVec3, UVec3};
 
 /// How far, in block indices, the blocks within one block of a block in
 /// every axis lie from it, for a grid of `blocks` blocks: a step of one
@@ -18,6 +21,41 @@ use glam::UVec3;
 /// `blocks.z` and 1.
 pub fn ghost_reach(blocks: UVec3) -> u32 {
     blocks.y * blocks.z + blocks.z + 1
+}
+
+/// Whether any cell within `cells` cells of `cell` in every axis (a cube
+/// of 2·`cells` + 1 cells a side) lies in a block whose index is in
+/// `range`, for a grid of `blocks` blocks of [`BLOCK_WIDTH`]³ cells: the
+/// exact test of
+/// whether a particle in `cell` is a ghost of the rank owning `range`
+/// (see [`crate::rank`] for the reach in cells). The cube's blocks are at
+/// most three per axis for `cells` ≤ 4; each row along z is one run of
+/// indices, tested against `range`.
+#[inline]
+pub fn cell_near_blocks(cell: IVec3, cells: i32, range: &Range<u32>, blocks: UVec3) -> bool {
+    // ⌊c / width⌋ by an arithmetic shift, negative cells included.
+    const BLOCK_SHIFT: i32 = BLOCK_WIDTH.trailing_zeros() as i32;
+    const { assert!(BLOCK_WIDTH == 1 << BLOCK_SHIFT) };
+    let low = ((cell - IVec3::splat(cells)) >> BLOCK_SHIFT).max(IVec3::ZERO);
+    let high = ((cell + IVec3::splat(cells)) >> BLOCK_SHIFT).min(blocks.as_ivec3() - IVec3::ONE);
+    if low.cmpgt(high).any() {
+        return false;
+    }
+    let index = |x: i32, y: i32, z: i32| (x as u32 * blocks.y + y as u32) * blocks.z + z as u32;
+    // The cube's indices lie in first..=last: most cells are decided here.
+    let (first, last) = (index(low.x, low.y, low.z), index(high.x, high.y, high.z));
+    if last < range.start || range.end <= first {
+        return false;
+    }
+    if range.start <= first && last < range.end {
+        return true;
+    }
+    (low.x..=high.x).any(|x| {
+        (low.y..=high.y).any(|y| {
+            let (first, end) = (index(x, y, low.z), index(x, y, high.z) + 1);
+            first < range.end && range.start < end
+        })
+    })
 }
 
 /// Each rank's range of block indices: rank `r` owns the particles whose
@@ -173,6 +211,46 @@ mod tests {
                     (z as i32 + dz) as u32,
                 );
                 assert!(neighbour.abs_diff(index(x, y, z)) <= reach);
+            }
+        }
+    }
+
+    /// The run test against a plain one: every cell of a small grid
+    /// against ranges cut anywhere, the cube's cells visited one by one.
+    #[test]
+    fn cells_near_blocks_are_those_whose_cube_meets_the_range() {
+        let blocks = UVec3::new(3, 3, 5);
+        let block_count = blocks.element_product();
+        let cells = blocks.as_ivec3() * 4;
+        let plain = |cell: IVec3, reach: i32, range: &Range<u32>| {
+            let mut near = false;
+            for dx in -reach..=reach {
+                for dy in -reach..=reach {
+                    for dz in -reach..=reach {
+                        let c = cell + IVec3::new(dx, dy, dz);
+                        if c.cmpge(IVec3::ZERO).all() && c.cmplt(cells).all() {
+                            let b = (c / BLOCK_WIDTH).as_uvec3();
+                            near |= range.contains(&((b.x * blocks.y + b.y) * blocks.z + b.z));
+                        }
+                    }
+                }
+            }
+            near
+        };
+        for range in [0..1, 5..6, 7..13, 13..45, 0..45, 11..12, 23..25, 33..36] {
+            for reach in [1, 3, 4] {
+                for x in 0..cells.x {
+                    for y in 0..cells.y {
+                        for z in 0..cells.z {
+                            let cell = IVec3::new(x, y, z);
+                            assert_eq!(
+                                cell_near_blocks(cell, reach, &range, blocks),
+                                plain(cell, reach, &range),
+                                "cell {cell}, reach {reach}, blocks {range:?} of {block_count}"
+                            );
+                        }
+                    }
+                }
             }
         }
     }
