@@ -7,6 +7,7 @@ use firn_mpm::Particles;
 use glam::{Mat3, Vec3};
 
 use crate::exchange::{join_u64, split_u64};
+use crate::merge::MergePlan;
 
 /// Words per particle: the key (2), position and velocity (3 each), mass,
 /// V⁰, J_P and the material (1 each), F_E, V⁰τ and ∇v (9 each).
@@ -114,19 +115,26 @@ impl KeyedParticles {
         self.particles.truncate(count);
     }
 
-    /// Appends all of `other`.
-    pub fn append(&mut self, other: &mut KeyedParticles) {
-        let (mine, theirs) = (&mut self.particles, &mut other.particles);
-        self.keys.append(&mut other.keys);
-        mine.position.append(&mut theirs.position);
-        mine.velocity.append(&mut theirs.velocity);
-        mine.mass.append(&mut theirs.mass);
-        mine.volume0.append(&mut theirs.volume0);
-        mine.elastic.append(&mut theirs.elastic);
-        mine.plastic_j.append(&mut theirs.plastic_j);
-        mine.stress.append(&mut theirs.stress);
-        mine.velocity_gradient.append(&mut theirs.velocity_gradient);
-        mine.material.append(&mut theirs.material);
+    /// Makes room for `additional` more particles.
+    pub fn reserve(&mut self, additional: usize) {
+        self.keys.reserve(additional);
+        self.particles.reserve(additional);
+    }
+
+    /// Merges the particles as `plan` says (the kept and the arrivals of a
+    /// migration, in key order), in place.
+    pub fn merge(&mut self, plan: &MergePlan) {
+        let particles = &mut self.particles;
+        plan.apply(&mut self.keys);
+        plan.apply(&mut particles.position);
+        plan.apply(&mut particles.velocity);
+        plan.apply(&mut particles.mass);
+        plan.apply(&mut particles.volume0);
+        plan.apply(&mut particles.elastic);
+        plan.apply(&mut particles.plastic_j);
+        plan.apply(&mut particles.stress);
+        plan.apply(&mut particles.velocity_gradient);
+        plan.apply(&mut particles.material);
     }
 
     /// Reorders the particles so that new place `i` holds old particle

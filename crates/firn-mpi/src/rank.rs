@@ -10,7 +10,7 @@
 //!    place in that sorted array, the particles of lower ranks first;
 //! 3. **ghosts**: copies of the particles within reach of the nodes the
 //!    slab reads (three cells in every axis, four with wind, see
-//!    [`GHOST_CELLS`]), sorted by key after the own particles;
+//!    [`GHOST_CELLS`]), after the own particles, in the order they came;
 //! 4. the substep itself on own and ghost particles, every block summing
 //!    its particles in key order, hence in the one-process order;
 //! 5. **agreement**: a failure anywhere stops every rank with the failing
@@ -32,7 +32,8 @@ use firn_mpm::{Particles, PermuteBuffers, Simulation, SimulationError, Snapshot}
 use firn_run::{RunDirectory, RunError, caches, checkpoint};
 
 use crate::exchange::{Exchange, join_u64, split_u64};
-use crate::packing::{KeyedParticles, WORDS_PER_PARTICLE};
+use crate::merge::MergePlan;
+use crate::packing::{KeyedParticles, WORDS_PER_GHOST, WORDS_PER_PARTICLE};
 use crate::slabs::{Slabs, cell_near_blocks, ghost_reach};
 use glam::IVec3;
 
@@ -462,11 +463,10 @@ impl<E: Exchange> RankSnow<E> {
                 .iter()
                 .map(|&x| block_key(layout, x) as u32),
         );
-        let mut arrived: Vec<u32> = (stayed as u32..own.len() as u32).collect();
-        arrived.sort_unstable_by_key(|&p| own.keys[p as usize]);
-        let order = merge_by_key(&kept, &arrived, &own.keys);
-        own.permute(&order, &mut self.buffers);
-        let blocks = order.iter().map(|&p| blocks[p as usize]).collect();
+        let arrived: Vec<u32> = (stayed as u32..own.len() as u32).collect();
+        let plan = MergePlan::new(&kept, &arrived, &own.keys);
+        own.merge(&plan);
+        plan.apply(&mut blocks);
         (own, blocks)
     }
 
@@ -525,12 +525,14 @@ impl<E: Exchange> RankSnow<E> {
         let incoming = self.timed(Phase::Ghosts, |exchange| {
             exchange.exchange_with(outgoing, &neighbours)
         });
-        let mut ghosts = KeyedParticles::default();
+        // Each neighbour sends its ghosts in key order and no block holds
+        // particles of two ranks, so the ghosts, in the order they came,
+        // list every block's particles in key order: all the binning needs.
+        let ghosts = incoming.iter().map(Vec::len).sum::<usize>() / WORDS_PER_GHOST;
+        own.reserve(ghosts);
         for words in &incoming {
-            ghosts.unpack_ghosts(words);
+            own.unpack_ghosts(words);
         }
-        ghosts.sort_by_key(&mut self.buffers);
-        own.append(&mut ghosts);
         own
     }
 
@@ -613,25 +615,6 @@ impl<E: Exchange> RankSnow<E> {
             other => (0, SimulationError::SnapshotMismatch(other.to_string())),
         }
     }
-}
-
-/// The places of two lists, each sorted by key, merged into one sorted by
-/// key.
-fn merge_by_key(first: &[u32], second: &[u32], keys: &[u64]) -> Vec<u32> {
-    let mut merged = Vec::with_capacity(first.len() + second.len());
-    let (mut a, mut b) = (first.iter().peekable(), second.iter().peekable());
-    while let (Some(&&x), Some(&&y)) = (a.peek(), b.peek()) {
-        if keys[x as usize] < keys[y as usize] {
-            merged.push(x);
-            a.next();
-        } else {
-            merged.push(y);
-            b.next();
-        }
-    }
-    merged.extend(a);
-    merged.extend(b);
-    merged
 }
 
 /// The block index of every particle (as the binning sorts them).

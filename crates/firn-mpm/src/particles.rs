@@ -46,6 +46,19 @@ impl Particles {
         self.mass[p] / (j * self.volume0[p])
     }
 
+    /// Makes room for `additional` more particles in every attribute.
+    pub fn reserve(&mut self, additional: usize) {
+        self.position.reserve(additional);
+        self.velocity.reserve(additional);
+        self.mass.reserve(additional);
+        self.volume0.reserve(additional);
+        self.elastic.reserve(additional);
+        self.plastic_j.reserve(additional);
+        self.stress.reserve(additional);
+        self.velocity_gradient.reserve(additional);
+        self.material.reserve(additional);
+    }
+
     /// Keeps the first `count` particles.
     pub fn truncate(&mut self, count: usize) {
         self.position.truncate(count);
