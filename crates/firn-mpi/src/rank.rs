@@ -505,21 +505,24 @@ impl<E: Exchange> RankSnow<E> {
         let neighbours = self.neighbours();
         let mut outgoing = vec![Vec::new(); self.exchange.size()];
         for &rank in &neighbours {
-            let words = &mut outgoing[rank];
             let theirs = self.slabs.blocks(rank);
             let [below, above] = self.slabs.ghost_blocks(rank, reach);
-            for (p, block) in blocks.iter().enumerate() {
-                if !below.contains(block) && !above.contains(block) {
-                    continue;
-                }
-                // The cell clamped to the grid, as `block_key` clamps.
-                let (_, cell) = floor(self.layout.to_grid(own.particles.position[p]));
-                let cell = cell.clamp(IVec3::ZERO, last_cell);
-                if cell_near_blocks(cell, cells, &theirs, grid_blocks) {
-                    own.pack_ghost(p, words);
-                    self.traffic.ghosts_sent += 1;
-                }
+            let ghosts: Vec<usize> = (blocks.iter().enumerate())
+                .filter(|(_, block)| below.contains(block) || above.contains(block))
+                .map(|(p, _)| p)
+                .filter(|&p| {
+                    // The cell clamped to the grid, as `block_key` clamps.
+                    let (_, cell) = floor(self.layout.to_grid(own.particles.position[p]));
+                    let cell = cell.clamp(IVec3::ZERO, last_cell);
+                    cell_near_blocks(cell, cells, &theirs, grid_blocks)
+                })
+                .collect();
+            let words = &mut outgoing[rank];
+            words.reserve_exact(ghosts.len() * WORDS_PER_GHOST);
+            for p in ghosts {
+                own.pack_ghost(p, words);
             }
+            self.traffic.ghosts_sent += (words.len() / WORDS_PER_GHOST) as u64;
         }
         self.count_sent(&outgoing);
         let incoming = self.timed(Phase::Ghosts, |exchange| {
