@@ -20,7 +20,6 @@
 
 pub mod driver;
 pub mod exchange;
-pub mod merge;
 #[cfg(feature = "mpi")]
 pub mod mpi_exchange;
 pub mod packing;

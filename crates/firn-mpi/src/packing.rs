@@ -7,7 +7,6 @@ use firn_mpm::Particles;
 use glam::{Mat3, Vec3};
 
 use crate::exchange::{join_u64, split_u64};
-use crate::merge::MergePlan;
 
 /// Words per particle: the key (2), position and velocity (3 each), mass,
 /// V⁰, J_P and the material (1 each), F_E, V⁰τ and ∇v (9 each).
@@ -121,20 +120,19 @@ impl KeyedParticles {
         self.particles.reserve(additional);
     }
 
-    /// Merges the particles as `plan` says (the kept and the arrivals of a
-    /// migration, in key order), in place.
-    pub fn merge(&mut self, plan: &MergePlan) {
+    /// Removes particle `p`, putting the last particle in its place.
+    pub fn swap_remove(&mut self, p: usize) {
         let particles = &mut self.particles;
-        plan.apply(&mut self.keys);
-        plan.apply(&mut particles.position);
-        plan.apply(&mut particles.velocity);
-        plan.apply(&mut particles.mass);
-        plan.apply(&mut particles.volume0);
-        plan.apply(&mut particles.elastic);
-        plan.apply(&mut particles.plastic_j);
-        plan.apply(&mut particles.stress);
-        plan.apply(&mut particles.velocity_gradient);
-        plan.apply(&mut particles.material);
+        self.keys.swap_remove(p);
+        particles.position.swap_remove(p);
+        particles.velocity.swap_remove(p);
+        particles.mass.swap_remove(p);
+        particles.volume0.swap_remove(p);
+        particles.elastic.swap_remove(p);
+        particles.plastic_j.swap_remove(p);
+        particles.stress.swap_remove(p);
+        particles.velocity_gradient.swap_remove(p);
+        particles.material.swap_remove(p);
     }
 
     /// Reorders the particles so that new place `i` holds old particle

@@ -10,9 +10,11 @@
 //!    place in that sorted array, the particles of lower ranks first;
 //! 3. **ghosts**: copies of the particles within reach of the nodes the
 //!    slab reads (three cells in every axis, four with wind, see
-//!    [`GHOST_CELLS`]), after the own particles, in the order they came;
+//!    [`GHOST_CELLS`]), after the own particles;
 //! 4. the substep itself on own and ghost particles, every block summing
-//!    its particles in key order, hence in the one-process order;
+//!    its particles in key order (the solver orders each block's
+//!    particles by key, [`Simulation::set_part`]), hence in the
+//!    one-process order;
 //! 5. **agreement**: a failure anywhere stops every rank with the failing
 //!    rank's message (the lowest key first, as one process reports the
 //!    lowest index), and the largest speeds, reduced over the ranks, give
@@ -32,7 +34,6 @@ use firn_mpm::{Particles, PermuteBuffers, Simulation, SimulationError, Snapshot}
 use firn_run::{RunDirectory, RunError, caches, checkpoint};
 
 use crate::exchange::{Exchange, join_u64, split_u64};
-use crate::merge::MergePlan;
 use crate::packing::{KeyedParticles, WORDS_PER_GHOST, WORDS_PER_PARTICLE};
 use crate::slabs::{Slabs, cell_near_blocks, ghost_reach};
 use glam::IVec3;
@@ -130,9 +131,9 @@ pub struct RankTraffic {
 pub struct RankSnow<E: Exchange> {
     exchange: E,
     simulation: Simulation,
-    /// The keys of the own particles, the first `keys.len()` of the
-    /// simulation's arrays.
-    keys: Vec<u64>,
+    /// How many of the simulation's particles are this rank's own (the
+    /// first ones; the rest are ghosts).
+    owned: usize,
     slabs: Slabs,
     layout: GridLayout,
     buffers: PermuteBuffers,
@@ -161,11 +162,11 @@ impl<E: Exchange> RankSnow<E> {
         let mut simulation = Simulation::part(scene, time, steps);
         simulation.set_motion_bounds(f32::from_bits(header[4]), f32::from_bits(header[5]));
         let owned = own.len();
-        simulation.set_part(own.particles, owned);
+        simulation.set_part(own.particles, owned, own.keys);
         RankSnow {
             exchange,
             simulation,
-            keys: own.keys,
+            owned,
             slabs,
             layout,
             buffers: PermuteBuffers::default(),
@@ -185,7 +186,12 @@ impl<E: Exchange> RankSnow<E> {
 
     /// The particles this rank owns now.
     pub fn owned(&self) -> usize {
-        self.keys.len()
+        self.owned
+    }
+
+    /// The keys of the own particles.
+    fn own_keys(&self) -> &[u64] {
+        &self.simulation.part_keys()[..self.owned]
     }
 
     /// The current slabs.
@@ -226,13 +232,9 @@ impl<E: Exchange> RankSnow<E> {
             self.renumber(&mut own, &mut blocks);
         }
         let owned = own.len();
-        let KeyedParticles {
-            particles,
-            mut keys,
-        } = self.with_ghosts(own, &blocks);
-        keys.truncate(owned);
-        self.keys = keys;
-        self.simulation.set_part(particles, owned);
+        let KeyedParticles { particles, keys } = self.with_ghosts(own, &blocks);
+        self.owned = owned;
+        self.simulation.set_part(particles, owned, keys);
         let result = self.simulation.step(until);
         let dt = self.agree(result)?;
         let (speed, waves) = self.simulation.motion_bounds();
@@ -248,8 +250,8 @@ impl<E: Exchange> RankSnow<E> {
     /// the other ranks). Every rank must call it.
     pub fn gather(&mut self) -> Option<Snapshot> {
         let particles = self.simulation.particles();
-        let mut words = Vec::with_capacity(self.keys.len() * WORDS_PER_PARTICLE);
-        for (p, &key) in self.keys.iter().enumerate() {
+        let mut words = Vec::with_capacity(self.owned * WORDS_PER_PARTICLE);
+        for (p, &key) in self.own_keys().iter().enumerate() {
             crate::packing::pack(particles, key, p, &mut words);
         }
         let parts = self.timed(Phase::Gathering, |exchange| exchange.gather(words))?;
@@ -310,7 +312,13 @@ impl<E: Exchange> RankSnow<E> {
         let path = run.path().join(&name);
         let written =
             firn_io::ensure_writable_dir(path.parent().unwrap_or(run.path())).and_then(|()| {
-                checkpoint::write_piece(&self.own_snapshot(), &self.keys, frame, scene_json, &path)
+                checkpoint::write_piece(
+                    &self.own_snapshot(),
+                    self.own_keys(),
+                    frame,
+                    scene_json,
+                    &path,
+                )
             });
         self.agree_written(written)?;
         let owned = self.owned() as u64;
@@ -360,11 +368,9 @@ impl<E: Exchange> RankSnow<E> {
 
     /// The own particles out of the simulation, without the ghosts.
     fn take_own(&mut self) -> KeyedParticles {
-        let mut own = KeyedParticles {
-            particles: self.simulation.take_particles(),
-            keys: std::mem::take(&mut self.keys),
-        };
-        own.truncate(own.keys.len());
+        let (particles, keys) = self.simulation.take_part();
+        let mut own = KeyedParticles { particles, keys };
+        own.truncate(self.owned);
         own
     }
 
@@ -416,12 +422,12 @@ impl<E: Exchange> RankSnow<E> {
     }
 
     /// Sends the particles outside this rank's slab to their owners and
-    /// takes in those that entered it; the result is sorted by key (`own`
-    /// is), reordered in one pass and only when a particle left or came,
-    /// with the block index of each (`blocks`, those of `own`, reordered
-    /// alike). The migrants go to the neighbours only, unless one went
-    /// further (a rebalance, a particle past the ghost reach) anywhere:
-    /// then to all.
+    /// takes in those that entered it, with the block index of each
+    /// (`blocks`, those of `own`, kept alike). A leaver's place takes the
+    /// last particle and the arrivals go at the end: the array's order is
+    /// no one's (the solver orders each block's particles by key). The
+    /// migrants go to the neighbours only, unless one went further (a
+    /// rebalance, a particle past the ghost reach) anywhere: then to all.
     fn migrate(
         &mut self,
         mut own: KeyedParticles,
@@ -430,15 +436,14 @@ impl<E: Exchange> RankSnow<E> {
         let me = self.exchange.rank();
         let neighbours = self.neighbours();
         let mut outgoing = vec![Vec::new(); self.exchange.size()];
-        let mut kept = Vec::with_capacity(own.len());
+        let mut leavers = Vec::new();
         let mut far = false;
         for (p, &block) in blocks.iter().enumerate() {
             let owner = self.slabs.owner(block);
-            if owner == me {
-                kept.push(p as u32);
-            } else {
+            if owner != me {
                 far |= !neighbours.contains(&owner);
                 own.pack(p, &mut outgoing[owner]);
+                leavers.push(p);
                 self.traffic.migrated += 1;
             }
         }
@@ -454,29 +459,27 @@ impl<E: Exchange> RankSnow<E> {
         for words in &incoming {
             own.unpack(words);
         }
-        if kept.len() == stayed && own.len() == stayed {
-            return (own, blocks);
-        }
         let layout = &self.layout;
         blocks.extend(
             own.particles.position[stayed..]
                 .iter()
                 .map(|&x| block_key(layout, x) as u32),
         );
-        let arrived: Vec<u32> = (stayed as u32..own.len() as u32).collect();
-        let plan = MergePlan::new(&kept, &arrived, &own.keys);
-        own.merge(&plan);
-        plan.apply(&mut blocks);
+        for &p in leavers.iter().rev() {
+            own.swap_remove(p);
+            blocks.swap_remove(p);
+        }
         (own, blocks)
     }
 
     /// Renumbers the particles as one process reorders its array: sorted
-    /// by block (stably, so by key within a block), lower ranks' blocks
-    /// first; a particle's key becomes its place in that order. `blocks`
-    /// (each particle's block index) is reordered alike.
+    /// by block, and by key within a block (the one process's array is in
+    /// key order and its sort is stable), lower ranks' blocks first; a
+    /// particle's key becomes its place in that order. `blocks` (each
+    /// particle's block index) is reordered alike.
     fn renumber(&mut self, own: &mut KeyedParticles, blocks: &mut Vec<u32>) {
         let mut order: Vec<u32> = (0..own.len() as u32).collect();
-        order.sort_by_key(|&p| blocks[p as usize]);
+        order.sort_unstable_by_key(|&p| (blocks[p as usize], own.keys[p as usize]));
         own.permute(&order, &mut self.buffers);
         *blocks = order.iter().map(|&p| blocks[p as usize]).collect();
         let count = own.len() as u64;
@@ -488,8 +491,8 @@ impl<E: Exchange> RankSnow<E> {
         }
     }
 
-    /// The own particles followed by the ghosts this rank needs, sorted by
-    /// key, after sending each neighbour the ghosts it needs: the particles
+    /// The own particles followed by the ghosts this rank needs, after
+    /// sending each neighbour the ghosts it needs: the particles
     /// within [`GHOST_CELLS`] ([`WIND_GHOST_CELLS`] with wind) of its
     /// slab's cells, found among those of the blocks within
     /// [`GHOST_BLOCKS`] of it. `blocks` holds each own particle's block
@@ -528,9 +531,6 @@ impl<E: Exchange> RankSnow<E> {
         let incoming = self.timed(Phase::Ghosts, |exchange| {
             exchange.exchange_with(outgoing, &neighbours)
         });
-        // Each neighbour sends its ghosts in key order and no block holds
-        // particles of two ranks, so the ghosts, in the order they came,
-        // list every block's particles in key order: all the binning needs.
         let ghosts = incoming.iter().map(Vec::len).sum::<usize>() / WORDS_PER_GHOST;
         own.reserve(ghosts);
         for words in &incoming {
@@ -603,7 +603,7 @@ impl<E: Exchange> RankSnow<E> {
                 position,
                 hint,
             } => {
-                let key = self.keys[*particle];
+                let key = self.own_keys()[*particle];
                 let keyed = SimulationError::Unstable {
                     time: *time,
                     step: *step,

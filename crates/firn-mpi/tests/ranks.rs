@@ -160,3 +160,46 @@ fn spindrift_and_semi_implicit_are_refused_on_several_ranks() {
         None
     );
 }
+
+#[test]
+fn a_split_run_that_blows_up_names_the_one_process_particle() {
+    // A fixed step far past the elastic limit: the snow blows up, many
+    // particles at once, on every rank. One process
+    // names the lowest index among them; a split run must name the same
+    // particle (the lowest key), whatever the order of a rank's array.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/crossing.toml");
+    let text = std::fs::read_to_string(path)
+        .unwrap()
+        .replace("step = \"adaptive\"", "step = \"fixed\"")
+        .replace("cfl = 0.4\n", "")
+        .replace("dt = 2e-3", "dt = 3e-2");
+    let scene = Scene::from_toml_str(&text, "unstable").unwrap();
+    let until = scene.time.duration;
+    let expected = Simulation::new(scene.clone())
+        .unwrap()
+        .advance_to(until)
+        .expect_err("the one process blows up")
+        .to_string();
+    assert!(expected.contains("particle"), "{expected}");
+    for ranks in 2..=3 {
+        let initial = Snapshot::initial(&scene).unwrap();
+        let handles: Vec<_> = ThreadRanks::group(ranks)
+            .into_iter()
+            .map(|exchange| {
+                let scene = scene.clone();
+                let snapshot = (exchange.rank() == 0).then(|| initial.clone());
+                thread::spawn(move || {
+                    let mut rank = RankSnow::scatter(exchange, scene, snapshot);
+                    rank.advance_to(until)
+                        .expect_err("every rank stops")
+                        .to_string()
+                })
+            })
+            .collect();
+        let messages: Vec<String> = handles.into_iter().map(|h| h.join().unwrap()).collect();
+        assert!(
+            messages.iter().all(|message| message.contains(&expected)),
+            "{ranks} ranks: {messages:?}, one process: {expected}"
+        );
+    }
+}

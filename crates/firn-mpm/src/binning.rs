@@ -123,6 +123,20 @@ impl Bins {
         self.collect_active(grid);
     }
 
+    /// Orders each block's particles by `keys` (one per particle, distinct)
+    /// instead of by index: in a part of a split run the array is not in
+    /// the whole run's order, but each block must add its particles in that
+    /// order, which the keys give. Blocks already in key order (most) are
+    /// only checked.
+    pub fn order_blocks_by(&mut self, keys: &[u64]) {
+        for block in &self.occupied {
+            let places = &mut self.order[block.start as usize..block.end as usize];
+            if !places.is_sorted_by_key(|&p| keys[p as usize]) {
+                places.sort_unstable_by_key(|&p| keys[p as usize]);
+            }
+        }
+    }
+
     /// Lists the occupied blocks in block order and turns `counts` into the
     /// first place of each block's particles in `order`.
     fn collect_occupied(&mut self, grid: &GridLayout) {

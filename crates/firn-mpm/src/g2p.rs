@@ -51,7 +51,8 @@ pub struct GatherStats {
     pub max_speed_squared: f32,
     /// Largest squared elastic wave speed, hardening included.
     pub max_wave_speed_squared: f32,
-    /// The first (lowest-index) particle in trouble, if any.
+    /// The first particle in trouble (the lowest
+    /// [`ParticleProblem::order`]), if any.
     pub problem: Option<ParticleProblem>,
 }
 
@@ -60,6 +61,9 @@ pub struct GatherStats {
 pub struct ParticleProblem {
     /// Particle index.
     pub particle: usize,
+    /// The particle's place in the whole run's order: its index, or in a
+    /// part of a split run its key ([`UpdateContext::keys`]).
+    pub order: u64,
     /// What went wrong.
     pub kind: ProblemKind,
     /// Where the particle was.
@@ -80,7 +84,7 @@ impl GatherStats {
     #[inline(always)]
     fn merge(self, other: GatherStats) -> GatherStats {
         let problem = match (self.problem, other.problem) {
-            (Some(a), Some(b)) => Some(if a.particle <= b.particle { a } else { b }),
+            (Some(a), Some(b)) => Some(if a.order <= b.order { a } else { b }),
             (a, b) => a.or(b),
         };
         GatherStats {
@@ -106,6 +110,10 @@ pub struct UpdateContext<'a> {
     pub lower: Vec3,
     /// Upper domain corner, widened likewise.
     pub upper: Vec3,
+    /// In a part of a split run, each particle's key (its place in the whole
+    /// run's order), which picks the particle a failure names; `None` in one
+    /// process, where the index does.
+    pub keys: Option<&'a [u64]>,
 }
 
 /// What the grid gave one particle, with the particle's F_E, for a whole
@@ -445,8 +453,10 @@ fn finish_batch(
             .max_wave_speed_squared
             .max(wave_speed_squared.lane(lane));
         if finite.0[lane] & inside.0[lane] == 0 {
+            let particle = particles.index(k);
             let problem = ParticleProblem {
-                particle: particles.index(k),
+                particle,
+                order: context.keys.map_or(particle as u64, |keys| keys[particle]),
                 kind: problem_kind(finite, lane),
                 position: position.lane(lane),
             };

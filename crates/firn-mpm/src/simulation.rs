@@ -239,6 +239,9 @@ pub struct Simulation {
     /// how many particles at the front of the arrays are its own (the rest
     /// are ghosts, see [`Simulation::set_part`]).
     owned: Option<usize>,
+    /// In a part of a split run, each particle's key, its place in the whole
+    /// run's order (see [`Simulation::set_part`]).
+    part_keys: Vec<u64>,
     /// The bins of the own particles alone, which the gather visits.
     owned_bins: Bins,
     /// Snow the wind carries (`[wind.spindrift]`).
@@ -334,6 +337,7 @@ impl Simulation {
                 .map(|wind| AirDrag::new(wind, domain.cell_size)),
             wind_impulse: DVec3::ZERO,
             owned: None,
+            part_keys: Vec::new(),
             owned_bins: Bins::default(),
             drift: Drift::default(),
             escaped: Escaped::default(),
@@ -354,26 +358,41 @@ impl Simulation {
     /// Makes this simulation one part of a run split between processes
     /// (MPI ranks), for the substeps to come: `particles` replace its own;
     /// the first `owned` are this part's, the rest are ghosts, copies of
-    /// other parts' particles near it. A substep scatters all of them but
-    /// updates only the owned ones (the ghosts keep their state; the caller
-    /// drops them), and it does not reorder the particles: the caller keeps
-    /// them in the order the whole run's array would have (see the MPI
-    /// section of docs/architecture.md). Every part must take the same Δt:
-    /// the caller reduces [`Simulation::motion_bounds`] over the parts and
-    /// hands the result back with [`Simulation::set_motion_bounds`].
-    pub fn set_part(&mut self, particles: Particles, owned: usize) {
+    /// other parts' particles near it. `keys` holds each particle's place in
+    /// the whole run's order (the one process's array): every block adds its
+    /// particles in key order, whatever their order here, and a failure
+    /// names the own particle with the lowest key. A substep scatters all of
+    /// them but updates only the owned ones (the ghosts keep their state;
+    /// the caller drops them), and it does not reorder the particles (see
+    /// the MPI section of docs/architecture.md). Every part must take the
+    /// same Δt: the caller reduces [`Simulation::motion_bounds`] over the
+    /// parts and hands the result back with
+    /// [`Simulation::set_motion_bounds`].
+    pub fn set_part(&mut self, particles: Particles, owned: usize, keys: Vec<u64>) {
         assert!(
             owned <= particles.len(),
             "more owned particles than particles"
         );
+        assert_eq!(keys.len(), particles.len(), "one key per particle");
         self.particles = particles;
+        self.part_keys = keys;
         self.owned = Some(owned);
     }
 
-    /// Takes the particles out (leaving none), e.g. to send some of them to
-    /// another part; [`Simulation::set_part`] puts particles back.
-    pub fn take_particles(&mut self) -> Particles {
-        std::mem::take(&mut self.particles)
+    /// Takes the particles and their keys out (leaving none), e.g. to send
+    /// some of them to another part; [`Simulation::set_part`] puts particles
+    /// back.
+    pub fn take_part(&mut self) -> (Particles, Vec<u64>) {
+        (
+            std::mem::take(&mut self.particles),
+            std::mem::take(&mut self.part_keys),
+        )
+    }
+
+    /// The keys of the particles of a part ([`Simulation::set_part`]), own
+    /// then ghosts; empty in one process.
+    pub fn part_keys(&self) -> &[u64] {
+        &self.part_keys
     }
 
     /// The largest |v_p|² and squared elastic wave speed of the particles
@@ -461,6 +480,9 @@ impl Simulation {
                 .permute(self.bins.order(), &mut self.permute_buffers);
         }
         self.bins.rebuild(&layout, &self.particles.position);
+        if self.owned.is_some() {
+            self.bins.order_blocks_by(&self.part_keys);
+        }
         self.grid.allocate(self.bins.active_blocks());
         clock.lap(&mut self.profile.binning);
         let transfer_scheme = self.scene.solver.transfer;
@@ -519,6 +541,7 @@ impl Simulation {
             colliders: &particle_colliders,
             lower: self.scene.domain.min - tolerance,
             upper: self.scene.domain.max + tolerance,
+            keys: self.owned.map(|_| self.part_keys.as_slice()),
         };
         let gather_bins = match self.owned {
             Some(owned) => {

@@ -333,6 +333,7 @@ fn check_g2p(transfer: Transfer, seed: u64) {
         colliders: &colliders,
         lower: setup.scene.domain.min - margin,
         upper: setup.scene.domain.max + margin,
+        keys: None,
     };
     reference::grid_to_particles(&mut plain, &dense, &setup.step());
     let start = fast;

@@ -127,6 +127,7 @@ fn round_trip(transfer_scheme: Transfer) {
         colliders: &Colliders::new(&[]),
         lower: Vec3::splat(-1.0),
         upper: Vec3::splat(2.0),
+        keys: None,
     };
     let stats = match transfer_scheme {
         // α = 0: pure PIC, so particle velocities are the interpolated grid ones.
