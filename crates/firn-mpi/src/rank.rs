@@ -9,8 +9,8 @@
 //!    by block ([`REORDER_INTERVAL`]): each particle's key becomes its
 //!    place in that sorted array, the particles of lower ranks first;
 //! 3. **ghosts**: copies of the particles within reach of the nodes the
-//!    slab reads (three cells in every axis, four with wind, see
-//!    [`GHOST_CELLS`]), after the own particles;
+//!    slab reads (two and a half to three cells in every axis, one more
+//!    with wind, see [`GHOST_CELLS`]), after the own particles;
 //! 4. the substep itself on own and ghost particles, every block summing
 //!    its particles in key order (the solver orders each block's
 //!    particles by key, [`Simulation::set_part`]), hence in the
@@ -26,6 +26,7 @@
 
 use firn_core::Scene;
 use firn_core::math::bspline::floor;
+use firn_core::scene::Transfer;
 use firn_io::IoError;
 use firn_mpm::binning::block_key;
 use firn_mpm::grid::{BLOCK_WIDTH, GridLayout};
@@ -35,8 +36,8 @@ use firn_run::{RunDirectory, RunError, caches, checkpoint};
 
 use crate::exchange::{Exchange, join_u64, split_u64};
 use crate::packing::{KeyedParticles, WORDS_PER_GHOST, WORDS_PER_PARTICLE};
-use crate::slabs::{Slabs, cell_near_blocks, ghost_reach};
-use glam::IVec3;
+use crate::slabs::{Slabs, cells_meet_blocks, ghost_reach};
+use glam::{IVec3, Vec3};
 
 /// The slabs move when the busiest rank holds this much more than its
 /// share of the particles (1.02: 2 % more). A slab may end at any block,
@@ -44,15 +45,18 @@ use glam::IVec3;
 pub const REBALANCE_ABOVE: f64 = 1.02;
 
 /// Cells of ghosts around each cell of a slab, in every axis. A particle
-/// in cell c reaches nodes c − 1 … c + 2 with either transfer (cubic from
-/// ⌊x/h⌋ − 1, or quadratic from ⌊x/h − ½⌋, which is c − 1 or c), so a
-/// node n hears from the particles of cells n − 2 … n + 1, and the nodes
-/// that the slab's cells c0 … c1 read hear from cells c0 − 3 … c1 + 3:
-/// three cells either side. The particles further away add nothing to
-/// those nodes, and every node the slab reads gets exactly the one
-/// process's terms: each block adds its partial sum only to the nodes its
-/// particles reached (`LocalNodes::add_to`), so a block whose particles
-/// near the slab are all here, and the others left out, sums the same.
+/// in cell c reaches nodes c − 1 … c + 2 with the cubic stencil (from
+/// ⌊x/h⌋ − 1), and a slab's particles in cells c0 … c1 read nodes c0 − 1 …
+/// c1 + 2 with either stencil, so those nodes hear from the particles of
+/// cells c0 − 3 … c1 + 3: three cells either side. The quadratic stencil
+/// (APIC) reaches only nodes b … b + 2 from b = ⌊x/h − ½⌋ (c − 1 or c), so
+/// a particle is needed when c0 − 3 ≤ b ≤ c1 + 2: half of the outermost
+/// cell's particles on each side are left out ([`ghost_box`]). The
+/// particles further away add nothing to those nodes, and every node the
+/// slab reads gets exactly the one process's terms: each block adds its
+/// partial sum only to the nodes its particles reached
+/// (`LocalNodes::add_to`), so a block whose particles reaching the slab's
+/// nodes are all here, and the others left out, sums the same.
 const GHOST_CELLS: i32 = 3;
 
 /// [`GHOST_CELLS`] with wind: the drag at a node also reads the mass of the
@@ -64,7 +68,7 @@ const WIND_GHOST_CELLS: i32 = 4;
 /// Blocks of ghost candidates around each own block, in every axis: the
 /// cells within [`WIND_GHOST_CELLS`] of a block lie within one block of it.
 /// Those blocks lie within [`crate::slabs::ghost_reach`] block indices of
-/// the slab's ends; [`cell_near_blocks`] then picks the ghosts among their
+/// the slab's ends; [`cells_meet_blocks`] then picks the ghosts among their
 /// particles.
 const GHOST_BLOCKS: u32 = 1;
 
@@ -492,17 +496,17 @@ impl<E: Exchange> RankSnow<E> {
     }
 
     /// The own particles followed by the ghosts this rank needs, after
-    /// sending each neighbour the ghosts it needs: the particles
-    /// within [`GHOST_CELLS`] ([`WIND_GHOST_CELLS`] with wind) of its
-    /// slab's cells, found among those of the blocks within
-    /// [`GHOST_BLOCKS`] of it. `blocks` holds each own particle's block
-    /// index.
+    /// sending each neighbour the ghosts it needs: the particles whose
+    /// [`ghost_box`] meets its slab, found among those of the blocks
+    /// within [`GHOST_BLOCKS`] of it. `blocks` holds each own particle's
+    /// block index.
     fn with_ghosts(&mut self, mut own: KeyedParticles, blocks: &[u32]) -> KeyedParticles {
         let reach = self.reach();
         let cells = match self.simulation.scene().wind {
             Some(_) => WIND_GHOST_CELLS,
             None => GHOST_CELLS,
         };
+        let transfer = self.simulation.scene().solver.transfer;
         let grid_blocks = self.layout.blocks;
         let last_cell = grid_blocks.as_ivec3() * BLOCK_WIDTH - IVec3::ONE;
         let neighbours = self.neighbours();
@@ -514,10 +518,9 @@ impl<E: Exchange> RankSnow<E> {
                 .filter(|(_, block)| below.contains(block) || above.contains(block))
                 .map(|(p, _)| p)
                 .filter(|&p| {
-                    // The cell clamped to the grid, as `block_key` clamps.
-                    let (_, cell) = floor(self.layout.to_grid(own.particles.position[p]));
-                    let cell = cell.clamp(IVec3::ZERO, last_cell);
-                    cell_near_blocks(cell, cells, &theirs, grid_blocks)
+                    let grid_position = self.layout.to_grid(own.particles.position[p]);
+                    let (low, high) = ghost_box(grid_position, transfer, cells, last_cell);
+                    cells_meet_blocks(low, high, &theirs, grid_blocks)
                 })
                 .collect();
             let words = &mut outgoing[rank];
@@ -618,6 +621,33 @@ impl<E: Exchange> RankSnow<E> {
             other => (0, SimulationError::SnapshotMismatch(other.to_string())),
         }
     }
+}
+
+/// How far past ⌊g − ½⌋ a grid position may round either way in
+/// [`ghost_box`]: a particle this close to a half cell is taken with the
+/// stencils of both sides.
+const BASE_MARGIN: f32 = 1e-3;
+
+/// The box of cells that a particle at grid position `g` is a ghost of:
+/// a rank needs it when a cell of its slab lies in the box. `cells` is
+/// [`GHOST_CELLS`] or [`WIND_GHOST_CELLS`]. With the quadratic stencil
+/// (APIC) the box follows the stencil's first node b = ⌊g − ½⌋: b − 2 …
+/// b + 3 (one more either way with wind); otherwise, or for a particle
+/// outside the grid, the cube of `cells` around its cell clamped to the
+/// grid, as `block_key` clamps.
+fn ghost_box(g: Vec3, transfer: Transfer, cells: i32, last_cell: IVec3) -> (IVec3, IVec3) {
+    let (_, cell) = floor(g);
+    let inside = cell.cmpge(IVec3::ZERO).all() && cell.cmple(last_cell).all();
+    if transfer == Transfer::Apic && inside {
+        let (_, first_low) = floor(g - Vec3::splat(0.5 + BASE_MARGIN));
+        let (_, first_high) = floor(g - Vec3::splat(0.5 - BASE_MARGIN));
+        return (
+            first_low - IVec3::splat(cells - 1),
+            first_high + IVec3::splat(cells),
+        );
+    }
+    let cell = cell.clamp(IVec3::ZERO, last_cell);
+    (cell - IVec3::splat(cells), cell + IVec3::splat(cells))
 }
 
 /// The block index of every particle (as the binning sorts them).

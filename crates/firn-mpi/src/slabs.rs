@@ -4,8 +4,9 @@
 //! the balance is as fine as one block's particles. The blocks within one
 //! block of a slab in every axis lie within [`ghost_reach`] indices of its
 //! ends, so a rank exchanges ghosts with its neighbours in the order only,
-//! and [`cell_near_blocks`] picks the ghosts among those blocks' particles
-//! by cell: layers three or four cells thick around the slab's cells
+//! and [`cells_meet_blocks`] picks the ghosts among those blocks' particles
+//! by the cells their stencils reach: layers two and a half to four cells
+//! thick around the slab's cells
 //! (where a cut falls inside a block layer, the slab's faces are a
 //! staircase of blocks, and the layer follows it). Recursive bisection
 //! would give thinner layers at the price of more neighbours.
@@ -23,21 +24,20 @@ pub fn ghost_reach(blocks: UVec3) -> u32 {
     blocks.y * blocks.z + blocks.z + 1
 }
 
-/// Whether any cell within `cells` cells of `cell` in every axis (a cube
-/// of 2·`cells` + 1 cells a side) lies in a block whose index is in
-/// `range`, for a grid of `blocks` blocks of [`BLOCK_WIDTH`]³ cells: the
-/// exact test of
-/// whether a particle in `cell` is a ghost of the rank owning `range`
-/// (see [`crate::rank`] for the reach in cells). The cube's blocks are at
-/// most three per axis for `cells` ≤ 4; each row along z is one run of
-/// indices, tested against `range`.
+/// Whether any cell of the box `low` ..= `high` (cell coordinates, in
+/// every axis) lies in a block whose index is in `range`, for a grid of
+/// `blocks` blocks of [`BLOCK_WIDTH`]³ cells: the exact test of whether a
+/// particle whose stencil reaches the nodes of that box's cells is a ghost
+/// of the rank owning `range` (see [`crate::rank`] for the box). The box's
+/// blocks are at most three per axis for boxes up to 9 cells a side; each
+/// row along z is one run of indices, tested against `range`.
 #[inline]
-pub fn cell_near_blocks(cell: IVec3, cells: i32, range: &Range<u32>, blocks: UVec3) -> bool {
+pub fn cells_meet_blocks(low: IVec3, high: IVec3, range: &Range<u32>, blocks: UVec3) -> bool {
     // ⌊c / width⌋ by an arithmetic shift, negative cells included.
     const BLOCK_SHIFT: i32 = BLOCK_WIDTH.trailing_zeros() as i32;
     const { assert!(BLOCK_WIDTH == 1 << BLOCK_SHIFT) };
-    let low = ((cell - IVec3::splat(cells)) >> BLOCK_SHIFT).max(IVec3::ZERO);
-    let high = ((cell + IVec3::splat(cells)) >> BLOCK_SHIFT).min(blocks.as_ivec3() - IVec3::ONE);
+    let low = (low >> BLOCK_SHIFT).max(IVec3::ZERO);
+    let high = (high >> BLOCK_SHIFT).min(blocks.as_ivec3() - IVec3::ONE);
     if low.cmpgt(high).any() {
         return false;
     }
@@ -215,19 +215,20 @@ mod tests {
         }
     }
 
-    /// The run test against a plain one: every cell of a small grid
-    /// against ranges cut anywhere, the cube's cells visited one by one.
+    /// The run test against a plain one: boxes around every cell of a small
+    /// grid, reaching `below` cells down and `above` up, against ranges cut
+    /// anywhere, the box's cells visited one by one.
     #[test]
-    fn cells_near_blocks_are_those_whose_cube_meets_the_range() {
+    fn boxes_meet_the_blocks_whose_cells_they_hold() {
         let blocks = UVec3::new(3, 3, 5);
         let block_count = blocks.element_product();
         let cells = blocks.as_ivec3() * 4;
-        let plain = |cell: IVec3, reach: i32, range: &Range<u32>| {
+        let plain = |low: IVec3, high: IVec3, range: &Range<u32>| {
             let mut near = false;
-            for dx in -reach..=reach {
-                for dy in -reach..=reach {
-                    for dz in -reach..=reach {
-                        let c = cell + IVec3::new(dx, dy, dz);
+            for x in low.x..=high.x {
+                for y in low.y..=high.y {
+                    for z in low.z..=high.z {
+                        let c = IVec3::new(x, y, z);
                         if c.cmpge(IVec3::ZERO).all() && c.cmplt(cells).all() {
                             let b = (c / BLOCK_WIDTH).as_uvec3();
                             near |= range.contains(&((b.x * blocks.y + b.y) * blocks.z + b.z));
@@ -238,15 +239,17 @@ mod tests {
             near
         };
         for range in [0..1, 5..6, 7..13, 13..45, 0..45, 11..12, 23..25, 33..36] {
-            for reach in [1, 3, 4] {
+            for (below, above) in [(1, 1), (3, 3), (4, 4), (2, 3), (3, 4)] {
                 for x in 0..cells.x {
                     for y in 0..cells.y {
                         for z in 0..cells.z {
                             let cell = IVec3::new(x, y, z);
+                            let (low, high) =
+                                (cell - IVec3::splat(below), cell + IVec3::splat(above));
                             assert_eq!(
-                                cell_near_blocks(cell, reach, &range, blocks),
-                                plain(cell, reach, &range),
-                                "cell {cell}, reach {reach}, blocks {range:?} of {block_count}"
+                                cells_meet_blocks(low, high, &range, blocks),
+                                plain(low, high, &range),
+                                "cell {cell}, reach {below} {above}, blocks {range:?} of {block_count}"
                             );
                         }
                     }
