@@ -2,15 +2,16 @@
 //! the same bits as one process for any rank count.
 //!
 //! The grid's blocks are cut into slabs of whole block columns along x
-//! ([`slabs`]); each rank owns the particles of its slab, holds copies
-//! (ghosts) of the particles within reach of its nodes, and steps them with
-//! [`firn_mpm::Simulation`] ([`rank`]). Particles carry their place in the
-//! one-process array, so every block sums its particles in the one-process
-//! order and every node gets the one-process bits without any partial sums
-//! sent (docs/architecture.md, "MPI").
+//! ([`slabs`]); each rank owns the particles of its slab and steps them
+//! with [`firn_mpm::Simulation`] ([`rank`]). Particles carry their place in
+//! the one-process array, so every block sums its particles in the
+//! one-process order; in the scatter each rank sends its neighbours the
+//! sums of its blocks next to theirs ([`firn_mpm::block_sums`]), so every
+//! node sums the one process's blocks in the one process's order
+//! (docs/architecture.md, "MPI").
 //!
-//! The ranks talk through [`exchange::Exchange`]: particles by an
-//! all-to-all of word buffers, and reductions, a scan and broadcasts.
+//! The ranks talk through [`exchange::Exchange`]: particles and block sums
+//! by an all-to-all of word buffers, and reductions, a scan and broadcasts.
 //! [`exchange::ThreadRanks`] runs ranks as threads of one process (the
 //! tests); with the `mpi` feature, `MpiExchange` runs them on MPI
 //! (`mpirun -np N firn run SCENE`). [`driver`] plugs the ranks into

@@ -1,7 +1,6 @@
 //! Particles on the wire: each particle as [`WORDS_PER_PARTICLE`] 32-bit
 //! words (its key, then every attribute's bits), so that what arrives is
-//! bit for bit what left; a ghost as [`WORDS_PER_GHOST`], only what the
-//! scatter reads of it.
+//! bit for bit what left.
 
 use firn_mpm::Particles;
 use glam::{Mat3, Vec3};
@@ -11,12 +10,6 @@ use crate::exchange::{join_u64, split_u64};
 /// Words per particle: the key (2), position and velocity (3 each), mass,
 /// V⁰, J_P and the material (1 each), F_E, V⁰τ and ∇v (9 each).
 pub const WORDS_PER_PARTICLE: usize = 2 + 3 + 3 + 1 + 1 + 9 + 1 + 9 + 9 + 1;
-
-/// Words per ghost: the key (2), position and velocity (3 each), mass (1),
-/// V⁰τ and ∇v (9 each): what the scatter reads (APIC's affine term reads
-/// ∇v). A ghost is scattered and dropped, never gathered, so its other
-/// attributes are never read.
-pub const WORDS_PER_GHOST: usize = 2 + 3 + 3 + 1 + 9 + 9;
 
 /// Particles with their keys: each particle's place in the one-process
 /// array, which orders them the same way on every rank.
@@ -67,57 +60,6 @@ impl KeyedParticles {
             particles.velocity_gradient.push(read_mat3(&mut next));
             particles.material.push(next() as u16);
         }
-    }
-
-    /// Appends particle `p` of `self` to `words` as a ghost
-    /// ([`WORDS_PER_GHOST`] words).
-    pub fn pack_ghost(&self, p: usize, words: &mut Vec<u32>) {
-        let particles = &self.particles;
-        words.extend(split_u64(self.keys[p]));
-        push_vec3(words, particles.position[p]);
-        push_vec3(words, particles.velocity[p]);
-        words.push(particles.mass[p].to_bits());
-        push_mat3(words, particles.stress[p]);
-        push_mat3(words, particles.velocity_gradient[p]);
-    }
-
-    /// Appends every ghost packed in `words` by [`KeyedParticles::pack_ghost`]
-    /// (whole records only), with the attributes a ghost does not carry
-    /// those of undeformed snow of no volume.
-    pub fn unpack_ghosts(&mut self, words: &[u32]) {
-        assert!(
-            words.len().is_multiple_of(WORDS_PER_GHOST),
-            "a ghost message of {} words is not whole records",
-            words.len()
-        );
-        let particles = &mut self.particles;
-        for record in words.chunks_exact(WORDS_PER_GHOST) {
-            let mut reader = record.iter().copied();
-            let mut next = || reader.next().expect("record length checked");
-            let high = next();
-            self.keys.push(join_u64(high, next()));
-            particles.position.push(read_vec3(&mut next));
-            particles.velocity.push(read_vec3(&mut next));
-            particles.mass.push(f32::from_bits(next()));
-            particles.stress.push(read_mat3(&mut next));
-            particles.velocity_gradient.push(read_mat3(&mut next));
-            particles.volume0.push(0.0);
-            particles.elastic.push(Mat3::IDENTITY);
-            particles.plastic_j.push(1.0);
-            particles.material.push(0);
-        }
-    }
-
-    /// Keeps the first `count` particles.
-    pub fn truncate(&mut self, count: usize) {
-        self.keys.truncate(count);
-        self.particles.truncate(count);
-    }
-
-    /// Makes room for `additional` more particles.
-    pub fn reserve(&mut self, additional: usize) {
-        self.keys.reserve(additional);
-        self.particles.reserve(additional);
     }
 
     /// Removes particle `p`, putting the last particle in its place.

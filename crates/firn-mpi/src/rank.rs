@@ -1,76 +1,45 @@
 //! One rank's share of a split snow run: [`RankSnow`] owns the particles of
-//! its slab and steps them with [`Simulation`], exchanging particles with
-//! the other ranks every substep so that the result is the one process's
-//! bit for bit:
+//! its slab and steps them with [`Simulation`], exchanging with the other
+//! ranks every substep so that the result is the one process's bit for
+//! bit:
 //!
 //! 1. **migration**: particles whose block left the slab go to its owner;
 //!    the slabs move first when the particle counts grew uneven;
 //! 2. **renumbering**, on the substeps where one process sorts its array
 //!    by block ([`REORDER_INTERVAL`]): each particle's key becomes its
 //!    place in that sorted array, the particles of lower ranks first;
-//! 3. **ghosts**: copies of the particles within reach of the nodes the
-//!    slab reads (two and a half to three cells in every axis, one more
-//!    with wind, see [`GHOST_CELLS`]), after the own particles;
-//! 4. the substep itself on own and ghost particles, every block summing
-//!    its particles in key order (the solver orders each block's
-//!    particles by key, [`Simulation::set_part`]), hence in the
-//!    one-process order;
-//! 5. **agreement**: a failure anywhere stops every rank with the failing
+//! 3. the substep itself, every block summing its particles in key order
+//!    (the solver orders each block's particles by key,
+//!    [`Simulation::set_part`]), hence in the one-process order; in its
+//!    scatter the ranks **trade block sums**: each sends the sums of its
+//!    blocks next to a neighbour's to that neighbour ([`SlabTrade`],
+//!    [`firn_mpm::block_sums`]), so every node a rank reads sums the one
+//!    process's blocks in the one process's order;
+//! 4. **agreement**: a failure anywhere stops every rank with the failing
 //!    rank's message (the lowest key first, as one process reports the
 //!    lowest index), and the largest speeds, reduced over the ranks, give
 //!    every rank the same next Δt.
 //!
-//! Steps 1 to 3 share one pass of block indices over the own particles
-//! (carried through the migration's and the renumbering's reorders), so
-//! a rank computes them once per substep besides the solver's binning.
+//! Steps 1 and 2 share one pass of block indices over the own particles
+//! (carried through the migration's and the renumbering's reorders).
 
 use firn_core::Scene;
-use firn_core::math::bspline::floor;
-use firn_core::scene::Transfer;
 use firn_io::IoError;
 use firn_mpm::binning::block_key;
-use firn_mpm::grid::{BLOCK_WIDTH, GridLayout};
+use firn_mpm::grid::GridLayout;
 use firn_mpm::simulation::REORDER_INTERVAL;
-use firn_mpm::{Particles, PermuteBuffers, Simulation, SimulationError, Snapshot};
+use firn_mpm::{Particles, PermuteBuffers, Simulation, SimulationError, Snapshot, SumTrade};
 use firn_run::{RunDirectory, RunError, caches, checkpoint};
 
 use crate::exchange::{Exchange, join_u64, split_u64};
-use crate::packing::{KeyedParticles, WORDS_PER_GHOST, WORDS_PER_PARTICLE};
-use crate::slabs::{Slabs, cells_meet_blocks, ghost_reach};
-use glam::{IVec3, Vec3};
+use crate::packing::{KeyedParticles, WORDS_PER_PARTICLE};
+use crate::slabs::{Slabs, neighbour_reach};
+use glam::IVec3;
 
 /// The slabs move when the busiest rank holds this much more than its
 /// share of the particles (1.02: 2 % more). A slab may end at any block,
 /// so a new cut balances to within about one block's particles.
 pub const REBALANCE_ABOVE: f64 = 1.02;
-
-/// Cells of ghosts around each cell of a slab, in every axis. A particle
-/// in cell c reaches nodes c − 1 … c + 2 with the cubic stencil (from
-/// ⌊x/h⌋ − 1), and a slab's particles in cells c0 … c1 read nodes c0 − 1 …
-/// c1 + 2 with either stencil, so those nodes hear from the particles of
-/// cells c0 − 3 … c1 + 3: three cells either side. The quadratic stencil
-/// (APIC) reaches only nodes b … b + 2 from b = ⌊x/h − ½⌋ (c − 1 or c), so
-/// a particle is needed when c0 − 3 ≤ b ≤ c1 + 2: half of the outermost
-/// cell's particles on each side are left out ([`ghost_box`]). The
-/// particles further away add nothing to those nodes, and every node the
-/// slab reads gets exactly the one process's terms: each block adds its
-/// partial sum only to the nodes its particles reached
-/// (`LocalNodes::add_to`), so a block whose particles reaching the slab's
-/// nodes are all here, and the others left out, sums the same.
-const GHOST_CELLS: i32 = 3;
-
-/// [`GHOST_CELLS`] with wind: the drag at a node also reads the mass of the
-/// node upwind along each axis (`AirDrag::exposure`), so the slab's nodes
-/// c0 − 2 … c1 + 3 must have the one process's masses, and those hear from
-/// cells c0 − 4 … c1 + 4.
-const WIND_GHOST_CELLS: i32 = 4;
-
-/// Blocks of ghost candidates around each own block, in every axis: the
-/// cells within [`WIND_GHOST_CELLS`] of a block lie within one block of it.
-/// Those blocks lie within [`crate::slabs::ghost_reach`] block indices of
-/// the slab's ends; [`cells_meet_blocks`] then picks the ghosts among their
-/// particles.
-const GHOST_BLOCKS: u32 = 1;
 
 /// The steps of a substep in which a rank exchanges with the others.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -81,8 +50,8 @@ pub enum Phase {
     Migration,
     /// The particle counts of the renumbering.
     Renumbering,
-    /// The ghost copies.
-    Ghosts,
+    /// The block sums of the scatter.
+    Sums,
     /// Failures and the next Δt.
     Agreement,
     /// The state gathered on rank 0 (frames, checkpoints).
@@ -95,7 +64,7 @@ impl Phase {
         Phase::Balance,
         Phase::Migration,
         Phase::Renumbering,
-        Phase::Ghosts,
+        Phase::Sums,
         Phase::Agreement,
         Phase::Gathering,
     ];
@@ -106,7 +75,7 @@ impl Phase {
             Phase::Balance => "balance",
             Phase::Migration => "migration",
             Phase::Renumbering => "renumbering",
-            Phase::Ghosts => "ghosts",
+            Phase::Sums => "sums",
             Phase::Agreement => "agreement",
             Phase::Gathering => "gathering",
         }
@@ -120,9 +89,7 @@ pub struct RankTraffic {
     pub substeps: u64,
     /// Particles this rank sent away because they left its slab.
     pub migrated: u64,
-    /// Ghost copies this rank sent.
-    pub ghosts_sent: u64,
-    /// Bytes of particles this rank sent to other ranks.
+    /// Bytes of particles and block sums this rank sent to other ranks.
     pub bytes_sent: u64,
     /// Times the slabs moved.
     pub rebalances: u64,
@@ -135,9 +102,6 @@ pub struct RankTraffic {
 pub struct RankSnow<E: Exchange> {
     exchange: E,
     simulation: Simulation,
-    /// How many of the simulation's particles are this rank's own (the
-    /// first ones; the rest are ghosts).
-    owned: usize,
     slabs: Slabs,
     layout: GridLayout,
     buffers: PermuteBuffers,
@@ -165,12 +129,10 @@ impl<E: Exchange> RankSnow<E> {
         own.unpack(records);
         let mut simulation = Simulation::part(scene, time, steps);
         simulation.set_motion_bounds(f32::from_bits(header[4]), f32::from_bits(header[5]));
-        let owned = own.len();
-        simulation.set_part(own.particles, owned, own.keys);
+        simulation.set_part(own.particles, own.keys);
         RankSnow {
             exchange,
             simulation,
-            owned,
             slabs,
             layout,
             buffers: PermuteBuffers::default(),
@@ -190,12 +152,12 @@ impl<E: Exchange> RankSnow<E> {
 
     /// The particles this rank owns now.
     pub fn owned(&self) -> usize {
-        self.owned
+        self.simulation.particles().len()
     }
 
     /// The keys of the own particles.
     fn own_keys(&self) -> &[u64] {
-        &self.simulation.part_keys()[..self.owned]
+        self.simulation.part_keys()
     }
 
     /// The current slabs.
@@ -208,8 +170,7 @@ impl<E: Exchange> RankSnow<E> {
         self.traffic
     }
 
-    /// The rank's simulation (own particles first, then the last substep's
-    /// ghosts).
+    /// The rank's simulation, of its own particles.
     pub fn simulation(&self) -> &Simulation {
         &self.simulation
     }
@@ -235,11 +196,15 @@ impl<E: Exchange> RankSnow<E> {
         if self.simulation.steps().is_multiple_of(REORDER_INTERVAL) {
             self.renumber(&mut own, &mut blocks);
         }
-        let owned = own.len();
-        let KeyedParticles { particles, keys } = self.with_ghosts(own, &blocks);
-        self.owned = owned;
-        self.simulation.set_part(particles, owned, keys);
-        let result = self.simulation.step(until);
+        self.simulation.set_part(own.particles, own.keys);
+        let mut trade = SlabTrade {
+            exchange: &self.exchange,
+            slabs: &self.slabs,
+            layout: self.layout,
+            neighbours: self.slabs.neighbours(self.exchange.rank(), self.reach()),
+            traffic: &mut self.traffic,
+        };
+        let result = self.simulation.step_part(until, &mut trade);
         let dt = self.agree(result)?;
         let (speed, waves) = self.simulation.motion_bounds();
         let bounds = self.timed(Phase::Agreement, |exchange| {
@@ -254,7 +219,7 @@ impl<E: Exchange> RankSnow<E> {
     /// the other ranks). Every rank must call it.
     pub fn gather(&mut self) -> Option<Snapshot> {
         let particles = self.simulation.particles();
-        let mut words = Vec::with_capacity(self.owned * WORDS_PER_PARTICLE);
+        let mut words = Vec::with_capacity(self.owned() * WORDS_PER_PARTICLE);
         for (p, &key) in self.own_keys().iter().enumerate() {
             crate::packing::pack(particles, key, p, &mut words);
         }
@@ -332,8 +297,7 @@ impl<E: Exchange> RankSnow<E> {
 
     /// This rank's own particles and the run's counters, as a snapshot.
     fn own_snapshot(&self) -> Snapshot {
-        let mut particles = self.simulation.particles().clone();
-        particles.truncate(self.owned());
+        let particles = self.simulation.particles().clone();
         let (max_speed_squared, max_wave_speed_squared) = self.simulation.motion_bounds();
         Snapshot {
             time: self.simulation.time(),
@@ -370,21 +334,19 @@ impl<E: Exchange> RankSnow<E> {
         result
     }
 
-    /// The own particles out of the simulation, without the ghosts.
+    /// The own particles out of the simulation.
     fn take_own(&mut self) -> KeyedParticles {
         let (particles, keys) = self.simulation.take_part();
-        let mut own = KeyedParticles { particles, keys };
-        own.truncate(self.owned);
-        own
+        KeyedParticles { particles, keys }
     }
 
-    /// The ghost reach in block indices ([`GHOST_BLOCKS`] blocks in every
-    /// axis).
+    /// How far, in block indices, the blocks within one block of a block
+    /// lie from it ([`neighbour_reach`]).
     fn reach(&self) -> u32 {
-        GHOST_BLOCKS * ghost_reach(self.layout.blocks)
+        neighbour_reach(self.layout.blocks)
     }
 
-    /// The ranks this one exchanges ghosts with.
+    /// The ranks this one trades block sums with.
     fn neighbours(&self) -> Vec<usize> {
         self.slabs.neighbours(self.rank(), self.reach())
     }
@@ -431,7 +393,7 @@ impl<E: Exchange> RankSnow<E> {
     /// last particle and the arrivals go at the end: the array's order is
     /// no one's (the solver orders each block's particles by key). The
     /// migrants go to the neighbours only, unless one went further (a
-    /// rebalance, a particle past the ghost reach) anywhere: then to all.
+    /// rebalance, a particle past the neighbour reach) anywhere: then to all.
     fn migrate(
         &mut self,
         mut own: KeyedParticles,
@@ -493,53 +455,6 @@ impl<E: Exchange> RankSnow<E> {
         for (key, place) in own.keys.iter_mut().zip(first..) {
             *key = place;
         }
-    }
-
-    /// The own particles followed by the ghosts this rank needs, after
-    /// sending each neighbour the ghosts it needs: the particles whose
-    /// [`ghost_box`] meets its slab, found among those of the blocks
-    /// within [`GHOST_BLOCKS`] of it. `blocks` holds each own particle's
-    /// block index.
-    fn with_ghosts(&mut self, mut own: KeyedParticles, blocks: &[u32]) -> KeyedParticles {
-        let reach = self.reach();
-        let cells = match self.simulation.scene().wind {
-            Some(_) => WIND_GHOST_CELLS,
-            None => GHOST_CELLS,
-        };
-        let transfer = self.simulation.scene().solver.transfer;
-        let grid_blocks = self.layout.blocks;
-        let last_cell = grid_blocks.as_ivec3() * BLOCK_WIDTH - IVec3::ONE;
-        let neighbours = self.neighbours();
-        let mut outgoing = vec![Vec::new(); self.exchange.size()];
-        for &rank in &neighbours {
-            let theirs = self.slabs.blocks(rank);
-            let [below, above] = self.slabs.ghost_blocks(rank, reach);
-            let ghosts: Vec<usize> = (blocks.iter().enumerate())
-                .filter(|(_, block)| below.contains(block) || above.contains(block))
-                .map(|(p, _)| p)
-                .filter(|&p| {
-                    let grid_position = self.layout.to_grid(own.particles.position[p]);
-                    let (low, high) = ghost_box(grid_position, transfer, cells, last_cell);
-                    cells_meet_blocks(low, high, &theirs, grid_blocks)
-                })
-                .collect();
-            let words = &mut outgoing[rank];
-            words.reserve_exact(ghosts.len() * WORDS_PER_GHOST);
-            for p in ghosts {
-                own.pack_ghost(p, words);
-            }
-            self.traffic.ghosts_sent += (words.len() / WORDS_PER_GHOST) as u64;
-        }
-        self.count_sent(&outgoing);
-        let incoming = self.timed(Phase::Ghosts, |exchange| {
-            exchange.exchange_with(outgoing, &neighbours)
-        });
-        let ghosts = incoming.iter().map(Vec::len).sum::<usize>() / WORDS_PER_GHOST;
-        own.reserve(ghosts);
-        for words in &incoming {
-            own.unpack_ghosts(words);
-        }
-        own
     }
 
     /// Adds the particle words in `outgoing` to the bytes sent.
@@ -623,31 +538,56 @@ impl<E: Exchange> RankSnow<E> {
     }
 }
 
-/// How far past ⌊g − ½⌋ a grid position may round either way in
-/// [`ghost_box`]: a particle this close to a half cell is taken with the
-/// stencils of both sides.
-const BASE_MARGIN: f32 = 1e-3;
+/// A rank's side of the scatter's trade of block sums
+/// ([`firn_mpm::block_sums`]): a block's sums go to the owners of the
+/// blocks around it, which are among the neighbours; the trade goes to and
+/// from the neighbours only, timed as [`Phase::Sums`].
+struct SlabTrade<'a, E: Exchange> {
+    exchange: &'a E,
+    slabs: &'a Slabs,
+    layout: GridLayout,
+    /// The ranks within [`neighbour_reach`] ([`Slabs::neighbours`]).
+    neighbours: Vec<usize>,
+    traffic: &'a mut RankTraffic,
+}
 
-/// The box of cells that a particle at grid position `g` is a ghost of:
-/// a rank needs it when a cell of its slab lies in the box. `cells` is
-/// [`GHOST_CELLS`] or [`WIND_GHOST_CELLS`]. With the quadratic stencil
-/// (APIC) the box follows the stencil's first node b = ⌊g − ½⌋: b − 2 …
-/// b + 3 (one more either way with wind); otherwise, or for a particle
-/// outside the grid, the cube of `cells` around its cell clamped to the
-/// grid, as `block_key` clamps.
-fn ghost_box(g: Vec3, transfer: Transfer, cells: i32, last_cell: IVec3) -> (IVec3, IVec3) {
-    let (_, cell) = floor(g);
-    let inside = cell.cmpge(IVec3::ZERO).all() && cell.cmple(last_cell).all();
-    if transfer == Transfer::Apic && inside {
-        let (_, first_low) = floor(g - Vec3::splat(0.5 + BASE_MARGIN));
-        let (_, first_high) = floor(g - Vec3::splat(0.5 - BASE_MARGIN));
-        return (
-            first_low - IVec3::splat(cells - 1),
-            first_high + IVec3::splat(cells),
-        );
+impl<E: Exchange> SumTrade for SlabTrade<'_, E> {
+    fn readers(&self, block: u32, readers: &mut Vec<usize>) {
+        let me = self.exchange.rank();
+        let own = self.slabs.blocks(me);
+        let reach = neighbour_reach(self.layout.blocks);
+        if own.start + reach <= block && block + reach < own.end {
+            return;
+        }
+        let centre = self.layout.block_coord(block as usize);
+        let last = self.layout.blocks.as_ivec3() - IVec3::ONE;
+        let low = (centre - IVec3::ONE).max(IVec3::ZERO);
+        let high = (centre + IVec3::ONE).min(last);
+        for x in low.x..=high.x {
+            for y in low.y..=high.y {
+                for z in low.z..=high.z {
+                    let index = self.layout.block_index(IVec3::new(x, y, z)) as u32;
+                    let owner = self.slabs.owner(index);
+                    if owner != me && !readers.contains(&owner) {
+                        readers.push(owner);
+                    }
+                }
+            }
+        }
     }
-    let cell = cell.clamp(IVec3::ZERO, last_cell);
-    (cell - IVec3::splat(cells), cell + IVec3::splat(cells))
+
+    fn trade(&mut self, outgoing: Vec<Vec<u32>>) -> Vec<Vec<u32>> {
+        let words: usize = outgoing.iter().map(Vec::len).sum();
+        self.traffic.bytes_sent += (words * std::mem::size_of::<u32>()) as u64;
+        let started = std::time::Instant::now();
+        let incoming = self.exchange.exchange_with(outgoing, &self.neighbours);
+        self.traffic.exchange_seconds[Phase::Sums as usize] += started.elapsed().as_secs_f64();
+        incoming
+    }
+
+    fn parts(&self) -> usize {
+        self.exchange.size()
+    }
 }
 
 /// The block index of every particle (as the binning sorts them).

@@ -2,60 +2,24 @@
 //! (x slowest, then y, then z), cut into one contiguous range per rank
 //! ("slab"), balanced by particle count. A cut may fall at any block, so
 //! the balance is as fine as one block's particles. The blocks within one
-//! block of a slab in every axis lie within [`ghost_reach`] indices of its
-//! ends, so a rank exchanges ghosts with its neighbours in the order only,
-//! and [`cells_meet_blocks`] picks the ghosts among those blocks' particles
-//! by the cells their stencils reach: layers two and a half to four cells
-//! thick around the slab's cells
-//! (where a cut falls inside a block layer, the slab's faces are a
-//! staircase of blocks, and the layer follows it). Recursive bisection
-//! would give thinner layers at the price of more neighbours.
+//! block of a slab in every axis lie within [`neighbour_reach`] indices of
+//! its ends, so a rank trades block sums (and, unless a particle went
+//! further, migrants) with its neighbours in the order only: those of the
+//! one block layer each side of a cut (where a cut falls inside a block
+//! layer, the slab's faces are a staircase of blocks, and the layer follows
+//! it). Recursive bisection would give smaller faces at the price of more
+//! neighbours.
 
 use std::ops::Range;
 
-use firn_mpm::grid::BLOCK_WIDTH;
-use glam::{IVec3, UVec3};
+use glam::UVec3;
 
 /// How far, in block indices, the blocks within one block of a block in
 /// every axis lie from it, for a grid of `blocks` blocks: a step of one
 /// block in x, y and z moves the index by `blocks.y · blocks.z`,
 /// `blocks.z` and 1.
-pub fn ghost_reach(blocks: UVec3) -> u32 {
+pub fn neighbour_reach(blocks: UVec3) -> u32 {
     blocks.y * blocks.z + blocks.z + 1
-}
-
-/// Whether any cell of the box `low` ..= `high` (cell coordinates, in
-/// every axis) lies in a block whose index is in `range`, for a grid of
-/// `blocks` blocks of [`BLOCK_WIDTH`]³ cells: the exact test of whether a
-/// particle whose stencil reaches the nodes of that box's cells is a ghost
-/// of the rank owning `range` (see [`crate::rank`] for the box). The box's
-/// blocks are at most three per axis for boxes up to 9 cells a side; each
-/// row along z is one run of indices, tested against `range`.
-#[inline]
-pub fn cells_meet_blocks(low: IVec3, high: IVec3, range: &Range<u32>, blocks: UVec3) -> bool {
-    // ⌊c / width⌋ by an arithmetic shift, negative cells included.
-    const BLOCK_SHIFT: i32 = BLOCK_WIDTH.trailing_zeros() as i32;
-    const { assert!(BLOCK_WIDTH == 1 << BLOCK_SHIFT) };
-    let low = (low >> BLOCK_SHIFT).max(IVec3::ZERO);
-    let high = (high >> BLOCK_SHIFT).min(blocks.as_ivec3() - IVec3::ONE);
-    if low.cmpgt(high).any() {
-        return false;
-    }
-    let index = |x: i32, y: i32, z: i32| (x as u32 * blocks.y + y as u32) * blocks.z + z as u32;
-    // The cube's indices lie in first..=last: most cells are decided here.
-    let (first, last) = (index(low.x, low.y, low.z), index(high.x, high.y, high.z));
-    if last < range.start || range.end <= first {
-        return false;
-    }
-    if range.start <= first && last < range.end {
-        return true;
-    }
-    (low.x..=high.x).any(|x| {
-        (low.y..=high.y).any(|y| {
-            let (first, end) = (index(x, y, low.z), index(x, y, high.z) + 1);
-            first < range.end && range.start < end
-        })
-    })
 }
 
 /// Each rank's range of block indices: rank `r` owns the particles whose
@@ -111,22 +75,9 @@ impl Slabs {
         after.min(self.ranks() - 1)
     }
 
-    /// The blocks whose particles `rank` needs as ghosts, `width` block
-    /// indices either side of its slab (none for an empty slab).
-    pub fn ghost_blocks(&self, rank: usize, width: u32) -> [Range<u32>; 2] {
-        let own = self.blocks(rank);
-        if own.is_empty() {
-            return [0..0, 0..0];
-        }
-        [
-            own.start.saturating_sub(width)..own.start,
-            own.end..own.end + width,
-        ]
-    }
-
     /// The other ranks whose blocks lie within `reach` block indices of
     /// `rank`'s (a symmetric relation; none for an empty slab): the only
-    /// ranks it exchanges ghosts with, and migrants with when no particle
+    /// ranks it trades block sums with, and migrants with when no particle
     /// went further.
     pub fn neighbours(&self, rank: usize, reach: u32) -> Vec<usize> {
         let own = self.blocks(rank);
@@ -198,10 +149,10 @@ mod tests {
     }
 
     #[test]
-    fn the_ghost_reach_covers_every_neighbouring_block() {
+    fn the_neighbour_reach_covers_every_neighbouring_block() {
         let blocks = UVec3::new(5, 4, 3);
         let index = |x: u32, y: u32, z: u32| (x * blocks.y + y) * blocks.z + z;
-        let reach = ghost_reach(blocks);
+        let reach = neighbour_reach(blocks);
         for (x, y, z) in [(1, 1, 1), (2, 2, 1), (3, 1, 1)] {
             for offset in 0..27u32 {
                 let [dx, dy, dz] = [offset % 3, offset / 3 % 3, offset / 9].map(|d| d as i32 - 1);
@@ -211,49 +162,6 @@ mod tests {
                     (z as i32 + dz) as u32,
                 );
                 assert!(neighbour.abs_diff(index(x, y, z)) <= reach);
-            }
-        }
-    }
-
-    /// The run test against a plain one: boxes around every cell of a small
-    /// grid, reaching `below` cells down and `above` up, against ranges cut
-    /// anywhere, the box's cells visited one by one.
-    #[test]
-    fn boxes_meet_the_blocks_whose_cells_they_hold() {
-        let blocks = UVec3::new(3, 3, 5);
-        let block_count = blocks.element_product();
-        let cells = blocks.as_ivec3() * 4;
-        let plain = |low: IVec3, high: IVec3, range: &Range<u32>| {
-            let mut near = false;
-            for x in low.x..=high.x {
-                for y in low.y..=high.y {
-                    for z in low.z..=high.z {
-                        let c = IVec3::new(x, y, z);
-                        if c.cmpge(IVec3::ZERO).all() && c.cmplt(cells).all() {
-                            let b = (c / BLOCK_WIDTH).as_uvec3();
-                            near |= range.contains(&((b.x * blocks.y + b.y) * blocks.z + b.z));
-                        }
-                    }
-                }
-            }
-            near
-        };
-        for range in [0..1, 5..6, 7..13, 13..45, 0..45, 11..12, 23..25, 33..36] {
-            for (below, above) in [(1, 1), (3, 3), (4, 4), (2, 3), (3, 4)] {
-                for x in 0..cells.x {
-                    for y in 0..cells.y {
-                        for z in 0..cells.z {
-                            let cell = IVec3::new(x, y, z);
-                            let (low, high) =
-                                (cell - IVec3::splat(below), cell + IVec3::splat(above));
-                            assert_eq!(
-                                cells_meet_blocks(low, high, &range, blocks),
-                                plain(low, high, &range),
-                                "cell {cell}, reach {below} {above}, blocks {range:?} of {block_count}"
-                            );
-                        }
-                    }
-                }
             }
         }
     }

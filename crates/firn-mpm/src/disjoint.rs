@@ -51,30 +51,19 @@ impl<'a, T> NodeWriter<'a, T> {
     }
 }
 
-/// Runs `scatter` on every occupied block, colour by colour; blocks of one
-/// colour run in parallel, so each node sums its contributions in the same
-/// order whatever the thread count.
+/// Runs `scatter` on every occupied block's particles, colour by colour;
+/// blocks of one colour run in parallel, so each node sums its
+/// contributions in the same order whatever the thread count.
 pub(crate) fn scatter_by_colour<T: Send>(
     nodes: &mut [T],
     bins: &Bins,
     scatter: impl Fn(&[u32], &NodeWriter<T>) + Sync,
 ) {
-    scatter_blocks_by_colour(nodes, bins, |block, writer| {
-        scatter(bins.particles_of(block), writer)
-    });
-}
-
-/// [`scatter_by_colour`], handing over the occupied block itself.
-pub(crate) fn scatter_blocks_by_colour<T: Send>(
-    nodes: &mut [T],
-    bins: &Bins,
-    scatter: impl Fn(&OccupiedBlock, &NodeWriter<T>) + Sync,
-) {
     let writer = NodeWriter::new(nodes);
     for colour in bins.colours() {
-        colour
-            .par_iter()
-            .for_each(|&block| scatter(&bins.occupied()[block as usize], &writer));
+        colour.par_iter().for_each(|&block| {
+            scatter(bins.particles_of(&bins.occupied()[block as usize]), &writer)
+        });
     }
 }
 

@@ -18,6 +18,7 @@
 //! ```
 
 pub mod binning;
+pub mod block_sums;
 mod coloring;
 pub mod constitutive;
 pub mod contact;
@@ -36,6 +37,7 @@ pub mod simulation;
 pub mod spindrift;
 pub mod wind;
 
+pub use block_sums::SumTrade;
 pub use implicit::SolverStats;
 pub use particles::{Particles, PermuteBuffers};
 pub use profile::PhaseTimes;

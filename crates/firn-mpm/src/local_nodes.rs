@@ -124,53 +124,135 @@ impl<T: Copy + Default> LocalNodes<T> {
     }
 
     /// Adds the sums into the grid's nodes, run by run ([`runs`]): those a
-    /// particle reached (`reached`), which are sure to exist, with `add`.
-    pub(crate) fn add_to(
-        &self,
-        table: &PageTable,
-        writer: &NodeWriter<Node>,
-        reached: impl Fn(&T) -> bool,
-        add: impl Fn(&mut Node, &T),
-    ) {
+    /// particle reached ([`NodeSum::reached`]), which are sure to exist.
+    pub(crate) fn add_sums_to(&self, table: &PageTable, writer: &NodeWriter<Node>)
+    where
+        T: NodeSum,
+    {
         runs(self.first_node, table, |to, from, len| {
             for (n, sum) in self.nodes[to..to + len].iter().enumerate() {
-                if !reached(sum) {
+                if !sum.reached() {
                     continue;
                 }
                 let from = from.expect("a reached node lies inside the grid");
-                writer.update(from + n, |node| add(node, sum));
+                writer.update(from + n, |node| sum.add_into(node));
             }
         });
     }
-}
 
-/// Whole nodes, for PIC/FLIP: both vectors summed and read.
-impl LocalNodes<Node> {
-    /// Adds mass, momentum and force sums into the grid.
-    pub(crate) fn add_nodes_to(&self, table: &PageTable, writer: &NodeWriter<Node>) {
-        self.add_to(
-            table,
-            writer,
-            |sum| sum.mass() != 0.0,
-            |node, sum| {
-                node.velocity_mass += sum.velocity_mass;
-                node.velocity_new += sum.velocity_new;
-            },
-        );
+    /// The block these nodes are around.
+    pub(crate) fn block(&self) -> IVec3 {
+        (self.first_node + IVec3::ONE) / BLOCK_WIDTH
+    }
+
+    /// Appends the sums as words, to send to another part of a split run:
+    /// a bit per node saying whether a particle reached it
+    /// ([`MASK_WORDS`] words), then the reached nodes' sums.
+    pub(crate) fn push_words(&self, words: &mut Vec<u32>)
+    where
+        T: NodeSum,
+    {
+        let mask_start = words.len();
+        words.resize(mask_start + MASK_WORDS, 0);
+        for (n, sum) in self.nodes.iter().enumerate() {
+            if sum.reached() {
+                words[mask_start + n / 32] |= 1 << (n % 32);
+                sum.push_words(words);
+            }
+        }
+    }
+
+    /// The sums around `block` from the front of `words`, as
+    /// [`LocalNodes::push_words`] wrote them; returns them and the words
+    /// read. The nodes no particle reached are zero.
+    pub(crate) fn from_words(block: IVec3, words: &[u32]) -> (Box<LocalNodes<T>>, usize)
+    where
+        T: NodeSum,
+    {
+        let mut sums = Box::new(LocalNodes::around(block));
+        let (mask, mut rest) = words.split_at(MASK_WORDS);
+        for (n, sum) in sums.nodes.iter_mut().enumerate() {
+            if mask[n / 32] & (1 << (n % 32)) != 0 {
+                *sum = T::from_words(&rest[..T::WORDS]);
+                rest = &rest[T::WORDS..];
+            }
+        }
+        (sums, words.len() - rest.len())
     }
 }
 
-/// One vector per node, for APIC: momentum and mass while scattering,
-/// v_i^{n+1} while gathering.
-impl LocalNodes<Vec4> {
-    /// Adds momentum and mass sums into the grid's first node vector.
-    pub(crate) fn add_momentum_to(&self, table: &PageTable, writer: &NodeWriter<Node>) {
-        self.add_to(
-            table,
-            writer,
-            |sum| sum.w != 0.0,
-            |node, sum| node.velocity_mass += *sum,
-        );
+/// Words of the bit mask of a block's reached nodes in
+/// [`LocalNodes::push_words`].
+const MASK_WORDS: usize = VOLUME.div_ceil(32);
+
+/// What a block sums per node in a [`LocalNodes`] during the scatter.
+pub(crate) trait NodeSum: Copy + Default + Send + Sync {
+    /// Words per node in [`LocalNodes::push_words`].
+    const WORDS: usize;
+    /// Whether a particle reached the node: its mass is not zero (every
+    /// reached node gets a positive weight of a positive mass).
+    fn reached(&self) -> bool;
+    /// Adds the sum into a grid node.
+    fn add_into(&self, node: &mut Node);
+    /// Appends the sum's bits, [`NodeSum::WORDS`] words.
+    fn push_words(&self, words: &mut Vec<u32>);
+    /// The sum of [`NodeSum::push_words`].
+    fn from_words(words: &[u32]) -> Self;
+}
+
+/// Whole nodes, for PIC/FLIP: mass, momentum and force summed and read.
+impl NodeSum for Node {
+    /// Momentum and mass, then the force: the force's fourth lane is not
+    /// sent, as it only ever adds ±0 to a grid node's +0 (which stays +0).
+    const WORDS: usize = 7;
+
+    fn reached(&self) -> bool {
+        self.mass() != 0.0
+    }
+
+    fn add_into(&self, node: &mut Node) {
+        node.velocity_mass += self.velocity_mass;
+        node.velocity_new += self.velocity_new;
+    }
+
+    fn push_words(&self, words: &mut Vec<u32>) {
+        words.extend(self.velocity_mass.to_array().map(f32::to_bits));
+        words.extend(self.velocity_new.truncate().to_array().map(f32::to_bits));
+    }
+
+    fn from_words(words: &[u32]) -> Node {
+        let float = |i: usize| f32::from_bits(words[i]);
+        Node {
+            velocity_mass: Vec4::new(float(0), float(1), float(2), float(3)),
+            velocity_new: Vec4::new(float(4), float(5), float(6), 0.0),
+        }
+    }
+}
+
+/// One vector per node, for APIC: momentum and mass while scattering
+/// (and v_i^{n+1} while gathering).
+impl NodeSum for Vec4 {
+    const WORDS: usize = 4;
+
+    fn reached(&self) -> bool {
+        self.w != 0.0
+    }
+
+    fn add_into(&self, node: &mut Node) {
+        node.velocity_mass += *self;
+    }
+
+    fn push_words(&self, words: &mut Vec<u32>) {
+        words.extend(self.to_array().map(f32::to_bits));
+    }
+
+    fn from_words(words: &[u32]) -> Vec4 {
+        Vec4::new(
+            f32::from_bits(words[0]),
+            f32::from_bits(words[1]),
+            f32::from_bits(words[2]),
+            f32::from_bits(words[3]),
+        )
     }
 }
 

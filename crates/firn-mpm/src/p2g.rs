@@ -12,8 +12,9 @@
 //!
 //! Each block's particles are summed into a dense local copy of the nodes
 //! around the block ([`LocalNodes`]), then added to the grid colour by
-//! colour ([`scatter_blocks_by_colour`]), so every node sums its
-//! contributions in the same order whatever the thread count.
+//! colour ([`scatter_sums`]), so every node sums its contributions in the
+//! same order whatever the thread count; in a part of a split run, the
+//! sums of blocks next to other parts are traded ([`SumTrade`]).
 //! [`crate::reference::particles_to_grid`] is the plain form of this stage.
 
 use glam::{IVec3, Mat3, Vec3, Vec4};
@@ -24,28 +25,34 @@ use firn_core::math::isa::{Avx2, Isa, Kernel, PairLanes, PortablePairs};
 use firn_core::math::lanes::{F32s, Mat3s, Simd, Vec3s, lanes_to_rows};
 
 use crate::binning::Bins;
-use crate::disjoint::{scatter_blocks_by_colour, scatter_by_colour};
+use crate::block_sums::{SumTrade, scatter_sums};
+use crate::disjoint::scatter_by_colour;
 use crate::grid::{Grid, GridLayout, Node};
 use crate::local_nodes::{CUBIC_SPAN, LocalNodes, QUADRATIC_SPAN, at};
 use crate::particles::Particles;
 
-/// Steps 1 and 3 for PIC/FLIP: mass, momentum and elastic force on the
-/// grid, summed per block in [`LocalNodes`]. Each block runs compiled for
-/// the instruction set ([`Isa::run`]); every instruction set gives the same
-/// bits ([`PicFlipStencil`]).
-pub fn scatter_pic_flip(grid: &mut Grid, bins: &Bins, particles: &Particles, simd: Simd) {
-    let (table, nodes) = grid.parts_mut();
-    let layout = table.layout;
+/// Steps 1 and 3 for PIC/FLIP: gives the grid storage for the particles'
+/// blocks, then mass, momentum and elastic force on the grid, summed per
+/// block in [`LocalNodes`] (in a part of a split run, `trade` swaps the
+/// sums of the blocks next to other parts, [`scatter_sums`]). Each block
+/// runs compiled for the instruction set ([`Isa::run`]); every instruction
+/// set gives the same bits ([`PicFlipStencil`]).
+pub fn scatter_pic_flip(
+    grid: &mut Grid,
+    bins: &Bins,
+    particles: &Particles,
+    simd: Simd,
+    trade: Option<&mut dyn SumTrade>,
+) {
+    let layout = grid.layout;
     let isa = Isa::of(simd);
-    scatter_blocks_by_colour(nodes, bins, |block, writer| {
-        let mut local = LocalNodes::<Node>::around(block.coord);
+    scatter_sums(grid, bins, trade, |block, sums| {
         isa.run(PicFlipBlock {
             layout,
             particles,
             block: bins.particles_of(block),
-            local: &mut local,
+            local: sums,
         });
-        local.add_nodes_to(&table, writer);
     });
 }
 
@@ -139,28 +146,34 @@ impl PicFlipStencil {
     }
 }
 
-/// Steps 1 and 3 for APIC: mass and affine momentum including the force
-/// impulse, summed per block in a [`LocalNodes`] of `Vec4`s (momentum, mass).
+/// Steps 1 and 3 for APIC: gives the grid storage for the particles'
+/// blocks, then mass and affine momentum including the force impulse,
+/// summed per block in a [`LocalNodes`] of `Vec4`s (momentum, mass), with
+/// `trade` as in [`scatter_pic_flip`].
 /// With AVX2 (`simd` not portable, where the CPU has it) two of a stencil
 /// row's three nodes are added in one 256-bit register; every lane does
 /// the same IEEE operations either way, so the sums have the same bits.
 /// Each block runs compiled for the instruction set ([`Isa::run`]).
-pub fn scatter_apic(grid: &mut Grid, bins: &Bins, particles: &Particles, dt: f32, simd: Simd) {
-    let (table, nodes) = grid.parts_mut();
+pub fn scatter_apic(
+    grid: &mut Grid,
+    bins: &Bins,
+    particles: &Particles,
+    dt: f32,
+    simd: Simd,
+    trade: Option<&mut dyn SumTrade>,
+) {
     let scatter = ApicScatter {
-        layout: table.layout,
+        layout: grid.layout,
         dt,
         particles,
     };
     let isa = Isa::of(simd);
-    scatter_blocks_by_colour(nodes, bins, |block, writer| {
-        let mut local = LocalNodes::around(block.coord);
+    scatter_sums(grid, bins, trade, |block, sums| {
         isa.run(ScatterBlock {
             scatter: &scatter,
-            local: &mut local,
+            local: sums,
             particles: bins.particles_of(block),
         });
-        local.add_momentum_to(&table, writer);
     });
 }
 

@@ -46,32 +46,6 @@ impl Particles {
         self.mass[p] / (j * self.volume0[p])
     }
 
-    /// Makes room for `additional` more particles in every attribute.
-    pub fn reserve(&mut self, additional: usize) {
-        self.position.reserve(additional);
-        self.velocity.reserve(additional);
-        self.mass.reserve(additional);
-        self.volume0.reserve(additional);
-        self.elastic.reserve(additional);
-        self.plastic_j.reserve(additional);
-        self.stress.reserve(additional);
-        self.velocity_gradient.reserve(additional);
-        self.material.reserve(additional);
-    }
-
-    /// Keeps the first `count` particles.
-    pub fn truncate(&mut self, count: usize) {
-        self.position.truncate(count);
-        self.velocity.truncate(count);
-        self.mass.truncate(count);
-        self.volume0.truncate(count);
-        self.elastic.truncate(count);
-        self.plastic_j.truncate(count);
-        self.stress.truncate(count);
-        self.velocity_gradient.truncate(count);
-        self.material.truncate(count);
-    }
-
     /// Appends an undeformed particle at rest in its own frame: F_E = I,
     /// J_P = 1, no stress and no velocity gradient, with initial volume
     /// `volume0` (snow that settles out of the air, [`crate::spindrift`]).

@@ -10,6 +10,7 @@ use firn_core::scene::{
 use glam::{DVec3, Mat3, Vec3};
 
 use crate::binning::Bins;
+use crate::block_sums::SumTrade;
 use crate::constitutive::{MaterialConstants, max_wave_speed_squared};
 use crate::contact::{ColliderSet, Colliders, PlacedCollider};
 use crate::g2p::{
@@ -235,15 +236,12 @@ pub struct Simulation {
     wind: Option<AirDrag>,
     /// Σ of the wind's impulse on the snow since this simulation was made.
     wind_impulse: DVec3,
-    /// When this simulation is one part of a run split between processes:
-    /// how many particles at the front of the arrays are its own (the rest
-    /// are ghosts, see [`Simulation::set_part`]).
-    owned: Option<usize>,
+    /// Whether this simulation is one part of a run split between
+    /// processes ([`Simulation::part`]).
+    in_part: bool,
     /// In a part of a split run, each particle's key, its place in the whole
     /// run's order (see [`Simulation::set_part`]).
     part_keys: Vec<u64>,
-    /// The bins of the own particles alone, which the gather visits.
-    owned_bins: Bins,
     /// Snow the wind carries (`[wind.spindrift]`).
     drift: Drift,
     /// ρ₀ of each material, for spindrift's loose-snow test.
@@ -336,9 +334,8 @@ impl Simulation {
                 .as_ref()
                 .map(|wind| AirDrag::new(wind, domain.cell_size)),
             wind_impulse: DVec3::ZERO,
-            owned: None,
+            in_part: false,
             part_keys: Vec::new(),
-            owned_bins: Bins::default(),
             drift: Drift::default(),
             escaped: Escaped::default(),
             material_densities: scene.materials.iter().map(|m| m.density).collect(),
@@ -348,35 +345,28 @@ impl Simulation {
 
     /// An empty part of a run split between processes (MPI ranks), at
     /// simulated time `time` after `steps` substeps: [`Simulation::set_part`]
-    /// gives it particles, [`Simulation::set_motion_bounds`] the next Δt.
+    /// gives it particles, [`Simulation::set_motion_bounds`] the next Δt,
+    /// and [`Simulation::step_part`] steps it.
     pub fn part(scene: Scene, time: f64, steps: u64) -> Simulation {
         let mut part = Simulation::with_particles(scene, Particles::default(), time, steps);
-        part.owned = Some(0);
+        part.in_part = true;
         part
     }
 
-    /// Makes this simulation one part of a run split between processes
-    /// (MPI ranks), for the substeps to come: `particles` replace its own;
-    /// the first `owned` are this part's, the rest are ghosts, copies of
-    /// other parts' particles near it. `keys` holds each particle's place in
-    /// the whole run's order (the one process's array): every block adds its
-    /// particles in key order, whatever their order here, and a failure
-    /// names the own particle with the lowest key. A substep scatters all of
-    /// them but updates only the owned ones (the ghosts keep their state;
-    /// the caller drops them), and it does not reorder the particles (see
-    /// the MPI section of docs/architecture.md). Every part must take the
-    /// same Δt: the caller reduces [`Simulation::motion_bounds`] over the
-    /// parts and hands the result back with
-    /// [`Simulation::set_motion_bounds`].
-    pub fn set_part(&mut self, particles: Particles, owned: usize, keys: Vec<u64>) {
-        assert!(
-            owned <= particles.len(),
-            "more owned particles than particles"
-        );
+    /// Gives this part of a run split between processes (MPI ranks) its
+    /// particles for the substeps to come, those of its blocks. `keys`
+    /// holds each particle's place in the whole run's order (the one
+    /// process's array): every block adds its particles in key order,
+    /// whatever their order here, and a failure names the particle with the
+    /// lowest key. A substep does not reorder the particles (see the MPI
+    /// section of docs/architecture.md). Every part must take the same Δt:
+    /// the caller reduces [`Simulation::motion_bounds`] over the parts and
+    /// hands the result back with [`Simulation::set_motion_bounds`].
+    pub fn set_part(&mut self, particles: Particles, keys: Vec<u64>) {
+        assert!(self.in_part, "set_part on a simulation that is no part");
         assert_eq!(keys.len(), particles.len(), "one key per particle");
         self.particles = particles;
         self.part_keys = keys;
-        self.owned = Some(owned);
     }
 
     /// Takes the particles and their keys out (leaving none), e.g. to send
@@ -389,8 +379,8 @@ impl Simulation {
         )
     }
 
-    /// The keys of the particles of a part ([`Simulation::set_part`]), own
-    /// then ghosts; empty in one process.
+    /// The keys of the particles of a part ([`Simulation::set_part`]);
+    /// empty in one process.
     pub fn part_keys(&self) -> &[u64] {
         &self.part_keys
     }
@@ -469,30 +459,49 @@ impl Simulation {
     /// Refuses, with nothing changed, when the Δt would be so short that a
     /// frame took more than `time.max_substeps_per_frame` substeps.
     pub fn step(&mut self, until: f64) -> Result<f32, SimulationError> {
+        assert!(!self.in_part, "a part of a split run steps by step_part");
+        self.substep(until, None)
+    }
+
+    /// [`Simulation::step`] for a part of a split run: the block sums that
+    /// other parts read, and those this part reads, go through `trade`
+    /// ([`crate::block_sums`]). Every part must call it.
+    pub fn step_part(
+        &mut self,
+        until: f64,
+        trade: &mut dyn SumTrade,
+    ) -> Result<f32, SimulationError> {
+        assert!(self.in_part, "step_part on a simulation that is no part");
+        self.substep(until, Some(trade))
+    }
+
+    /// One substep, trading block sums through `trade` in a part of a split
+    /// run.
+    fn substep(
+        &mut self,
+        until: f64,
+        trade: Option<&mut dyn SumTrade>,
+    ) -> Result<f32, SimulationError> {
         let next = self.next_dt();
         self.check_step_length(next)?;
         let dt = (next as f64).min(until - self.time).max(0.0) as f32;
         let layout = self.grid.layout;
         let mut clock = PhaseClock::start();
-        if self.owned.is_none() && self.steps.is_multiple_of(REORDER_INTERVAL) {
+        if !self.in_part && self.steps.is_multiple_of(REORDER_INTERVAL) {
             self.bins.rebuild(&layout, &self.particles.position);
             self.particles
                 .permute(self.bins.order(), &mut self.permute_buffers);
         }
         self.bins.rebuild(&layout, &self.particles.position);
-        if self.owned.is_some() {
+        if self.in_part {
             self.bins.order_blocks_by(&self.part_keys);
         }
-        self.grid.allocate(self.bins.active_blocks());
         clock.lap(&mut self.profile.binning);
         let transfer_scheme = self.scene.solver.transfer;
+        let (grid, bins, particles) = (&mut self.grid, &self.bins, &self.particles);
         match transfer_scheme {
-            Transfer::PicFlip => {
-                p2g::scatter_pic_flip(&mut self.grid, &self.bins, &self.particles, self.simd)
-            }
-            Transfer::Apic => {
-                p2g::scatter_apic(&mut self.grid, &self.bins, &self.particles, dt, self.simd)
-            }
+            Transfer::PicFlip => p2g::scatter_pic_flip(grid, bins, particles, self.simd, trade),
+            Transfer::Apic => p2g::scatter_apic(grid, bins, particles, dt, self.simd, trade),
         }
         clock.lap(&mut self.profile.scatter);
         let colliders = self.colliders.placed_at(self.time + dt as f64);
@@ -541,20 +550,12 @@ impl Simulation {
             colliders: &particle_colliders,
             lower: self.scene.domain.min - tolerance,
             upper: self.scene.domain.max + tolerance,
-            keys: self.owned.map(|_| self.part_keys.as_slice()),
-        };
-        let gather_bins = match self.owned {
-            Some(owned) => {
-                self.owned_bins
-                    .rebuild(&layout, &self.particles.position[..owned]);
-                &self.owned_bins
-            }
-            None => &self.bins,
+            keys: self.in_part.then_some(self.part_keys.as_slice()),
         };
         let stats = match transfer_scheme {
             Transfer::PicFlip => gather_pic_flip(
                 &self.grid,
-                gather_bins,
+                &self.bins,
                 &mut self.particles,
                 self.scene.solver.flip_blend,
                 &context,
@@ -562,7 +563,7 @@ impl Simulation {
             ),
             Transfer::Apic => gather_apic(
                 &self.grid,
-                gather_bins,
+                &self.bins,
                 &mut self.particles,
                 &context,
                 self.simd,

@@ -191,10 +191,10 @@ impl Setup {
         let mut grid = Grid::new(domain.min, domain.max, domain.cell_size);
         let mut bins = Bins::default();
         bins.rebuild(&self.layout, &particles.position);
-        grid.allocate(bins.active_blocks());
+        let simd = Simd::detect();
         match self.transfer() {
-            Transfer::PicFlip => p2g::scatter_pic_flip(&mut grid, &bins, particles, Simd::detect()),
-            Transfer::Apic => p2g::scatter_apic(&mut grid, &bins, particles, DT, Simd::detect()),
+            Transfer::PicFlip => p2g::scatter_pic_flip(&mut grid, &bins, particles, simd, None),
+            Transfer::Apic => p2g::scatter_apic(&mut grid, &bins, particles, DT, simd, None),
         }
         (grid, bins)
     }

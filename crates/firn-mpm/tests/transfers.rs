@@ -80,11 +80,11 @@ fn round_trip(transfer_scheme: Transfer) {
     let mut grid = Grid::new(Vec3::ZERO, Vec3::ONE, H);
     let mut bins = Bins::default();
     bins.rebuild(&grid.layout, &particles.position);
-    grid.allocate(bins.active_blocks());
     // No stress and Δt = 0: a pure transfer, no forces, no motion.
+    let simd = preferred_simd();
     match transfer_scheme {
-        Transfer::PicFlip => p2g::scatter_pic_flip(&mut grid, &bins, &particles, preferred_simd()),
-        Transfer::Apic => p2g::scatter_apic(&mut grid, &bins, &particles, 0.0, preferred_simd()),
+        Transfer::PicFlip => p2g::scatter_pic_flip(&mut grid, &bins, &particles, simd, None),
+        Transfer::Apic => p2g::scatter_apic(&mut grid, &bins, &particles, 0.0, simd, None),
     }
     let forces = if apic {
         GridForces::InMomentum
