@@ -399,19 +399,20 @@ impl<E: Exchange> RankSnow<E> {
         mut own: KeyedParticles,
         mut blocks: Vec<u32>,
     ) -> (KeyedParticles, Vec<u32>) {
-        let me = self.exchange.rank();
         let neighbours = self.neighbours();
         let mut outgoing = vec![Vec::new(); self.exchange.size()];
         let mut leavers = Vec::new();
         let mut far = false;
+        let slab = self.slabs.blocks(self.exchange.rank());
         for (p, &block) in blocks.iter().enumerate() {
-            let owner = self.slabs.owner(block);
-            if owner != me {
-                far |= !neighbours.contains(&owner);
-                own.pack(p, &mut outgoing[owner]);
-                leavers.push(p);
-                self.traffic.migrated += 1;
+            if slab.contains(&block) {
+                continue;
             }
+            let owner = self.slabs.owner(block);
+            far |= !neighbours.contains(&owner);
+            own.pack(p, &mut outgoing[owner]);
+            leavers.push(p);
+            self.traffic.migrated += 1;
         }
         self.count_sent(&outgoing);
         let incoming = self.timed(Phase::Migration, |exchange| {
