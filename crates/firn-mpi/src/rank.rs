@@ -21,7 +21,7 @@
 //!    every rank the same next Δt.
 //!
 //! Steps 1 and 2 share one pass of block indices over the own particles
-//! (carried through the migration's and the renumbering's reorders).
+//! (carried through the migration).
 
 use firn_core::Scene;
 use firn_io::IoError;
@@ -192,9 +192,9 @@ impl<E: Exchange> RankSnow<E> {
         let own = self.take_own();
         let blocks = self.blocks(&own.particles);
         self.rebalance(&blocks);
-        let (mut own, mut blocks) = self.migrate(own, blocks);
+        let (mut own, blocks) = self.migrate(own, blocks);
         if self.simulation.steps().is_multiple_of(REORDER_INTERVAL) {
-            self.renumber(&mut own, &mut blocks);
+            self.renumber(&mut own, &blocks);
         }
         self.simulation.set_part(own.particles, own.keys);
         let mut trade = SlabTrade {
@@ -442,13 +442,12 @@ impl<E: Exchange> RankSnow<E> {
     /// Renumbers the particles as one process reorders its array: sorted
     /// by block, and by key within a block (the one process's array is in
     /// key order and its sort is stable), lower ranks' blocks first; a
-    /// particle's key becomes its place in that order. `blocks` (each
-    /// particle's block index) is reordered alike.
-    fn renumber(&mut self, own: &mut KeyedParticles, blocks: &mut Vec<u32>) {
+    /// particle's key becomes its place in that order. `blocks` holds each
+    /// particle's block index.
+    fn renumber(&mut self, own: &mut KeyedParticles, blocks: &[u32]) {
         let mut order: Vec<u32> = (0..own.len() as u32).collect();
         order.sort_unstable_by_key(|&p| (blocks[p as usize], own.keys[p as usize]));
         own.permute(&order, &mut self.buffers);
-        *blocks = order.iter().map(|&p| blocks[p as usize]).collect();
         let count = own.len() as u64;
         let first = self.timed(Phase::Renumbering, |exchange| {
             exchange.exclusive_sum_u64(count)

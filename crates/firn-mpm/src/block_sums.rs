@@ -37,11 +37,10 @@ pub trait SumTrade {
 
 /// Gives the grid storage for the particles' blocks and adds every
 /// occupied block's sums (`sums_of(block, sums)` adds its particles to
-/// zeroed `sums`), colour by colour, so that each
-/// node sums its blocks in the same order whatever the thread count. In a
-/// part of a split run (`trade` given), the sums of the blocks other parts
-/// read are made first and traded, and the other parts' sums are added in
-/// their colour's turn.
+/// zeroed `sums`), colour by colour, so that each node sums its blocks in
+/// the same order whatever the thread count. In a part of a split run
+/// (`trade` given), the sums of the blocks other parts read are made first
+/// and traded, and the other parts' sums are added in their colour's turn.
 pub(crate) fn scatter_sums<T: NodeSum>(
     grid: &mut Grid,
     bins: &Bins,
