@@ -32,6 +32,7 @@ use glam::{DVec3, Vec3};
 
 use crate::integrate::Simd;
 use crate::lanes::{F32s, Real, V3, add3, cross3, scale3, sub3};
+use crate::noise::NOISE_SCALE;
 use crate::obstacles::{self, Sphere};
 use crate::random;
 
@@ -184,10 +185,12 @@ impl FlowField {
             .map(|obstacle| {
                 let radius = f64::from(obstacle.radius);
                 let influence = f64::from(obstacle.influence);
+                let reach = (radius + influence) * (1.0 + obstacles::REACH_MARGIN);
                 Sphere {
                     center: v3(obstacle.center.as_dvec3()),
                     radius: R::splat(radius),
                     inv_influence: R::splat(1.0 / influence),
+                    reach_squared: R::splat(reach * reach),
                 }
             })
             .collect();
@@ -197,8 +200,8 @@ impl FlowField {
         };
         Prepared {
             inv_length: R::splat(self.inv_length),
-            turbulence: R::splat(self.turbulence),
-            turbulence_gradient: R::splat(self.turbulence * self.inv_length),
+            turbulence: R::splat(self.turbulence * NOISE_SCALE),
+            turbulence_gradient: R::splat(self.turbulence * NOISE_SCALE * self.inv_length),
             background: R::splat(self.background),
             half_background: R::splat(0.5 * self.background),
             direction: v3(self.direction),
@@ -216,7 +219,9 @@ impl FlowField {
 #[derive(Clone, Debug)]
 pub(crate) struct Prepared<R: Real> {
     inv_length: R,
+    /// γ M times the noise's scale (the lanes' noise is unscaled).
     turbulence: R,
+    /// γ M / L times the noise's scale.
     turbulence_gradient: R,
     background: R,
     half_background: R,
@@ -280,11 +285,11 @@ fn velocity_analytic<R: Real>(prepared: &Prepared<R>, x: V3<R>) -> V3<R> {
         scale3(prepared.background, prepared.direction),
     );
     // Lanes with d / d0 ≥ 1 get α = 1 and unchanged bits, so the terms are
-    // skipped when no lane of the batch is that close to a sphere.
-    let near = (!prepared.spheres.is_empty())
-        .then(|| obstacles::most_influential(&prepared.spheres, x))
-        .filter(|(_, ratio)| R::any(ratio.lt(R::splat(1.0))));
-    if let Some((sphere, _)) = near {
+    // skipped when no lane of the batch is within reach of a sphere.
+    let near =
+        !prepared.spheres.is_empty() && R::any(obstacles::within_reach(&prepared.spheres, x));
+    if near {
+        let (sphere, _) = obstacles::most_influential(&prepared.spheres, x);
         let rel = sub3(x, sphere.center);
         let p = prepared.direction;
         let half = prepared.half_background;

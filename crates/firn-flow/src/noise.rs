@@ -123,8 +123,9 @@ fn corner<R: Real>(d: V3<R>, hash: R::Int, value: &mut R, grad: &mut V3<R>) {
     grad[2] = grad[2] + (t4 * g[2] - falloff * d[2]);
 }
 
-/// Simplex noise n(p) in about [−1, 1] and its exact gradient ∇n(p), lane by
-/// lane.
+/// Simplex noise n(p) / [`NOISE_SCALE`] and its exact gradient, lane by
+/// lane: the sum of the corner kernels, whose scale the caller folds into
+/// its own factors ([`noise`] applies it).
 #[inline(always)]
 pub fn simplex3<R: Real>(p: V3<R>) -> (R, V3<R>) {
     // The lattice cell, in skewed space.
@@ -200,27 +201,24 @@ pub fn simplex3<R: Real>(p: V3<R>) -> (R, V3<R>) {
         &mut grad,
     );
     corner(d3, far, &mut value, &mut grad);
-    let scale = R::splat(NOISE_SCALE);
-    (
-        value * scale,
-        [grad[0] * scale, grad[1] * scale, grad[2] * scale],
-    )
+    (value, grad)
 }
 
 /// Simplex noise and its gradient at one point, in `f32` (the bits of the
 /// batched path).
 pub fn noise(p: Vec3) -> (f32, Vec3) {
     let (value, grad) = simplex3([F32s([p.x]), F32s([p.y]), F32s([p.z])]);
+    let scale = NOISE_SCALE as f32;
     (
-        value.0[0],
-        Vec3::new(grad[0].0[0], grad[1].0[0], grad[2].0[0]),
+        value.0[0] * scale,
+        Vec3::new(grad[0].0[0], grad[1].0[0], grad[2].0[0]) * scale,
     )
 }
 
 /// Simplex noise and its gradient at one point, in `f64` (the reference).
 pub fn noise_f64(p: DVec3) -> (f64, DVec3) {
     let (value, grad) = simplex3([p.x, p.y, p.z]);
-    (value, DVec3::from_array(grad))
+    (value * NOISE_SCALE, DVec3::from_array(grad) * NOISE_SCALE)
 }
 
 #[cfg(test)]

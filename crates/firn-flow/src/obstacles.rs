@@ -44,6 +44,28 @@ pub(crate) struct Sphere<R: Real> {
     pub radius: R,
     /// 1 / d0.
     pub inv_influence: R,
+    /// The square of a distance from the centre a little beyond r + d0:
+    /// a point nearer than this may feel the sphere, one beyond it does not.
+    pub reach_squared: R,
+}
+
+/// How far beyond its influence distance (relative to r + d0) a sphere is
+/// looked for: far more than the round-off of d / d0 in `f32`.
+pub(crate) const REACH_MARGIN: f64 = 1e-4;
+
+/// Per lane, whether some sphere may bend the field there (d / d0 < 1 can
+/// only hold within `reach_squared`): a test without square roots.
+#[inline(always)]
+pub(crate) fn within_reach<R: Real>(spheres: &[Sphere<R>], x: V3<R>) -> R::Mask {
+    let reach = |sphere: &Sphere<R>| {
+        let rel = sub3(x, sphere.center);
+        dot3(rel, rel).lt(sphere.reach_squared)
+    };
+    spheres[1..]
+        .iter()
+        .fold(reach(&spheres[0]), |mask, sphere| {
+            R::or(mask, reach(sphere))
+        })
 }
 
 /// Per lane, the sphere with the least d / d0 (the smallest ramp), and that
@@ -66,6 +88,7 @@ pub(crate) fn most_influential<R: Real>(spheres: &[Sphere<R>], x: V3<R>) -> (Sph
             ],
             radius: R::select(closer, sphere.radius, best.radius),
             inv_influence: R::select(closer, sphere.inv_influence, best.inv_influence),
+            reach_squared: R::select(closer, sphere.reach_squared, best.reach_squared),
         };
     }
     (best, best_ratio)
@@ -129,6 +152,61 @@ pub(crate) fn modulate_curl<R: Real>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn within_reach_holds_wherever_a_sphere_bends_the_field() {
+        // Points on rays through two spheres, stepping across the outer edge
+        // of the influence shell by about an ulp of the distance at a time:
+        // wherever d / d0 < 1 in f32 the cheap test must hold, and it must
+        // fail a little further out.
+        type S = crate::lanes::F32s<1>;
+        let lanes = |v: [f32; 3]| v.map(|c| <S as Real>::splat(f64::from(c)));
+        let sphere = |center: [f32; 3], radius: f32, influence: f32| {
+            let reach = (f64::from(radius) + f64::from(influence)) * (1.0 + REACH_MARGIN);
+            Sphere {
+                center: lanes(center),
+                radius: <S as Real>::splat(f64::from(radius)),
+                inv_influence: <S as Real>::splat(1.0 / f64::from(influence)),
+                reach_squared: <S as Real>::splat(reach * reach),
+            }
+        };
+        let spheres = [
+            sphere([50.0, 50.0, 50.0], 15.0, 10.0),
+            sphere([-3.0, 7.5, 1000.25], 0.3, 2.7),
+        ];
+        let centres = [[50.0, 50.0, 50.0], [-3.0, 7.5, 1000.25]];
+        let edges = [25.0f32, 3.0];
+        let mut near = 0;
+        for s in 0..2 {
+            for ray in 0..100 {
+                let a = ray as f32 * 0.731;
+                let b = ray as f32 * 0.293;
+                let direction = [a.cos() * b.sin(), a.sin() * b.sin(), b.cos()];
+                let point = |distance: f32| {
+                    lanes(std::array::from_fn(|i| {
+                        centres[s][i] + distance * direction[i]
+                    }))
+                };
+                for k in -1000..1000 {
+                    let x = point(edges[s] * (1.0 + k as f32 * 1e-7));
+                    let (_, ratio) = most_influential(&spheres, x);
+                    if ratio.0[0] < 1.0 {
+                        near += 1;
+                        assert!(
+                            <S as Real>::any(within_reach(&spheres, x)),
+                            "sphere {s}, ray {ray}, {k}"
+                        );
+                    }
+                }
+                let far = point(edges[s] * 1.01);
+                assert!(
+                    !<S as Real>::any(within_reach(&spheres[s..=s], far)),
+                    "sphere {s}, ray {ray}"
+                );
+            }
+        }
+        assert!(near > 150_000, "{near}");
+    }
 
     #[test]
     fn ramp_is_smooth_and_clamped() {
