@@ -267,15 +267,24 @@ pub(crate) fn velocity_lanes<R: Real>(prepared: &Prepared<R>, x: V3<R>) -> V3<R>
 /// some sphere's influence distance.
 #[inline(always)]
 fn velocity_analytic<R: Real>(prepared: &Prepared<R>, x: V3<R>) -> V3<R> {
-    let zero = R::splat(0.0);
-    let mut psi = [zero; 3];
+    // Written out, not a loop over arrays set to zero first (which became a
+    // call to `memset` per evaluation) nor closures (which do not inherit
+    // the caller's target features).
+    let (n0, g0) = R::simplex(prepared.noise_point(x, 0));
+    let (n1, g1) = R::simplex(prepared.noise_point(x, 1));
+    let (n2, g2) = R::simplex(prepared.noise_point(x, 2));
+    let psi = [
+        prepared.turbulence * n0,
+        prepared.turbulence * n1,
+        prepared.turbulence * n2,
+    ];
     // jacobian[c] = ∇ψ_c, a row of ∂ψ/∂x.
-    let mut jacobian = [[zero; 3]; 3];
-    for c in 0..3 {
-        let (value, gradient) = R::simplex(prepared.noise_point(x, c));
-        psi[c] = prepared.turbulence * value;
-        jacobian[c] = scale3(prepared.turbulence_gradient, gradient);
-    }
+    let gradient = prepared.turbulence_gradient;
+    let jacobian = [
+        scale3(gradient, g0),
+        scale3(gradient, g1),
+        scale3(gradient, g2),
+    ];
     let mut v = add3(
         [
             jacobian[2][1] - jacobian[1][2],

@@ -429,10 +429,14 @@ pub(crate) fn evaluate_batches<R: Batch>(
 /// The numbers of a batch starting at `start` (padded with the last).
 #[inline(always)]
 fn load_numbers<R: Batch>(numbers: &[f32], start: usize) -> R {
-    let last = numbers.len() - 1;
     let mut lanes = [0.0f32; MAX_LANES];
-    for (i, lane) in lanes.iter_mut().enumerate().take(R::WIDTH) {
-        *lane = numbers[(start + i).min(last)];
+    if let Some(batch) = numbers.get(start..start + R::WIDTH) {
+        lanes[..R::WIDTH].copy_from_slice(batch);
+    } else {
+        let last = numbers.len() - 1;
+        for (i, lane) in lanes.iter_mut().enumerate().take(R::WIDTH) {
+            *lane = numbers[(start + i).min(last)];
+        }
     }
     R::load(&lanes)
 }
