@@ -405,6 +405,7 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
     if let Some(mpi) = firn_mpi::mpi_exchange::MpiRun::launched() {
         return crate::ranks::bench(&args, &mpi);
     }
+    println!("cpu: {}", crate::machine::Cpu::detect().describe());
     if (args.render || args.flow || args.sweep.sweep.is_some())
         && matches!(args.backend, Some(BackendChoice::Gpu))
     {
@@ -463,13 +464,29 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
     write_json(&args.json, &records)
 }
 
+/// Writes the records as [`records_json`].
 pub fn write_json(path: &std::path::Path, records: &[impl Serialize]) -> Result<(), Failure> {
-    let json = serde_json::to_string_pretty(records)
-        .map_err(|error| Failure::Failed(error.to_string()))?;
+    let json = records_json(records)?;
     firn_io::write_atomically(path, |out| out.write_all(json.as_bytes()))
         .map_err(|error| Failure::BadInput(format!("error: {error}")))?;
     println!("wrote {}", path.display());
     Ok(())
+}
+
+/// The records as a pretty JSON array, each with the CPU it was measured on
+/// added (`cpu`: [`crate::machine::Cpu`]).
+pub fn records_json(records: &[impl Serialize]) -> Result<String, Failure> {
+    let failed = |error: serde_json::Error| Failure::Failed(error.to_string());
+    let cpu = serde_json::to_value(crate::machine::Cpu::detect()).map_err(failed)?;
+    let mut values = Vec::with_capacity(records.len());
+    for record in records {
+        let mut value = serde_json::to_value(record).map_err(failed)?;
+        if let Some(fields) = value.as_object_mut() {
+            fields.insert("cpu".into(), cpu.clone());
+        }
+        values.push(value);
+    }
+    serde_json::to_string_pretty(&values).map_err(failed)
 }
 
 /// The scene file with the command line's overrides, validated.

@@ -15,7 +15,7 @@ use firn_run::{Placement, Solver, SolverOptions};
 use serde::Serialize;
 
 use crate::Failure;
-use crate::bench::{BenchArgs, SimdChoice, failed};
+use crate::bench::{BenchArgs, SimdChoice, failed, write_json};
 
 /// One measured configuration.
 #[derive(Debug, Serialize)]
@@ -131,12 +131,7 @@ pub fn bench_flow(args: &BenchArgs) -> Result<(), Failure> {
             records.push(record);
         }
     }
-    let json = serde_json::to_string_pretty(&records)
-        .map_err(|error| Failure::Failed(error.to_string()))?;
-    firn_io::write_atomically(&args.json, |out| out.write_all(json.as_bytes()))
-        .map_err(|error| Failure::BadInput(format!("error: {error}")))?;
-    println!("wrote {}", args.json.display());
-    Ok(())
+    write_json(&args.json, &records)
 }
 
 /// Times `args.steps` steps of `particles` particles with `curl` on `simd`

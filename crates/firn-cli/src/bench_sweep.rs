@@ -604,8 +604,7 @@ fn write_outputs(kind: SweepKind, records: &[SweepRecord], out: &Path) -> Result
         Ok::<(), Failure>(())
     };
     write(format!("{stem}.csv"), csv(records).as_bytes())?;
-    let json = serde_json::to_string_pretty(records)
-        .map_err(|error| Failure::Failed(error.to_string()))?;
+    let json = crate::bench::records_json(records)?;
     write(format!("{stem}.json"), json.as_bytes())?;
 
     if !records

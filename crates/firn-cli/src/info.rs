@@ -16,8 +16,9 @@ const INSTALL_HINT: &str = "install a GPU driver, or Mesa's software Vulkan driv
 /// Prints firn's version, the CPU, the adapters and `auto`'s choice.
 pub fn info() -> Result<(), Failure> {
     println!("firn {}", env!("CARGO_PKG_VERSION"));
+    println!("cpu: {}", crate::machine::Cpu::detect().describe());
     println!(
-        "cpu: {} threads, SIMD {} (the snow model uses {})",
+        "cpu threads: {}, SIMD path {} (the snow model uses {})",
         rayon::current_num_threads(),
         Simd::detect().name(),
         preferred_simd().name()

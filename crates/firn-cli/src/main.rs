@@ -11,6 +11,7 @@ mod check;
 mod compare;
 mod compare_layout;
 mod info;
+mod machine;
 mod pictures;
 mod presets;
 #[cfg(feature = "mpi")]

@@ -115,6 +115,9 @@ pub fn bench(args: &BenchArgs, mpi: &MpiRun) -> Result<(), Failure> {
             )
         });
     agree_on(&exchange, refused.map_or(Ok(()), Err))?;
+    if exchange.rank() == 0 {
+        println!("cpu (rank 0): {}", crate::machine::Cpu::detect().describe());
+    }
     for &grid in &args.grid {
         for &particles in &args.particles {
             for &transfer in args.transfer.schemes() {

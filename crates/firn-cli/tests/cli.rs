@@ -623,4 +623,18 @@ fn bench_flow_with_a_simd_path_times_only_that_path() {
     assert_eq!(records.as_array().unwrap().len(), 1);
     assert_eq!(records[0]["simd"], "portable");
     assert_eq!(records[0]["curl"], "analytic");
+    // The CPU it ran on, printed and recorded with the figure.
+    let cpu = &records[0]["cpu"];
+    assert!(
+        cpu["model"].as_str().is_some_and(|model| !model.is_empty()),
+        "{cpu}"
+    );
+    let flags = cpu["simd_flags"].as_array().expect("a list of SIMD flags");
+    assert!(
+        stdout.contains(&format!("cpu: {}", cpu["model"].as_str().unwrap())),
+        "{stdout}"
+    );
+    if cfg!(target_arch = "x86_64") && std::arch::is_x86_feature_detected!("avx2") {
+        assert!(flags.iter().any(|flag| flag == "avx2"), "{cpu}");
+    }
 }
