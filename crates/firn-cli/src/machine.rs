@@ -2,9 +2,9 @@
 //! model numbers that tell CPU generations apart where a virtual machine
 //! gives them all one name ("AMD EPYC"), and the SIMD extensions it has.
 //! `firn bench` prints it before timing and stores it in every record;
-//! `firn info` prints it. Read from `/proc/cpuinfo` (Linux) and the
-//! standard library's feature detection; no crate reports the family and
-//! model numbers without pulling in a system-information library.
+//! `firn info` prints it. Read from three lines of `/proc/cpuinfo` (Linux)
+//! and the standard library's feature detection: a CPUID crate
+//! (`raw-cpuid`) would give the same numbers on x86 only, for a dependency.
 
 use serde::Serialize;
 
