@@ -1,8 +1,8 @@
 //! `firn run` and `firn bench` under an MPI launcher (the `mpi` feature):
-//! `mpirun -np N firn run SCENE` splits the snow between N ranks
-//! (firn-mpi). Every rank loads the scene; rank 0 records the run as one
-//! process would (the same caches, manifest and checkpoints, byte for
-//! byte), the other ranks step their slabs and follow rank 0's commands.
+//! `mpirun -np N firn run SCENE` splits the snow or the flow between N
+//! ranks (firn-mpi). Every rank loads the scene; rank 0 records the run as
+//! one process would (the same caches, manifest and checkpoints, byte for
+//! byte), the other ranks step their parts and follow rank 0's commands.
 
 use std::time::Instant;
 

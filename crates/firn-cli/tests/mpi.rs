@@ -1,9 +1,9 @@
 //! `mpirun -np N firn run SCENE` (the `mpi` feature): the same PLY frames,
-//! byte for byte, for 1 to 4 ranks and one process, both transfer schemes;
-//! a run stopped on one rank count resumes on another with the same bytes;
-//! a failing rank stops the run with its message; the semi-implicit
-//! integrator is refused. Skipped without `mpirun` unless
-//! `FIRN_REQUIRE_MPI=1`.
+//! byte for byte, for 1 to 4 ranks and one process, both transfer schemes
+//! and a curl-noise flow; a run stopped on one rank count resumes on
+//! another with the same bytes; a failing rank stops the run with its
+//! message; the semi-implicit integrator is refused. Skipped without
+//! `mpirun` unless `FIRN_REQUIRE_MPI=1`.
 
 #![cfg(feature = "mpi")]
 
@@ -167,6 +167,73 @@ fn a_run_stopped_on_two_ranks_resumes_on_three_with_the_same_bytes() {
     assert!(
         frames(&alone) == frames(&split),
         "the resumed frames differ"
+    );
+}
+
+/// The flow scene of the MPI tests: a stream with rebirth, a sphere and
+/// trails.
+fn stream_scene() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../firn-mpi/tests/stream.toml")
+}
+
+#[test]
+fn a_flow_on_any_rank_count_writes_the_one_process_frames_and_resumes_on_another() {
+    if !have_mpirun() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let scene = stream_scene();
+    let scene = scene.to_str().unwrap();
+    let alone = dir.path().join("alone");
+    let output = firn(&[
+        "run",
+        scene,
+        "--out",
+        alone.to_str().unwrap(),
+        "--frames",
+        "4",
+        "--threads",
+        "1",
+        "--quiet",
+    ]);
+    assert_success(&output, "one process");
+    let reference = frames(&alone);
+    assert_eq!(reference.len(), 5, "frames 0 to 4");
+    for ranks in 2..=4 {
+        let out = dir.path().join(format!("ranks-{ranks}"));
+        let output = mpirun(
+            ranks,
+            &[
+                "run",
+                scene,
+                "--out",
+                out.to_str().unwrap(),
+                "--frames",
+                "4",
+            ],
+        );
+        assert_success(&output, &format!("{ranks} ranks"));
+        assert!(
+            frames(&out) == reference,
+            "the flow's frames differ with {ranks} ranks"
+        );
+    }
+    let split = dir.path().join("resumed");
+    let out = split.to_str().unwrap();
+    assert_success(
+        &mpirun(3, &["run", scene, "--out", out, "--frames", "2"]),
+        "3 ranks",
+    );
+    assert_success(
+        &mpirun(
+            2,
+            &["run", scene, "--out", out, "--frames", "4", "--resume"],
+        ),
+        "resumed on 2 ranks",
+    );
+    assert!(
+        frames(&split) == reference,
+        "the resumed flow's frames differ"
     );
 }
 

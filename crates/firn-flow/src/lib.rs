@@ -15,6 +15,8 @@
 //! - [`integrate`] and [`simulation`]: RK2/RK4 steps, 16 (AVX-512), 16
 //!   (AVX2, two registers) or 8 portable lanes per SIMD batch, chosen at run time ([`Simd`]), in
 //!   parallel with rayon, bit-identical for any thread count and code path;
+//! - [`parts`]: the flow cut into parts for processes that each step one
+//!   (firn-mpi), with the bits of the whole;
 //! - [`lanes`]: the number types the field is written over.
 //!
 //! ```no_run
@@ -46,6 +48,7 @@ mod lanes_avx512;
 pub mod noise;
 pub mod obstacles;
 pub mod particles;
+pub mod parts;
 pub mod random;
 pub mod simulation;
 pub mod trails;
@@ -53,6 +56,7 @@ pub mod trails;
 pub use field::FlowField;
 pub use integrate::Simd;
 pub use particles::FlowParticles;
+pub use parts::{FlowPart, FlowPartState};
 pub use simulation::{
     FlowError, FlowSimulation, FlowSnapshot, position_color, scene_with_settings,
 };

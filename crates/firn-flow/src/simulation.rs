@@ -32,10 +32,12 @@ use crate::field::{FlowField, Prepared};
 use crate::integrate::{self, Chunk, Limits, MAX_LANES, Simd, Stages};
 use crate::lanes::F32s;
 use crate::particles::FlowParticles;
+use crate::parts::{FlowPart, FlowPartState};
 use crate::trails::Trails;
 
-/// Particles per parallel task (a multiple of the SIMD batch).
-const CHUNK: usize = 64 * MAX_LANES;
+/// Particles per parallel task (a multiple of the SIMD batch), and the unit
+/// of a [`FlowPart`].
+pub(crate) const CHUNK: usize = 64 * MAX_LANES;
 
 /// How far outside a sphere a particle is put when pushed out, relative to
 /// the radius (so that `f32` rounding cannot leave it inside).
@@ -296,6 +298,14 @@ impl FlowSimulation {
 
     /// Advance one substep.
     pub fn step(&mut self) {
+        self.step_part(FlowPart::WHOLE);
+    }
+
+    /// Advance one substep, moving only `part`'s particles (another process
+    /// moves the rest; see [`crate::parts`]). Every part makes the particles
+    /// the emitters add and records every trail, so the copies stay the
+    /// same size; the other parts' particles keep their state.
+    pub fn step_part(&mut self, part: FlowPart) {
         let t0 = self.time();
         let t1 = (self.substeps + 1) as f64 / self.steps_per_second();
         let dt32 = (t1 - t0) as f32;
@@ -336,6 +346,7 @@ impl FlowSimulation {
             .zip(lifetimes.par_chunks_mut(CHUNK))
             .zip(generations.par_chunks_mut(CHUNK))
             .enumerate()
+            .filter(|(chunk_index, _)| part.holds_chunk(*chunk_index))
             .for_each(
                 |(chunk_index, ((((positions, velocities), ages), lifetimes), generations))| {
                     let mut flagged = Vec::new();
@@ -359,6 +370,11 @@ impl FlowSimulation {
             );
         self.substeps += 1;
         self.emit(t1, &end);
+        if let Some(trails) = &mut self.trails {
+            // Every particle has a ring, so that every part's state holds
+            // its particles' rings.
+            trails.cover(self.particles.len());
+        }
         if self
             .substeps
             .is_multiple_of(u64::from(self.settings.substeps))
@@ -384,13 +400,93 @@ impl FlowSimulation {
     /// Advance by whole substeps up to time `until` (the last substep that
     /// does not end after it); returns the substeps taken.
     pub fn advance_to(&mut self, until: f64) -> u32 {
+        self.advance_part_to(FlowPart::WHOLE, until)
+    }
+
+    /// [`FlowSimulation::advance_to`], moving only `part`'s particles
+    /// ([`FlowSimulation::step_part`]).
+    pub fn advance_part_to(&mut self, part: FlowPart, until: f64) -> u32 {
         let mut taken = 0;
         let tolerance = 1e-6 * self.dt();
         while (self.substeps + 1) as f64 / self.steps_per_second() <= until + tolerance {
-            self.step();
+            self.step_part(part);
             taken += 1;
         }
         taken
+    }
+
+    /// The state of `part`'s particles, in index order.
+    pub fn part_state(&self, part: FlowPart) -> FlowPartState {
+        let particles = &self.particles;
+        let mut state = FlowPartState::default();
+        for range in part.ranges(particles.len()) {
+            state
+                .positions
+                .extend_from_slice(&particles.positions[range.clone()]);
+            state
+                .velocities
+                .extend_from_slice(&particles.velocities[range.clone()]);
+            state.ages.extend_from_slice(&particles.ages[range.clone()]);
+            state
+                .lifetimes
+                .extend_from_slice(&particles.lifetimes[range.clone()]);
+            state
+                .generations
+                .extend_from_slice(&particles.generations[range.clone()]);
+            if let Some(trails) = &self.trails {
+                let (points, lengths, generations) = trails.rows(range);
+                state.trail_points.extend_from_slice(points);
+                state.trail_lengths.extend_from_slice(lengths);
+                state.trail_generations.extend_from_slice(generations);
+            }
+        }
+        state
+    }
+
+    /// Puts `state`, taken by [`FlowSimulation::part_state`] from a copy of
+    /// this flow at the same substep, in place of `part`'s particles.
+    pub fn set_part_state(
+        &mut self,
+        part: FlowPart,
+        state: &FlowPartState,
+    ) -> Result<(), FlowError> {
+        let count = part.count(self.particles.len());
+        let trail_capacity = self.trails.as_ref().map_or(0, Trails::capacity);
+        let trail_rows = if self.trails.is_some() { count } else { 0 };
+        let fits = state.positions.len() == count
+            && state.velocities.len() == count
+            && state.ages.len() == count
+            && state.lifetimes.len() == count
+            && state.generations.len() == count
+            && state.trail_points.len() == trail_rows * trail_capacity
+            && state.trail_lengths.len() == trail_rows
+            && state.trail_generations.len() == trail_rows;
+        if !fits {
+            return Err(FlowError::SnapshotMismatch(format!(
+                "a part of {} particles where this flow's part holds {count}",
+                state.positions.len()
+            )));
+        }
+        let mut start = 0;
+        let particles = &mut self.particles;
+        for range in part.ranges(particles.len()) {
+            let from = start..start + range.len();
+            particles.positions[range.clone()].copy_from_slice(&state.positions[from.clone()]);
+            particles.velocities[range.clone()].copy_from_slice(&state.velocities[from.clone()]);
+            particles.ages[range.clone()].copy_from_slice(&state.ages[from.clone()]);
+            particles.lifetimes[range.clone()].copy_from_slice(&state.lifetimes[from.clone()]);
+            particles.generations[range.clone()].copy_from_slice(&state.generations[from.clone()]);
+            if let Some(trails) = &mut self.trails {
+                trails.set_rows(
+                    range.start,
+                    &state.trail_points[from.start * trail_capacity..from.end * trail_capacity],
+                    &state.trail_lengths[from.clone()],
+                    &state.trail_generations[from.clone()],
+                );
+            }
+            start = from.end;
+        }
+        Ok(())
     }
 
     /// Make the particles that `rate` emitters have born by time `t`.

@@ -86,14 +86,20 @@ impl Trails {
         (points, self.lengths.clone())
     }
 
-    /// Record the current positions as the newest trail points.
-    pub fn record(&mut self, positions: &[Vec3], generations: &[u32]) {
-        let count = positions.len();
+    /// Gives particles up to `count` an empty ring (as recording their
+    /// first position would, before it records).
+    pub(crate) fn cover(&mut self, count: usize) {
         if self.lengths.len() < count {
             self.points.resize(count * self.capacity, Vec3::ZERO);
             self.lengths.resize(count, 0);
             self.generations.resize(count, u32::MAX);
         }
+    }
+
+    /// Record the current positions as the newest trail points.
+    pub fn record(&mut self, positions: &[Vec3], generations: &[u32]) {
+        let count = positions.len();
+        self.cover(count);
         let capacity = self.capacity;
         let head = (self.head + 1) % capacity;
         self.head = head;
@@ -115,6 +121,33 @@ impl Trails {
                     *length = (*length + 1).min(limit);
                 }
             });
+    }
+
+    /// The rings, lengths and recorded generations of the particles in
+    /// `particles`.
+    pub(crate) fn rows(&self, particles: std::ops::Range<usize>) -> (&[Vec3], &[u32], &[u32]) {
+        let capacity = self.capacity;
+        (
+            &self.points[particles.start * capacity..particles.end * capacity],
+            &self.lengths[particles.clone()],
+            &self.generations[particles],
+        )
+    }
+
+    /// Puts the rings, lengths and recorded generations of particles
+    /// `first..` (as many as `lengths` holds) in place.
+    pub(crate) fn set_rows(
+        &mut self,
+        first: usize,
+        points: &[Vec3],
+        lengths: &[u32],
+        generations: &[u32],
+    ) {
+        let capacity = self.capacity;
+        let rows = first..first + lengths.len();
+        self.points[rows.start * capacity..rows.end * capacity].copy_from_slice(points);
+        self.lengths[rows.clone()].copy_from_slice(lengths);
+        self.generations[rows].copy_from_slice(generations);
     }
 
     /// The raw state, for checkpoints: capacity, head slot, rings, lengths and

@@ -5,7 +5,7 @@ mod common;
 
 use common::scene;
 use firn_core::Scene;
-use firn_flow::{FlowError, FlowSimulation, FlowSnapshot, Simd};
+use firn_flow::{FlowError, FlowPart, FlowSimulation, FlowSnapshot, Simd};
 use glam::Vec3;
 
 /// Everything at once: obstacles, drifting noise, RK4, a rate emitter with
@@ -134,6 +134,39 @@ fn a_resumed_run_continues_bit_for_bit() {
         resumed.advance_frame();
     }
     assert_eq!(resumed.snapshot(), straight.snapshot());
+}
+
+#[test]
+fn parts_stepped_apart_and_collected_give_the_whole_flows_bits() {
+    // As firn-mpi's ranks do: every process steps its part of a copy of the
+    // flow, and after each frame the first collects the others' parts.
+    let mut whole = FlowSimulation::new(busy()).unwrap();
+    let parts = 3;
+    let mut copies: Vec<FlowSimulation> = (0..parts)
+        .map(|_| FlowSimulation::new(busy()).unwrap())
+        .collect();
+    let frame_time = 1.0 / busy().time.fps;
+    for frame in 1..=10 {
+        whole.advance_frame();
+        let until = f64::from(frame) * frame_time;
+        for (part, copy) in copies.iter_mut().enumerate() {
+            copy.advance_part_to(FlowPart::new(part, parts), until);
+        }
+        let (first, others) = copies.split_first_mut().unwrap();
+        for (index, copy) in others.iter().enumerate() {
+            let part = FlowPart::new(index + 1, parts);
+            first.set_part_state(part, &copy.part_state(part)).unwrap();
+        }
+        assert!(
+            bits(&first.snapshot()) == bits(&whole.snapshot()),
+            "frame {frame}: the parts differ from the whole"
+        );
+        assert_eq!(first.snapshot(), whole.snapshot());
+    }
+    assert!(whole.len() > 3 * 1024, "every part holds particles");
+    let other = copies[1].part_state(FlowPart::new(1, parts));
+    let refused = copies[0].set_part_state(FlowPart::new(0, parts), &other);
+    assert!(matches!(refused, Err(FlowError::SnapshotMismatch(_))));
 }
 
 #[test]

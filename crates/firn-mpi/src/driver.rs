@@ -1,13 +1,15 @@
-//! A split run recorded by rank 0: rank 0 runs [`firn_run::Recording`] as
-//! one process would, with a [`RootStepper`] that has every rank step its
-//! slab to the end of each frame. Every rank writes its own particles: a
-//! VTK piece per frame (rank 0 lists the pieces in the ParaView
+//! A split run recorded by rank 0: rank 0 runs [`firn_run::Recording`] as one
+//! process would, with a [`RootStepper`] that has every rank step its part
+//! ([`RankPart`]: a slab of the snow, or a part of a flow's particles) to the
+//! end of each frame. A flow's state is then whole on rank 0, which writes
+//! every file as one process would. In a snow run every rank writes its own
+//! particles: a VTK piece per frame (rank 0 lists the pieces in the ParaView
 //! collection) and a checkpoint piece with their keys (rank 0 writes the
-//! manifest naming the pieces once all are written), so `--resume` works
-//! on any rank count. Rank 0 also gathers the state of each frame for the
-//! caches that are one file of the whole run (the PLY frames in the
-//! one-process order, byte for byte; volumes, meshes, pictures). The other
-//! ranks [`follow`] rank 0's [`Command`]s.
+//! manifest naming the pieces once all are written), so `--resume` works on any
+//! rank count. Rank 0 also gathers the state of each frame for the caches that
+//! are one file of the whole run (the PLY frames in the one-process order, byte
+//! for byte; volumes, meshes, pictures). The other ranks [`follow`] rank 0's
+//! [`Command`]s.
 
 use firn_core::Scene;
 use firn_core::scene::CacheFormat;
@@ -18,6 +20,7 @@ use firn_run::{Placement, RunDirectory, RunError, Solver};
 
 use crate::exchange::{Exchange, join_u64, split_u64};
 use crate::rank::RankSnow;
+use crate::rank_flow::RankFlow;
 
 /// What rank 0 tells the other ranks to do next.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -86,15 +89,9 @@ impl Command {
 
 /// Why a scene cannot run split between `ranks` ranks, if it cannot.
 pub fn refusal(scene: &Scene, ranks: usize) -> Option<String> {
-    use firn_core::scene::{Integrator, SceneKind};
-    if ranks == 1 {
+    use firn_core::scene::Integrator;
+    if ranks == 1 || scene.kind.flow().is_some() {
         return None;
-    }
-    if !matches!(scene.kind, SceneKind::Snow) {
-        return Some(format!(
-            "scene `{}` is a flow scene; only snow runs split between MPI ranks\n  fix: run it without mpirun (its particles are independent: one process is fast)",
-            scene.name
-        ));
     }
     if matches!(scene.solver.integrator, Integrator::SemiImplicit(_)) {
         return Some(format!(
@@ -111,39 +108,82 @@ pub fn refusal(scene: &Scene, ranks: usize) -> Option<String> {
     None
 }
 
-/// Rank 0's [`Stepper`]: every rank steps its slab, rank 0 gathers the
+/// One rank's part of a split run: snow by slabs, a flow by particles.
+pub enum RankPart<E: Exchange> {
+    /// A snow simulation's slab.
+    Snow(Box<RankSnow<E>>),
+    /// A flow's part of the particles.
+    Flow(Box<RankFlow<E>>),
+}
+
+impl<E: Exchange> RankPart<E> {
+    /// Starts this rank's part of a run of `scene`: rank 0 passes the
+    /// run's state, the others `None`. Every rank must call it.
+    fn start(exchange: E, scene: Scene, state: Option<SolverState>) -> RankPart<E> {
+        if scene.kind.flow().is_some() {
+            let snapshot = state.map(|state| match state {
+                SolverState::Flow(snapshot) => snapshot,
+                SolverState::Snow(_) => unreachable!("a flow scene's solver holds a flow"),
+            });
+            RankPart::Flow(Box::new(RankFlow::start(exchange, scene, snapshot)))
+        } else {
+            let snapshot = state.map(|state| match state {
+                SolverState::Snow(snapshot) => snapshot,
+                SolverState::Flow(_) => unreachable!("a snow scene's solver holds snow"),
+            });
+            RankPart::Snow(Box::new(RankSnow::scatter(exchange, scene, snapshot)))
+        }
+    }
+
+    /// How this rank talks to the others.
+    fn exchange(&self) -> &E {
+        match self {
+            RankPart::Snow(rank) => rank.exchange(),
+            RankPart::Flow(rank) => rank.exchange(),
+        }
+    }
+
+    /// Steps this rank's part to simulated time `until`, then gathers the
+    /// state on rank 0 (`None` on the others, or where a step failed: every
+    /// rank learns of a failure, rank 0 reports it).
+    fn advance_and_gather(&mut self, until: f64) -> Result<(u32, Option<SolverState>), RunError> {
+        match self {
+            RankPart::Snow(rank) => {
+                let substeps = rank.advance_to(until)?;
+                Ok((substeps, rank.gather().map(SolverState::Snow)))
+            }
+            RankPart::Flow(rank) => {
+                let substeps = rank.advance_to(until);
+                Ok((substeps, rank.gather().map(SolverState::Flow)))
+            }
+        }
+    }
+}
+
+/// Rank 0's [`Stepper`]: every rank steps its part, rank 0 gathers the
 /// state into the recording's solver.
 pub struct RootStepper<E: Exchange> {
-    rank: RankSnow<E>,
+    part: RankPart<E>,
 }
 
 impl<E: Exchange> RootStepper<E> {
     /// Splits `solver`'s state between the ranks (which wait in
     /// [`follow`]). `solver` runs on the CPU.
     pub fn start(exchange: E, solver: &Solver) -> Result<RootStepper<E>, RunError> {
-        let SolverState::Snow(snapshot) = solver.state()? else {
-            return Err(RunError::Unsupported(
-                "only snow runs split between MPI ranks",
-            ));
-        };
+        let state = solver.state()?;
         Command::Start.send(&exchange);
-        let rank = RankSnow::scatter(exchange, solver.scene().clone(), Some(snapshot));
-        Ok(RootStepper { rank })
-    }
-
-    /// Rank 0's part.
-    pub fn rank(&self) -> &RankSnow<E> {
-        &self.rank
+        let part = RankPart::start(exchange, solver.scene().clone(), Some(state));
+        Ok(RootStepper { part })
     }
 }
 
 impl<E: Exchange> Stepper for RootStepper<E> {
     fn advance_to(&mut self, solver: &mut Solver, until: f64) -> Result<u32, RunError> {
-        Command::Advance { until }.send(self.rank.exchange());
-        let substeps = self.rank.advance_to(until)?;
-        let snapshot = self.rank.gather().expect("rank 0 gathers");
+        Command::Advance { until }.send(self.part.exchange());
+        let (substeps, state) = self.part.advance_and_gather(until)?;
+        let state = state.expect("rank 0 gathers");
         let scene = solver.scene().clone();
-        *solver = Solver::restore(scene, SolverState::Snow(snapshot), &Placement::Cpu)?;
+        *solver = Solver::restore(scene, state, &Placement::Cpu)?;
         Ok(substeps)
     }
 
@@ -153,13 +193,18 @@ impl<E: Exchange> Stepper for RootStepper<E> {
         _time: f64,
         run: &RunDirectory,
     ) -> Option<Result<Vec<(u32, String)>, RunError>> {
-        let scene = self.rank.simulation().scene();
+        // A flow's frames are whole on rank 0, which writes them as one
+        // process does.
+        let RankPart::Snow(rank) = &mut self.part else {
+            return None;
+        };
+        let scene = rank.simulation().scene();
         if !scene.output.formats.contains(&CacheFormat::Vtk) {
             return None;
         }
-        Command::Pieces { frame: index }.send(self.rank.exchange());
-        let ranks = self.rank.exchange().size();
-        Some(self.rank.write_vtk_piece(index, run).map(|_| {
+        Command::Pieces { frame: index }.send(rank.exchange());
+        let ranks = rank.exchange().size();
+        Some(rank.write_vtk_piece(index, run).map(|_| {
             (0..ranks)
                 .map(|rank| (rank as u32, RunDirectory::vtk_piece_name(index, rank)))
                 .collect()
@@ -172,10 +217,13 @@ impl<E: Exchange> Stepper for RootStepper<E> {
         scene_json: &serde_json::Value,
         run: &RunDirectory,
     ) -> Option<Result<(), RunError>> {
-        Command::Checkpoint { frame }.send(self.rank.exchange());
-        let ranks = self.rank.exchange().size();
-        let written = self
-            .rank
+        // A flow's checkpoint is whole on rank 0, as one process's.
+        let RankPart::Snow(rank) = &mut self.part else {
+            return None;
+        };
+        Command::Checkpoint { frame }.send(rank.exchange());
+        let ranks = rank.exchange().size();
+        let written = rank
             .write_checkpoint_piece(frame, scene_json, run)
             .and_then(|(_, particles)| {
                 let manifest = PieceManifest {
@@ -219,33 +267,39 @@ fn remove_stale_pieces(run: &RunDirectory, manifest: &PieceManifest) {
 pub fn follow<E: Exchange + Clone>(exchange: E, scene: &Scene) -> i32 {
     let run = RunDirectory::new(scene.output.directory.clone());
     let scene_json = checkpoint::scene_json(scene);
-    let mut part: Option<RankSnow<E>> = None;
+    let mut part: Option<RankPart<E>> = None;
     loop {
         match Command::receive(&exchange) {
             Command::Stop { code } => return code,
             Command::Start => {
-                part = Some(RankSnow::scatter(exchange.clone(), scene.clone(), None));
+                part = Some(RankPart::start(exchange.clone(), scene.clone(), None));
             }
             Command::Advance { until } => {
-                let rank = started(&mut part);
                 // Every rank learns of a failure; rank 0 reports it.
-                if rank.advance_to(until).is_ok() {
-                    rank.gather();
-                }
+                let _ = started(&mut part).advance_and_gather(until);
             }
             // Every rank learns of a failure; rank 0 reports it.
             Command::Pieces { frame } => {
-                let _ = started(&mut part).write_vtk_piece(frame, &run);
+                let _ = started_snow(&mut part).write_vtk_piece(frame, &run);
             }
             Command::Checkpoint { frame } => {
-                let _ = started(&mut part).write_checkpoint_piece(frame, &scene_json, &run);
+                let _ = started_snow(&mut part).write_checkpoint_piece(frame, &scene_json, &run);
             }
         }
     }
 }
 
 /// A follower's part, which rank 0 starts before any other command.
-fn started<E: Exchange>(part: &mut Option<RankSnow<E>>) -> &mut RankSnow<E> {
+fn started<E: Exchange>(part: &mut Option<RankPart<E>>) -> &mut RankPart<E> {
     part.as_mut()
         .expect("rank 0 starts the ranks before any other command")
+}
+
+/// A follower's snow part: rank 0 sends the commands for pieces only in a
+/// snow run.
+fn started_snow<E: Exchange>(part: &mut Option<RankPart<E>>) -> &mut RankSnow<E> {
+    match started(part) {
+        RankPart::Snow(rank) => rank,
+        RankPart::Flow(_) => unreachable!("rank 0 sends piece commands in snow runs only"),
+    }
 }
