@@ -51,7 +51,7 @@ fn process_cpu_seconds() -> Option<f64> {
 }
 
 /// The benchmark scene with `particles` particles and the given curl.
-fn scene(particles: u32, curl: &str) -> Result<Scene, Failure> {
+pub(crate) fn scene(particles: u32, curl: &str) -> Result<Scene, Failure> {
     let text = format!(
         r#"format = 1
 name = "bench-curl-noise"

@@ -8,10 +8,11 @@ use std::time::Instant;
 
 use firn_core::Scene;
 use firn_core::scene::Transfer;
+use firn_flow::FlowSimulation;
 use firn_mpi::driver::refusal;
 use firn_mpi::exchange::{join_u64, split_u64};
 use firn_mpi::mpi_exchange::{MpiExchange, MpiRun};
-use firn_mpi::{Command, Exchange, Phase, RankSnow, RootStepper, follow};
+use firn_mpi::{Command, Exchange, Phase, RankFlow, RankSnow, RootStepper, follow};
 use firn_mpm::Snapshot;
 use firn_run::Placement;
 
@@ -102,21 +103,33 @@ fn follower(exchange: MpiExchange, scene: &Scene) -> Result<(), Failure> {
     }
 }
 
-/// `firn bench` under an MPI launcher: the snowball bench split between the
-/// ranks; rank 0 prints the speed and, per rank, its particles, the bytes
-/// it sent per substep and its milliseconds per substep in exchanges, by
-/// phase.
+/// `firn bench` under an MPI launcher: the snowball bench (or with
+/// `--flow` the flow bench) split between the ranks; rank 0 prints the
+/// speed and, per rank, its particles, the bytes it sent per substep and
+/// its milliseconds per substep in exchanges, by phase.
 pub fn bench(args: &BenchArgs, mpi: &MpiRun) -> Result<(), Failure> {
     let exchange = mpi.exchange();
-    let refused = (args.scene.is_some() || args.render || args.flow || args.sweep.sweep.is_some())
+    let refused = (args.scene.is_some() || args.render || args.sweep.sweep.is_some())
         .then(|| {
             Failure::BadInput(
-                "error: under mpirun, firn bench measures the snowball bench only\n  fix: leave out --scene, --render, --flow and --sweep, or run without mpirun".into(),
+                "error: under mpirun, firn bench measures the snowball bench and the flow (--flow) only\n  fix: leave out --scene, --render and --sweep, or run without mpirun".into(),
             )
         });
     agree_on(&exchange, refused.map_or(Ok(()), Err))?;
     if exchange.rank() == 0 {
         println!("cpu (rank 0): {}", crate::machine::Cpu::detect().describe());
+    }
+    if args.flow {
+        for &particles in &args.particles {
+            let measured = measure_flow_split(&exchange, particles, args);
+            let verdict = measured.map(|record| {
+                if let Some(parts) = record {
+                    print_flow_split(&parts, args.steps);
+                }
+            });
+            agree_on(&exchange, verdict.map_err(said))?;
+        }
+        return Ok(());
     }
     for &grid in &args.grid {
         for &particles in &args.particles {
@@ -175,7 +188,7 @@ fn measure_split(
             after.exchange_seconds[phase as usize] - before.exchange_seconds[phase as usize];
         words.extend(split_u64(spent.to_bits()));
     }
-    let parts = exchange.gather(words);
+    let parts = exchange.gather(&words);
     Ok(parts.map(|parts| {
         parts
             .iter()
@@ -189,6 +202,100 @@ fn measure_split(
             })
             .collect()
     }))
+}
+
+/// One rank's measurement of a split flow: its particles, and over the
+/// timed steps its seconds, the seconds it spent sending its part to rank
+/// 0 (receiving every part, on rank 0) and the bytes it sent.
+struct FlowRankMeasure {
+    particles: u64,
+    seconds: f64,
+    gather_seconds: f64,
+    bytes_sent: u64,
+}
+
+/// Times `args.steps` steps of the flow bench's scene with `particles`
+/// particles split between the ranks after `args.warmup`, each step a
+/// frame that ends with rank 0 collecting every part (as a run does); every
+/// rank's measurement on rank 0.
+fn measure_flow_split(
+    exchange: &MpiExchange,
+    particles: u32,
+    args: &BenchArgs,
+) -> Result<Option<Vec<FlowRankMeasure>>, Failure> {
+    let scene = crate::bench_flow::scene(particles, "analytic")?;
+    let fps = scene.time.fps;
+    let own = match exchange.rank() {
+        0 => Some(FlowSimulation::new(scene.clone()).map_err(|error| failed(error.into()))?),
+        _ => None,
+    };
+    let snapshot = own.as_ref().map(FlowSimulation::snapshot);
+    let (mut part, copy) = RankFlow::start(exchange.clone(), &scene, snapshot.as_ref());
+    let mut flow = own.or(copy).expect("every rank holds a copy of the flow");
+    // One frame: this rank's seconds in the gather and the bytes it sent.
+    let mut frame = 0u32;
+    let mut step = |flow: &mut FlowSimulation| {
+        frame += 1;
+        part.advance_to(flow, f64::from(frame) / fps);
+        let started = Instant::now();
+        let sent = part.gather(flow) as u64;
+        (started.elapsed().as_secs_f64(), sent)
+    };
+    for _ in 0..args.warmup {
+        step(&mut flow);
+    }
+    exchange.barrier();
+    let started = Instant::now();
+    let (mut gather_seconds, mut bytes_sent) = (0.0, 0);
+    for _ in 0..args.steps {
+        let (seconds, sent) = step(&mut flow);
+        gather_seconds += seconds;
+        bytes_sent += sent;
+    }
+    let seconds = started.elapsed().as_secs_f64();
+    let own = part.own_particles(&flow) as u64;
+    let mut words = Vec::new();
+    for value in [own, seconds.to_bits(), gather_seconds.to_bits(), bytes_sent] {
+        words.extend(split_u64(value));
+    }
+    let parts = exchange.gather(&words);
+    Ok(parts.map(|parts| {
+        parts
+            .iter()
+            .map(|w| {
+                let word = |i: usize| join_u64(w[2 * i], w[2 * i + 1]);
+                FlowRankMeasure {
+                    particles: word(0),
+                    seconds: f64::from_bits(word(1)),
+                    gather_seconds: f64::from_bits(word(2)),
+                    bytes_sent: word(3),
+                }
+            })
+            .collect()
+    }))
+}
+
+/// Rank 0's report of a split flow bench: the speed (the slowest rank's
+/// time), then a line per rank.
+fn print_flow_split(parts: &[FlowRankMeasure], steps: u32) {
+    let particles: u64 = parts.iter().map(|part| part.particles).sum();
+    let seconds = parts.iter().map(|part| part.seconds).fold(0.0, f64::max);
+    let steps_f = f64::from(steps.max(1));
+    println!(
+        "firn mpi flow ranks={} threads={} particles={particles} steps={steps} seconds={seconds:.3} ns_per_particle_step={:.2} steps_per_s={:.2}",
+        parts.len(),
+        rayon::current_num_threads(),
+        seconds * 1e9 / (steps_f * particles as f64),
+        steps_f / seconds,
+    );
+    for (rank, part) in parts.iter().enumerate() {
+        println!(
+            "  rank {rank}: particles={} bytes_sent_per_step={:.0} gathering_ms_per_step={:.3}",
+            part.particles,
+            part.bytes_sent as f64 / steps_f,
+            part.gather_seconds * 1e3 / steps_f,
+        );
+    }
 }
 
 /// Rank 0's report of a split bench: the speed (the slowest rank's time),

@@ -7,7 +7,7 @@
 //! Every particle moves through the field on its own (no particle reads
 //! another), so a part stepped on its own gives its particles the bits the
 //! whole flow gives them: each process steps its part of a full copy of the
-//! flow, then one process collects every part's [`FlowPartState`].
+//! flow, then one process puts every part's [`FlowPartState`] into its own.
 
 use std::ops::Range;
 
@@ -52,30 +52,33 @@ impl FlowPart {
     }
 }
 
-/// The state of one part's particles, in index order: what changes as they
-/// move, are born again and record their trails (their emitters do not
-/// change). The trail arrays are empty when the flow keeps no trails.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct FlowPartState {
+/// The state of some of a part's particles, in index order, borrowed: what
+/// changes as they move, are born again and record their trails (their
+/// emitters do not change). The trail slices are empty when the flow keeps
+/// no trails. [`crate::FlowSimulation::part_rows`] lends it for each run of
+/// consecutive particles of a part; [`crate::FlowSimulation::set_part_state`]
+/// takes it for a whole part.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FlowPartState<'a> {
     /// Positions, m.
-    pub positions: Vec<Vec3>,
+    pub positions: &'a [Vec3],
     /// Velocities of the last substep, m/s.
-    pub velocities: Vec<Vec3>,
+    pub velocities: &'a [Vec3],
     /// Seconds since each current life began.
-    pub ages: Vec<f32>,
+    pub ages: &'a [f32],
     /// Lengths of the current lives, s.
-    pub lifetimes: Vec<f32>,
+    pub lifetimes: &'a [f32],
     /// Generations.
-    pub generations: Vec<u32>,
+    pub generations: &'a [u32],
     /// Trail rings, particle-major, the trails' capacity each.
-    pub trail_points: Vec<Vec3>,
+    pub trail_points: &'a [Vec3],
     /// Valid positions per trail.
-    pub trail_lengths: Vec<u32>,
+    pub trail_lengths: &'a [u32],
     /// Generation of each particle when its trail last recorded.
-    pub trail_generations: Vec<u32>,
+    pub trail_generations: &'a [u32],
 }
 
-impl FlowPartState {
+impl FlowPartState<'_> {
     /// Number of particles.
     pub fn len(&self) -> usize {
         self.positions.len()

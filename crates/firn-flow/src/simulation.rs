@@ -415,40 +415,35 @@ impl FlowSimulation {
         taken
     }
 
-    /// The state of `part`'s particles, in index order.
-    pub fn part_state(&self, part: FlowPart) -> FlowPartState {
+    /// The state of `part`'s particles, borrowed, one run of consecutive
+    /// particles at a time, in index order.
+    pub fn part_rows(&self, part: FlowPart) -> impl Iterator<Item = FlowPartState<'_>> {
         let particles = &self.particles;
-        let mut state = FlowPartState::default();
-        for range in part.ranges(particles.len()) {
-            state
-                .positions
-                .extend_from_slice(&particles.positions[range.clone()]);
-            state
-                .velocities
-                .extend_from_slice(&particles.velocities[range.clone()]);
-            state.ages.extend_from_slice(&particles.ages[range.clone()]);
-            state
-                .lifetimes
-                .extend_from_slice(&particles.lifetimes[range.clone()]);
-            state
-                .generations
-                .extend_from_slice(&particles.generations[range.clone()]);
-            if let Some(trails) = &self.trails {
-                let (points, lengths, generations) = trails.rows(range);
-                state.trail_points.extend_from_slice(points);
-                state.trail_lengths.extend_from_slice(lengths);
-                state.trail_generations.extend_from_slice(generations);
+        part.ranges(particles.len()).map(move |range| {
+            let (trail_points, trail_lengths, trail_generations) = match &self.trails {
+                Some(trails) => trails.rows(range.clone()),
+                None => (&[][..], &[][..], &[][..]),
+            };
+            FlowPartState {
+                positions: &particles.positions[range.clone()],
+                velocities: &particles.velocities[range.clone()],
+                ages: &particles.ages[range.clone()],
+                lifetimes: &particles.lifetimes[range.clone()],
+                generations: &particles.generations[range],
+                trail_points,
+                trail_lengths,
+                trail_generations,
             }
-        }
-        state
+        })
     }
 
-    /// Puts `state`, taken by [`FlowSimulation::part_state`] from a copy of
-    /// this flow at the same substep, in place of `part`'s particles.
+    /// Puts `state`, all of `part`'s particles (its
+    /// [`FlowSimulation::part_rows`] one after the other) taken from a copy
+    /// of this flow at the same substep, in place of `part`'s particles.
     pub fn set_part_state(
         &mut self,
         part: FlowPart,
-        state: &FlowPartState,
+        state: &FlowPartState<'_>,
     ) -> Result<(), FlowError> {
         let count = part.count(self.particles.len());
         let trail_capacity = self.trails.as_ref().map_or(0, Trails::capacity);

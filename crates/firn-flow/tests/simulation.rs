@@ -5,7 +5,7 @@ mod common;
 
 use common::scene;
 use firn_core::Scene;
-use firn_flow::{FlowError, FlowPart, FlowSimulation, FlowSnapshot, Simd};
+use firn_flow::{FlowError, FlowPart, FlowPartState, FlowSimulation, FlowSnapshot, Simd};
 use glam::Vec3;
 
 /// Everything at once: obstacles, drifting noise, RK4, a rate emitter with
@@ -136,6 +136,51 @@ fn a_resumed_run_continues_bit_for_bit() {
     assert_eq!(resumed.snapshot(), straight.snapshot());
 }
 
+/// A part's state, owned: its runs of particles one after the other.
+#[derive(Default)]
+struct PartState {
+    positions: Vec<Vec3>,
+    velocities: Vec<Vec3>,
+    ages: Vec<f32>,
+    lifetimes: Vec<f32>,
+    generations: Vec<u32>,
+    trail_points: Vec<Vec3>,
+    trail_lengths: Vec<u32>,
+    trail_generations: Vec<u32>,
+}
+
+impl PartState {
+    fn of(flow: &FlowSimulation, part: FlowPart) -> PartState {
+        let mut state = PartState::default();
+        for rows in flow.part_rows(part) {
+            state.positions.extend_from_slice(rows.positions);
+            state.velocities.extend_from_slice(rows.velocities);
+            state.ages.extend_from_slice(rows.ages);
+            state.lifetimes.extend_from_slice(rows.lifetimes);
+            state.generations.extend_from_slice(rows.generations);
+            state.trail_points.extend_from_slice(rows.trail_points);
+            state.trail_lengths.extend_from_slice(rows.trail_lengths);
+            state
+                .trail_generations
+                .extend_from_slice(rows.trail_generations);
+        }
+        state
+    }
+
+    fn borrow(&self) -> FlowPartState<'_> {
+        FlowPartState {
+            positions: &self.positions,
+            velocities: &self.velocities,
+            ages: &self.ages,
+            lifetimes: &self.lifetimes,
+            generations: &self.generations,
+            trail_points: &self.trail_points,
+            trail_lengths: &self.trail_lengths,
+            trail_generations: &self.trail_generations,
+        }
+    }
+}
+
 #[test]
 fn parts_stepped_apart_and_collected_give_the_whole_flows_bits() {
     // As firn-mpi's ranks do: every process steps its part of a copy of the
@@ -155,7 +200,8 @@ fn parts_stepped_apart_and_collected_give_the_whole_flows_bits() {
         let (first, others) = copies.split_first_mut().unwrap();
         for (index, copy) in others.iter().enumerate() {
             let part = FlowPart::new(index + 1, parts);
-            first.set_part_state(part, &copy.part_state(part)).unwrap();
+            let state = PartState::of(copy, part);
+            first.set_part_state(part, &state.borrow()).unwrap();
         }
         assert!(
             bits(&first.snapshot()) == bits(&whole.snapshot()),
@@ -164,8 +210,8 @@ fn parts_stepped_apart_and_collected_give_the_whole_flows_bits() {
         assert_eq!(first.snapshot(), whole.snapshot());
     }
     assert!(whole.len() > 3 * 1024, "every part holds particles");
-    let other = copies[1].part_state(FlowPart::new(1, parts));
-    let refused = copies[0].set_part_state(FlowPart::new(0, parts), &other);
+    let other = PartState::of(&copies[1], FlowPart::new(1, parts));
+    let refused = copies[0].set_part_state(FlowPart::new(0, parts), &other.borrow());
     assert!(matches!(refused, Err(FlowError::SnapshotMismatch(_))));
 }
 

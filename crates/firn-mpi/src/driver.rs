@@ -21,6 +21,7 @@ use firn_run::{Placement, RunDirectory, RunError, Solver};
 use crate::exchange::{Exchange, join_u64, split_u64};
 use crate::rank::RankSnow;
 use crate::rank_flow::RankFlow;
+use firn_flow::FlowSimulation;
 
 /// What rank 0 tells the other ranks to do next.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -112,56 +113,24 @@ pub fn refusal(scene: &Scene, ranks: usize) -> Option<String> {
 pub enum RankPart<E: Exchange> {
     /// A snow simulation's slab.
     Snow(Box<RankSnow<E>>),
-    /// A flow's part of the particles.
-    Flow(Box<RankFlow<E>>),
+    /// A flow's part of the particles, and the rank's copy of the flow
+    /// (`None` on rank 0, which steps the recording's own flow).
+    Flow(RankFlow<E>, Option<Box<FlowSimulation>>),
 }
 
 impl<E: Exchange> RankPart<E> {
-    /// Starts this rank's part of a run of `scene`: rank 0 passes the
-    /// run's state, the others `None`. Every rank must call it.
-    fn start(exchange: E, scene: Scene, state: Option<SolverState>) -> RankPart<E> {
-        if scene.kind.flow().is_some() {
-            let snapshot = state.map(|state| match state {
-                SolverState::Flow(snapshot) => snapshot,
-                SolverState::Snow(_) => unreachable!("a flow scene's solver holds a flow"),
-            });
-            RankPart::Flow(Box::new(RankFlow::start(exchange, scene, snapshot)))
-        } else {
-            let snapshot = state.map(|state| match state {
-                SolverState::Snow(snapshot) => snapshot,
-                SolverState::Flow(_) => unreachable!("a snow scene's solver holds snow"),
-            });
-            RankPart::Snow(Box::new(RankSnow::scatter(exchange, scene, snapshot)))
-        }
-    }
-
     /// How this rank talks to the others.
     fn exchange(&self) -> &E {
         match self {
             RankPart::Snow(rank) => rank.exchange(),
-            RankPart::Flow(rank) => rank.exchange(),
-        }
-    }
-
-    /// Steps this rank's part to simulated time `until`, then gathers the
-    /// state on rank 0 (`None` on the others, or where a step failed: every
-    /// rank learns of a failure, rank 0 reports it).
-    fn advance_and_gather(&mut self, until: f64) -> Result<(u32, Option<SolverState>), RunError> {
-        match self {
-            RankPart::Snow(rank) => {
-                let substeps = rank.advance_to(until)?;
-                Ok((substeps, rank.gather().map(SolverState::Snow)))
-            }
-            RankPart::Flow(rank) => {
-                let substeps = rank.advance_to(until);
-                Ok((substeps, rank.gather().map(SolverState::Flow)))
-            }
+            RankPart::Flow(rank, _) => rank.exchange(),
         }
     }
 }
 
-/// Rank 0's [`Stepper`]: every rank steps its part, rank 0 gathers the
-/// state into the recording's solver.
+/// Rank 0's [`Stepper`]: every rank steps its part; rank 0 gathers the
+/// state into the recording's solver (a flow's parts straight into its
+/// flow).
 pub struct RootStepper<E: Exchange> {
     part: RankPart<E>,
 }
@@ -170,9 +139,18 @@ impl<E: Exchange> RootStepper<E> {
     /// Splits `solver`'s state between the ranks (which wait in
     /// [`follow`]). `solver` runs on the CPU.
     pub fn start(exchange: E, solver: &Solver) -> Result<RootStepper<E>, RunError> {
+        let scene = solver.scene().clone();
         let state = solver.state()?;
         Command::Start.send(&exchange);
-        let part = RankPart::start(exchange, solver.scene().clone(), Some(state));
+        let part = match state {
+            SolverState::Flow(snapshot) => {
+                let (rank, _) = RankFlow::start(exchange, &scene, Some(&snapshot));
+                RankPart::Flow(rank, None)
+            }
+            SolverState::Snow(snapshot) => {
+                RankPart::Snow(Box::new(RankSnow::scatter(exchange, scene, Some(snapshot))))
+            }
+        };
         Ok(RootStepper { part })
     }
 }
@@ -180,11 +158,23 @@ impl<E: Exchange> RootStepper<E> {
 impl<E: Exchange> Stepper for RootStepper<E> {
     fn advance_to(&mut self, solver: &mut Solver, until: f64) -> Result<u32, RunError> {
         Command::Advance { until }.send(self.part.exchange());
-        let (substeps, state) = self.part.advance_and_gather(until)?;
-        let state = state.expect("rank 0 gathers");
-        let scene = solver.scene().clone();
-        *solver = Solver::restore(scene, state, &Placement::Cpu)?;
-        Ok(substeps)
+        match &mut self.part {
+            RankPart::Snow(rank) => {
+                let substeps = rank.advance_to(until)?;
+                let snapshot = rank.gather().expect("rank 0 gathers");
+                let scene = solver.scene().clone();
+                *solver = Solver::restore(scene, SolverState::Snow(snapshot), &Placement::Cpu)?;
+                Ok(substeps)
+            }
+            RankPart::Flow(rank, _) => {
+                let flow = solver
+                    .cpu_flow_mut()
+                    .expect("a split flow runs on the CPU backend");
+                let substeps = rank.advance_to(flow, until);
+                rank.gather(flow);
+                Ok(substeps)
+            }
+        }
     }
 
     fn write_vtk_pieces(
@@ -272,12 +262,27 @@ pub fn follow<E: Exchange + Clone>(exchange: E, scene: &Scene) -> i32 {
         match Command::receive(&exchange) {
             Command::Stop { code } => return code,
             Command::Start => {
-                part = Some(RankPart::start(exchange.clone(), scene.clone(), None));
+                part = Some(if scene.kind.flow().is_some() {
+                    let (rank, copy) = RankFlow::start(exchange.clone(), scene, None);
+                    RankPart::Flow(rank, copy.map(Box::new))
+                } else {
+                    let rank = RankSnow::scatter(exchange.clone(), scene.clone(), None);
+                    RankPart::Snow(Box::new(rank))
+                });
             }
-            Command::Advance { until } => {
-                // Every rank learns of a failure; rank 0 reports it.
-                let _ = started(&mut part).advance_and_gather(until);
-            }
+            Command::Advance { until } => match started(&mut part) {
+                RankPart::Snow(rank) => {
+                    // Every rank learns of a failure; rank 0 reports it.
+                    if rank.advance_to(until).is_ok() {
+                        rank.gather();
+                    }
+                }
+                RankPart::Flow(rank, Some(flow)) => {
+                    rank.advance_to(flow, until);
+                    rank.gather(flow);
+                }
+                RankPart::Flow(_, None) => unreachable!("a follower holds its copy of the flow"),
+            },
             // Every rank learns of a failure; rank 0 reports it.
             Command::Pieces { frame } => {
                 let _ = started_snow(&mut part).write_vtk_piece(frame, &run);
@@ -300,6 +305,6 @@ fn started<E: Exchange>(part: &mut Option<RankPart<E>>) -> &mut RankPart<E> {
 fn started_snow<E: Exchange>(part: &mut Option<RankPart<E>>) -> &mut RankSnow<E> {
     match started(part) {
         RankPart::Snow(rank) => rank,
-        RankPart::Flow(_) => unreachable!("rank 0 sends piece commands in snow runs only"),
+        RankPart::Flow(..) => unreachable!("rank 0 sends piece commands in snow runs only"),
     }
 }

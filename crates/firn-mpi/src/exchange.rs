@@ -85,9 +85,9 @@ pub trait Exchange {
     }
 
     /// Every rank's `words` on rank 0, by rank; `None` on the others.
-    fn gather(&self, words: Vec<u32>) -> Option<Vec<Vec<u32>>> {
+    fn gather(&self, words: &[u32]) -> Option<Vec<Vec<u32>>> {
         let mut outgoing = vec![Vec::new(); self.size()];
-        outgoing[0] = words;
+        outgoing[0] = words.to_vec();
         let incoming = self.exchange(outgoing);
         (self.rank() == 0).then_some(incoming)
     }

@@ -1,7 +1,8 @@
 //! [`Exchange`] over MPI (rsmpi): the particles between neighbours by
 //! `MPI_Isend` and a probed `MPI_Recv` to and from each neighbour only,
 //! other particle messages by `MPI_Alltoallv` (their counts by
-//! `MPI_Alltoall`); the reductions by `MPI_Allreduce`, the renumbering's
+//! `MPI_Alltoall`), gathers on rank 0 by a probed `MPI_Recv` from each rank
+//! in turn (straight into the buffer handed back); the reductions by `MPI_Allreduce`, the renumbering's
 //! offsets by `MPI_Exscan`, rank 0's commands and a failing rank's message
 //! by `MPI_Bcast`: a substep without far migrants costs each rank messages
 //! to its neighbours and O(log ranks) rounds of reductions.
@@ -38,9 +39,12 @@ impl MpiExchange {
     }
 }
 
-/// The tag of the messages between neighbours ([`Exchange::exchange_with`]);
-/// everything else goes by collectives.
+/// The tag of the messages between neighbours ([`Exchange::exchange_with`]).
 const NEIGHBOUR_TAG: mpi::Tag = 7;
+
+/// The tag of the messages to rank 0 in [`Exchange::gather`]; everything
+/// else goes by collectives.
+const GATHER_TAG: mpi::Tag = 8;
 
 /// Offsets of consecutive blocks of `counts` words.
 fn displacements(counts: &[Count]) -> Vec<Count> {
@@ -89,6 +93,23 @@ impl Exchange for MpiExchange {
             .zip(&receive_counts)
             .map(|(&start, &count)| receive[start as usize..(start + count) as usize].to_vec())
             .collect()
+    }
+
+    fn gather(&self, words: &[u32]) -> Option<Vec<Vec<u32>>> {
+        let root = self.world.process_at_rank(0);
+        if self.rank() != 0 {
+            root.send_with_tag(words, GATHER_TAG);
+            return None;
+        }
+        let mut parts = vec![words.to_vec()];
+        for rank in 1..self.size() {
+            let (words, _) = self
+                .world
+                .process_at_rank(rank as mpi::Rank)
+                .receive_vec_with_tag::<u32>(GATHER_TAG);
+            parts.push(words);
+        }
+        Some(parts)
     }
 
     fn exchange_with(&self, outgoing: Vec<Vec<u32>>, partners: &[usize]) -> Vec<Vec<u32>> {

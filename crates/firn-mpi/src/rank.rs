@@ -223,7 +223,7 @@ impl<E: Exchange> RankSnow<E> {
         for (p, &key) in self.own_keys().iter().enumerate() {
             crate::packing::pack(particles, key, p, &mut words);
         }
-        let parts = self.timed(Phase::Gathering, |exchange| exchange.gather(words))?;
+        let parts = self.timed(Phase::Gathering, |exchange| exchange.gather(&words))?;
         let mut all = KeyedParticles::default();
         for part in &parts {
             all.unpack(part);

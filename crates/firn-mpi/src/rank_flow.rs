@@ -17,29 +17,39 @@ use glam::Vec3;
 
 use crate::exchange::{Exchange, join_u64, split_u64};
 
-/// One rank's part of a split flow.
+/// One rank's part of a split flow: which particles it moves, and how it
+/// talks to the others. Its copy of the flow is the caller's (rank 0 steps
+/// the recording's own flow in place).
 pub struct RankFlow<E: Exchange> {
     exchange: E,
-    simulation: FlowSimulation,
     part: FlowPart,
+    /// The message of this rank's part, kept from frame to frame (a fresh
+    /// buffer would cost its pages' first touch every frame).
+    message: Vec<u32>,
 }
 
 impl<E: Exchange> RankFlow<E> {
-    /// Starts a split run of `scene` from `snapshot`, which rank 0 holds
-    /// (the others pass `None`): rank 0 sends every rank the whole state.
-    /// Every rank must call it.
-    pub fn start(exchange: E, scene: Scene, snapshot: Option<FlowSnapshot>) -> RankFlow<E> {
-        let words = snapshot.as_ref().map(snapshot_words).unwrap_or_default();
+    /// Starts a split run of `scene`: rank 0 passes the state of the flow
+    /// it runs and sends it to every rank; every other rank passes `None`
+    /// and gets its copy of the flow back. Every rank must call it.
+    pub fn start(
+        exchange: E,
+        scene: &Scene,
+        snapshot: Option<&FlowSnapshot>,
+    ) -> (RankFlow<E>, Option<FlowSimulation>) {
+        let words = snapshot.map(snapshot_words).unwrap_or_default();
         let words = exchange.broadcast(words);
-        let snapshot = snapshot.unwrap_or_else(|| snapshot_from_words(&words));
-        let simulation = FlowSimulation::from_snapshot(scene, snapshot)
-            .expect("rank 0's flow was made from the scene every rank loaded");
+        let copy = snapshot.is_none().then(|| {
+            FlowSimulation::from_snapshot(scene.clone(), snapshot_from_words(&words))
+                .expect("rank 0's flow was made from the scene every rank loaded")
+        });
         let part = FlowPart::new(exchange.rank(), exchange.size());
-        RankFlow {
+        let rank = RankFlow {
             exchange,
-            simulation,
             part,
-        }
+            message: Vec::new(),
+        };
+        (rank, copy)
     }
 
     /// How this rank talks to the others.
@@ -47,35 +57,35 @@ impl<E: Exchange> RankFlow<E> {
         &self.exchange
     }
 
-    /// This rank's copy of the flow (current in its own part only, except
-    /// on rank 0 right after [`RankFlow::gather`]).
-    pub fn simulation(&self) -> &FlowSimulation {
-        &self.simulation
+    /// How many of `flow`'s particles this rank moves.
+    pub fn own_particles(&self, flow: &FlowSimulation) -> usize {
+        self.part.count(flow.len())
     }
 
-    /// Moves this rank's part to simulated time `until`; returns the
-    /// substeps taken.
-    pub fn advance_to(&mut self, until: f64) -> u32 {
-        self.simulation.advance_part_to(self.part, until)
+    /// Moves this rank's part of `flow` to simulated time `until`; returns
+    /// the substeps taken.
+    pub fn advance_to(&self, flow: &mut FlowSimulation, until: f64) -> u32 {
+        flow.advance_part_to(self.part, until)
     }
 
-    /// Every rank's part collected on rank 0: the whole flow's state there,
-    /// `None` on the others. Every rank must call it.
-    pub fn gather(&mut self) -> Option<FlowSnapshot> {
-        let words = if self.exchange.rank() == 0 {
-            Vec::new()
-        } else {
-            part_words(&self.simulation.part_state(self.part))
+    /// Every rank's part collected into rank 0's `flow`, which then holds
+    /// the whole flow's state; returns the bytes this rank sent. Every rank
+    /// must call it.
+    pub fn gather(&mut self, flow: &mut FlowSimulation) -> usize {
+        self.message.clear();
+        if self.exchange.rank() != 0 {
+            write_part(flow, self.part, &mut self.message);
+        }
+        let sent = self.message.len() * size_of::<u32>();
+        let Some(parts) = self.exchange.gather(&self.message) else {
+            return sent;
         };
-        let parts = self.exchange.gather(words)?;
         let ranks = self.exchange.size();
         for (rank, words) in parts.iter().enumerate().skip(1) {
-            let state = part_from_words(words);
-            self.simulation
-                .set_part_state(FlowPart::new(rank, ranks), &state)
+            flow.set_part_state(FlowPart::new(rank, ranks), &read_part(words))
                 .expect("every rank's copy of the flow holds the same particles");
         }
-        Some(self.simulation.snapshot())
+        sent
     }
 }
 
@@ -96,21 +106,19 @@ impl Writer {
 
     fn f32s(&mut self, values: &[f32]) {
         self.u64(values.len() as u64);
-        self.0.extend(values.iter().map(|v| v.to_bits()));
+        self.0.extend_from_slice(bytemuck::cast_slice(values));
     }
 
     fn vec3s(&mut self, values: &[Vec3]) {
         self.u64(values.len() as u64);
-        for v in values {
-            self.0.extend(v.to_array().map(f32::to_bits));
-        }
+        self.0.extend_from_slice(bytemuck::cast_slice(values));
     }
 }
 
 /// Reads what a [`Writer`] wrote, in the same order.
 struct Reader<'a>(std::slice::Iter<'a, u32>);
 
-impl Reader<'_> {
+impl<'a> Reader<'a> {
     fn word(&mut self) -> u32 {
         *self.0.next().expect("a flow message is whole")
     }
@@ -120,24 +128,28 @@ impl Reader<'_> {
         join_u64(high, self.word())
     }
 
+    /// The next `count` words.
+    fn words(&mut self, count: usize) -> &'a [u32] {
+        let words = self.0.as_slice();
+        assert!(words.len() >= count, "a flow message is whole");
+        let (taken, rest) = words.split_at(count);
+        self.0 = rest.iter();
+        taken
+    }
+
     fn u32s(&mut self) -> Vec<u32> {
         let count = self.u64() as usize;
-        (0..count).map(|_| self.word()).collect()
+        self.words(count).to_vec()
     }
 
     fn f32s(&mut self) -> Vec<f32> {
-        self.u32s().into_iter().map(f32::from_bits).collect()
+        let count = self.u64() as usize;
+        bytemuck::cast_slice(self.words(count)).to_vec()
     }
 
     fn vec3s(&mut self) -> Vec<Vec3> {
         let count = self.u64() as usize;
-        (0..count)
-            .map(|_| Vec3::new(self.f32(), self.f32(), self.f32()))
-            .collect()
-    }
-
-    fn f32(&mut self) -> f32 {
-        f32::from_bits(self.word())
+        bytemuck::cast_slice(self.words(3 * count)).to_vec()
     }
 }
 
@@ -192,32 +204,65 @@ fn snapshot_from_words(words: &[u32]) -> FlowSnapshot {
     }
 }
 
-/// A part's state as words.
-fn part_words(state: &FlowPartState) -> Vec<u32> {
-    let mut out = Writer::default();
-    out.vec3s(&state.positions);
-    out.vec3s(&state.velocities);
-    out.f32s(&state.ages);
-    out.f32s(&state.lifetimes);
-    out.u32s(&state.generations);
-    out.vec3s(&state.trail_points);
-    out.u32s(&state.trail_lengths);
-    out.u32s(&state.trail_generations);
-    out.0
+/// Appends `part`'s state in `flow` to `words`: each attribute of all its
+/// particles in turn (after the particle count), straight from the flow's
+/// arrays.
+fn write_part(flow: &FlowSimulation, part: FlowPart, words: &mut Vec<u32>) {
+    let count = part.count(flow.len());
+    let mut out = Writer(std::mem::take(words));
+    out.u64(count as u64);
+    let rows = || flow.part_rows(part);
+    for row in rows() {
+        out.0.extend_from_slice(bytemuck::cast_slice(row.positions));
+    }
+    for row in rows() {
+        out.0
+            .extend_from_slice(bytemuck::cast_slice(row.velocities));
+    }
+    for row in rows() {
+        out.0.extend_from_slice(bytemuck::cast_slice(row.ages));
+    }
+    for row in rows() {
+        out.0.extend_from_slice(bytemuck::cast_slice(row.lifetimes));
+    }
+    for row in rows() {
+        out.0.extend_from_slice(row.generations);
+    }
+    let trail_capacity = flow.trails().map_or(0, |trails| trails.capacity());
+    out.u64(trail_capacity as u64);
+    for row in rows() {
+        out.0
+            .extend_from_slice(bytemuck::cast_slice(row.trail_points));
+    }
+    for row in rows() {
+        out.0.extend_from_slice(row.trail_lengths);
+    }
+    for row in rows() {
+        out.0.extend_from_slice(row.trail_generations);
+    }
+    *words = out.0;
 }
 
-/// The state [`part_words`] wrote.
-fn part_from_words(words: &[u32]) -> FlowPartState {
+/// The part's state [`write_part`] wrote, borrowed from `words`.
+fn read_part(words: &[u32]) -> FlowPartState<'_> {
     let mut read = Reader(words.iter());
+    let count = read.u64() as usize;
+    let positions = bytemuck::cast_slice(read.words(3 * count));
+    let velocities = bytemuck::cast_slice(read.words(3 * count));
+    let ages = bytemuck::cast_slice(read.words(count));
+    let lifetimes = bytemuck::cast_slice(read.words(count));
+    let generations = read.words(count);
+    let trail_capacity = read.u64() as usize;
+    let trails = if trail_capacity > 0 { count } else { 0 };
     FlowPartState {
-        positions: read.vec3s(),
-        velocities: read.vec3s(),
-        ages: read.f32s(),
-        lifetimes: read.f32s(),
-        generations: read.u32s(),
-        trail_points: read.vec3s(),
-        trail_lengths: read.u32s(),
-        trail_generations: read.u32s(),
+        positions,
+        velocities,
+        ages,
+        lifetimes,
+        generations,
+        trail_points: bytemuck::cast_slice(read.words(3 * trail_capacity * trails)),
+        trail_lengths: read.words(trails),
+        trail_generations: read.words(trails),
     }
 }
 
@@ -226,7 +271,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn states_cross_the_wire_bit_for_bit() {
+    fn a_snapshot_crosses_the_wire_bit_for_bit() {
         let snapshot = FlowSnapshot {
             substeps: 1 << 40,
             births: vec![3, u64::MAX],
@@ -245,18 +290,40 @@ mod tests {
         let back = snapshot_from_words(&snapshot_words(&snapshot));
         assert_eq!(snapshot_words(&back), snapshot_words(&snapshot));
         assert_eq!(back.trail_points, snapshot.trail_points);
-        let part = FlowPartState {
-            positions: snapshot.positions.clone(),
-            velocities: snapshot.velocities.clone(),
-            ages: snapshot.ages.clone(),
-            lifetimes: snapshot.lifetimes.clone(),
-            generations: snapshot.generations.clone(),
-            trail_points: snapshot.trail_points.clone(),
-            trail_lengths: snapshot.trail_lengths.clone(),
-            trail_generations: snapshot.trail_generations.clone(),
-        };
-        let back = part_from_words(&part_words(&part));
-        assert_eq!(part_words(&back), part_words(&part));
-        assert_eq!(back.generations, part.generations);
+    }
+
+    #[test]
+    fn a_part_crosses_the_wire_as_its_rows_one_after_the_other() {
+        let scene = Scene::from_toml_str(
+            "format = 1\nkind = \"flow\"\n[domain]\nmax = [10.0, 10.0, 10.0]\n[time]\nduration = 1.0\n\
+             [flow]\n[[flow.emitters]]\nshape = \"box\"\ncenter = [5.0, 5.0, 5.0]\n\
+             size = [10.0, 10.0, 10.0]\ncount = 5000\n\
+             [render]\nstyles = [\"trails\"]\ntrail_length = 3\n",
+            "part.toml",
+        )
+        .unwrap();
+        let mut flow = FlowSimulation::new(scene).unwrap();
+        flow.advance_frame();
+        let part = FlowPart::new(1, 2);
+        let mut words = Vec::new();
+        write_part(&flow, part, &mut words);
+        let read = read_part(&words);
+        assert_eq!(read.len(), part.count(flow.len()));
+        let mut offset = 0;
+        for row in flow.part_rows(part) {
+            let rows = offset..offset + row.len();
+            assert_eq!(&read.positions[rows.clone()], row.positions);
+            assert_eq!(&read.velocities[rows.clone()], row.velocities);
+            assert_eq!(&read.ages[rows.clone()], row.ages);
+            assert_eq!(&read.generations[rows.clone()], row.generations);
+            assert_eq!(
+                &read.trail_points[rows.start * 3..rows.end * 3],
+                row.trail_points
+            );
+            assert_eq!(&read.trail_lengths[rows], row.trail_lengths);
+            offset += row.len();
+        }
+        assert_eq!(offset, read.len());
+        assert!(flow.set_part_state(part, &read).is_ok());
     }
 }

@@ -17,19 +17,23 @@ fn stream() -> Scene {
 /// The whole state on rank 0 after each of `frames` frames, split between
 /// `ranks` ranks.
 fn split_run(scene: &Scene, ranks: usize, frames: u32) -> Vec<FlowSnapshot> {
-    let initial = FlowSimulation::new(scene.clone()).unwrap().snapshot();
     let handles: Vec<_> = ThreadRanks::group(ranks)
         .into_iter()
         .map(|exchange| {
             let scene = scene.clone();
-            let snapshot = (exchange.rank() == 0).then(|| initial.clone());
             thread::spawn(move || {
-                let fps = scene.time.fps;
-                let mut rank = RankFlow::start(exchange, scene, snapshot);
+                let root = exchange.rank() == 0;
+                let own = root.then(|| FlowSimulation::new(scene.clone()).unwrap());
+                let snapshot = own.as_ref().map(FlowSimulation::snapshot);
+                let (mut rank, copy) = RankFlow::start(exchange, &scene, snapshot.as_ref());
+                let mut flow = own.or(copy).unwrap();
                 let mut states = Vec::new();
                 for frame in 1..=frames {
-                    rank.advance_to(f64::from(frame) / fps);
-                    states.extend(rank.gather());
+                    rank.advance_to(&mut flow, f64::from(frame) / scene.time.fps);
+                    rank.gather(&mut flow);
+                    if root {
+                        states.push(flow.snapshot());
+                    }
                 }
                 states
             })

@@ -455,6 +455,16 @@ impl Solver {
         }
     }
 
+    /// The flow, where it runs on the CPU: stepped in place by a split run's
+    /// rank 0 (firn-mpi), which moves its part and puts the other ranks'
+    /// parts into it. `None` for snow or on the GPU.
+    pub fn cpu_flow_mut(&mut self) -> Option<&mut FlowSimulation> {
+        match &mut self.engine {
+            Engine::CpuFlow(flow) => Some(flow),
+            _ => None,
+        }
+    }
+
     /// The particles with the values of `color_by`, if they are in host
     /// memory now: always on the CPU, and on the GPU until the first step
     /// after they were last read back (see [`Solver::host`]).
