@@ -94,7 +94,8 @@ pub struct BenchArgs {
     #[arg(long)]
     pub phases: bool,
     /// Measure the curl-noise particle flow instead (seed 002): --particles,
-    /// --steps and --warmup apply; see bench_flow.rs.
+    /// --steps and --warmup apply; see bench_flow.rs (under mpirun, split
+    /// between the ranks: ranks.rs).
     #[arg(long)]
     pub flow: bool,
     /// `--sweep particles|grid` and its options; see bench_sweep.rs.

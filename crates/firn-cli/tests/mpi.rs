@@ -33,13 +33,19 @@ fn have_mpirun() -> bool {
     found
 }
 
-/// `mpirun -np ranks firn args…`, oversubscribing the cores, one thread a rank.
+/// `mpirun -np ranks firn args…`, oversubscribing the cores, one thread a
+/// rank, quiet (the options of `firn run`).
 fn mpirun(ranks: usize, args: &[&str]) -> Output {
+    launch(ranks, &[args, &["--quiet"]].concat())
+}
+
+/// `mpirun -np ranks firn args… --threads 1`, oversubscribing the cores.
+fn launch(ranks: usize, args: &[&str]) -> Output {
     Command::new("mpirun")
         .args(["--oversubscribe", "-np", &ranks.to_string()])
         .arg(firn_binary())
         .args(args)
-        .args(["--threads", "1", "--quiet"])
+        .args(["--threads", "1"])
         .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
         .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
         .output()
@@ -69,6 +75,23 @@ fn frames(run: &Path) -> Vec<(String, Vec<u8>)> {
     frames
 }
 
+/// `firn run scene` to frame `frames` in one process of one thread, into
+/// `out`.
+fn run_alone(scene: &str, out: &Path, frames: u32) {
+    let output = firn(&[
+        "run",
+        scene,
+        "--out",
+        out.to_str().unwrap(),
+        "--frames",
+        &frames.to_string(),
+        "--threads",
+        "1",
+        "--quiet",
+    ]);
+    assert_success(&output, "one process");
+}
+
 /// The crossing scene with `transfer`, written into `dir`.
 fn scene_with(dir: &Path, transfer: &str) -> PathBuf {
     let text = fs::read_to_string(crossing_scene()).unwrap().replace(
@@ -90,18 +113,7 @@ fn every_rank_count_writes_the_one_process_frames_byte_for_byte() {
         let scene = scene_with(dir.path(), transfer);
         let scene = scene.to_str().unwrap();
         let alone = dir.path().join(format!("{transfer}-alone"));
-        let output = firn(&[
-            "run",
-            scene,
-            "--out",
-            alone.to_str().unwrap(),
-            "--frames",
-            "3",
-            "--threads",
-            "1",
-            "--quiet",
-        ]);
-        assert_success(&output, "one process");
+        run_alone(scene, &alone, 3);
         let reference = frames(&alone);
         assert_eq!(reference.len(), 4, "frames 0 to 3");
         for ranks in 1..=4 {
@@ -139,18 +151,7 @@ fn a_run_stopped_on_two_ranks_resumes_on_three_with_the_same_bytes() {
     let scene = crossing_scene();
     let scene = scene.to_str().unwrap();
     let alone = dir.path().join("alone");
-    let output = firn(&[
-        "run",
-        scene,
-        "--out",
-        alone.to_str().unwrap(),
-        "--frames",
-        "4",
-        "--threads",
-        "1",
-        "--quiet",
-    ]);
-    assert_success(&output, "one process");
+    run_alone(scene, &alone, 4);
     let split = dir.path().join("split");
     let out = split.to_str().unwrap();
     assert_success(
@@ -185,18 +186,7 @@ fn a_flow_on_any_rank_count_writes_the_one_process_frames_and_resumes_on_another
     let scene = stream_scene();
     let scene = scene.to_str().unwrap();
     let alone = dir.path().join("alone");
-    let output = firn(&[
-        "run",
-        scene,
-        "--out",
-        alone.to_str().unwrap(),
-        "--frames",
-        "4",
-        "--threads",
-        "1",
-        "--quiet",
-    ]);
-    assert_success(&output, "one process");
+    run_alone(scene, &alone, 4);
     let reference = frames(&alone);
     assert_eq!(reference.len(), 5, "frames 0 to 4");
     for ranks in 2..=4 {
@@ -268,6 +258,42 @@ fn a_rank_that_blows_up_stops_every_rank_with_its_message() {
         stderr.matches("error:").count(),
         1,
         "one rank reports: {stderr}"
+    );
+}
+
+#[test]
+fn the_flow_bench_runs_split_and_reports_every_rank() {
+    if !have_mpirun() {
+        return;
+    }
+    let output = launch(
+        2,
+        &[
+            "bench",
+            "--flow",
+            "--particles",
+            "5000",
+            "--steps",
+            "2",
+            "--warmup",
+            "1",
+        ],
+    );
+    assert_success(&output, "the split flow bench");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        stdout.contains("firn mpi flow ranks=2 threads=1 particles=5000 steps=2"),
+        "{stdout}"
+    );
+    // 5000 particles are chunks 0-4 of 1024: rank 0 moves 0, 2 and 4.
+    assert!(
+        stdout.contains("rank 0: particles=2952 bytes_sent_per_step=0"),
+        "{stdout}"
+    );
+    // Rank 1's 2048 particles, 36 bytes each, and the message's two counts.
+    assert!(
+        stdout.contains("rank 1: particles=2048 bytes_sent_per_step=73744"),
+        "{stdout}"
     );
 }
 
@@ -412,18 +438,7 @@ fn a_run_killed_on_two_ranks_resumes_on_three_with_the_one_process_bytes() {
     let scene = crossing_scene();
     let scene = scene.to_str().unwrap();
     let alone = dir.path().join("alone");
-    let output = firn(&[
-        "run",
-        scene,
-        "--out",
-        alone.to_str().unwrap(),
-        "--frames",
-        "4",
-        "--threads",
-        "1",
-        "--quiet",
-    ]);
-    assert_success(&output, "one process");
+    run_alone(scene, &alone, 4);
     let split = dir.path().join("split");
     let out = split.to_str().unwrap();
     let mut killed = Command::new("mpirun")
