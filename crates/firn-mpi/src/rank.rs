@@ -12,7 +12,7 @@
 //!    (the solver orders each block's particles by key,
 //!    [`Simulation::set_part`]), hence in the one-process order; in its
 //!    scatter the ranks **trade block sums**: each sends the sums of its
-//!    blocks next to a neighbour's to that neighbour ([`SlabTrade`],
+//!    blocks next to a neighbour's to that neighbour (`SlabTrade`,
 //!    [`firn_mpm::block_sums`]), so every node a rank reads sums the one
 //!    process's blocks in the one process's order;
 //! 4. **agreement**: a failure anywhere stops every rank with the failing
