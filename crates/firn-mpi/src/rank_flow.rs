@@ -115,26 +115,21 @@ impl Writer {
     }
 }
 
-/// Reads what a [`Writer`] wrote, in the same order.
-struct Reader<'a>(std::slice::Iter<'a, u32>);
+/// Reads what a [`Writer`] wrote, in the same order: the words not read yet.
+struct Reader<'a>(&'a [u32]);
 
 impl<'a> Reader<'a> {
-    fn word(&mut self) -> u32 {
-        *self.0.next().expect("a flow message is whole")
+    /// The next `count` words.
+    fn words(&mut self, count: usize) -> &'a [u32] {
+        assert!(self.0.len() >= count, "a flow message is whole");
+        let (taken, rest) = self.0.split_at(count);
+        self.0 = rest;
+        taken
     }
 
     fn u64(&mut self) -> u64 {
-        let high = self.word();
-        join_u64(high, self.word())
-    }
-
-    /// The next `count` words.
-    fn words(&mut self, count: usize) -> &'a [u32] {
-        let words = self.0.as_slice();
-        assert!(words.len() >= count, "a flow message is whole");
-        let (taken, rest) = words.split_at(count);
-        self.0 = rest.iter();
-        taken
+        let words = self.words(2);
+        join_u64(words[0], words[1])
     }
 
     fn u32s(&mut self) -> Vec<u32> {
@@ -176,7 +171,7 @@ fn snapshot_words(snapshot: &FlowSnapshot) -> Vec<u32> {
 
 /// The state [`snapshot_words`] wrote.
 fn snapshot_from_words(words: &[u32]) -> FlowSnapshot {
-    let mut read = Reader(words.iter());
+    let mut read = Reader(words);
     let substeps = read.u64();
     let emitters = read.u64() as usize;
     let births = (0..emitters).map(|_| read.u64()).collect();
@@ -208,44 +203,34 @@ fn snapshot_from_words(words: &[u32]) -> FlowSnapshot {
 /// particles in turn (after the particle count), straight from the flow's
 /// arrays.
 fn write_part(flow: &FlowSimulation, part: FlowPart, words: &mut Vec<u32>) {
-    let count = part.count(flow.len());
-    let mut out = Writer(std::mem::take(words));
-    out.u64(count as u64);
-    let rows = || flow.part_rows(part);
-    for row in rows() {
-        out.0.extend_from_slice(bytemuck::cast_slice(row.positions));
-    }
-    for row in rows() {
-        out.0
-            .extend_from_slice(bytemuck::cast_slice(row.velocities));
-    }
-    for row in rows() {
-        out.0.extend_from_slice(bytemuck::cast_slice(row.ages));
-    }
-    for row in rows() {
-        out.0.extend_from_slice(bytemuck::cast_slice(row.lifetimes));
-    }
-    for row in rows() {
-        out.0.extend_from_slice(row.generations);
-    }
+    words.extend(split_u64(part.count(flow.len()) as u64));
+    append(words, flow, part, |rows| rows.positions);
+    append(words, flow, part, |rows| rows.velocities);
+    append(words, flow, part, |rows| rows.ages);
+    append(words, flow, part, |rows| rows.lifetimes);
+    append(words, flow, part, |rows| rows.generations);
     let trail_capacity = flow.trails().map_or(0, |trails| trails.capacity());
-    out.u64(trail_capacity as u64);
-    for row in rows() {
-        out.0
-            .extend_from_slice(bytemuck::cast_slice(row.trail_points));
+    words.extend(split_u64(trail_capacity as u64));
+    append(words, flow, part, |rows| rows.trail_points);
+    append(words, flow, part, |rows| rows.trail_lengths);
+    append(words, flow, part, |rows| rows.trail_generations);
+}
+
+/// Appends one attribute of `part`'s particles in `flow` to `words`.
+fn append<T: bytemuck::Pod>(
+    words: &mut Vec<u32>,
+    flow: &FlowSimulation,
+    part: FlowPart,
+    attribute: for<'a> fn(&FlowPartState<'a>) -> &'a [T],
+) {
+    for rows in flow.part_rows(part) {
+        words.extend_from_slice(bytemuck::cast_slice(attribute(&rows)));
     }
-    for row in rows() {
-        out.0.extend_from_slice(row.trail_lengths);
-    }
-    for row in rows() {
-        out.0.extend_from_slice(row.trail_generations);
-    }
-    *words = out.0;
 }
 
 /// The part's state [`write_part`] wrote, borrowed from `words`.
 fn read_part(words: &[u32]) -> FlowPartState<'_> {
-    let mut read = Reader(words.iter());
+    let mut read = Reader(words);
     let count = read.u64() as usize;
     let positions = bytemuck::cast_slice(read.words(3 * count));
     let velocities = bytemuck::cast_slice(read.words(3 * count));
