@@ -196,7 +196,11 @@ impl FlowSimulation {
                 snapshot.trail_generations,
             );
             match trails {
-                Some(trails) => simulation.trails = Some(trails),
+                Some(mut trails) => {
+                    // As after every substep: a ring for every particle.
+                    trails.cover(simulation.particles.len());
+                    simulation.trails = Some(trails);
+                }
                 None => return mismatch("its trail arrays do not fit together".into()),
             }
         }
