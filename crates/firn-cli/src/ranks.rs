@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use firn_core::Scene;
 use firn_core::scene::Transfer;
-use firn_flow::FlowSimulation;
+use firn_flow::{FlowSimulation, Simd};
 use firn_mpi::driver::refusal;
 use firn_mpi::exchange::{join_u64, split_u64};
 use firn_mpi::mpi_exchange::{MpiExchange, MpiRun};
@@ -17,7 +17,7 @@ use firn_mpm::Snapshot;
 use firn_run::Placement;
 
 use crate::Failure;
-use crate::bench::{BenchArgs, failed, snowball_drop, transfer_name};
+use crate::bench::{BenchArgs, SimdChoice, failed, snowball_drop, transfer_name};
 use crate::run::{RunArgs, record, scene_for};
 
 /// Runs `args` as one rank of `mpi`'s run.
@@ -120,11 +120,17 @@ pub fn bench(args: &BenchArgs, mpi: &MpiRun) -> Result<(), Failure> {
         println!("cpu (rank 0): {}", crate::machine::Cpu::detect().describe());
     }
     if args.flow {
+        // As without mpirun: the widest path by default, else --simd's.
+        let simd = match args.simd {
+            SimdChoice::Auto => Ok(Simd::detect()),
+            choice => choice.resolve(),
+        };
+        let simd = agree_on(&exchange, simd)?;
         for &particles in &args.particles {
-            let measured = measure_flow_split(&exchange, particles, args);
+            let measured = measure_flow_split(&exchange, particles, simd, args);
             let verdict = measured.map(|record| {
                 if let Some(parts) = record {
-                    print_flow_split(&parts, args.steps);
+                    print_flow_split(&parts, simd, args.steps);
                 }
             });
             agree_on(&exchange, verdict.map_err(said))?;
@@ -221,6 +227,7 @@ struct FlowRankMeasure {
 fn measure_flow_split(
     exchange: &MpiExchange,
     particles: u32,
+    simd: Simd,
     args: &BenchArgs,
 ) -> Result<Option<Vec<FlowRankMeasure>>, Failure> {
     let scene = crate::bench_flow::scene(particles, "analytic")?;
@@ -232,6 +239,7 @@ fn measure_flow_split(
     let snapshot = own.as_ref().map(FlowSimulation::snapshot);
     let (mut part, copy) = RankFlow::start(exchange.clone(), &scene, snapshot.as_ref());
     let mut flow = own.or(copy).expect("every rank holds a copy of the flow");
+    flow.set_simd(simd);
     // One frame: this rank's seconds in the gather and the bytes it sent.
     let mut frame = 0u32;
     let mut step = |flow: &mut FlowSimulation| {
@@ -277,14 +285,15 @@ fn measure_flow_split(
 
 /// Rank 0's report of a split flow bench: the speed (the slowest rank's
 /// time), then a line per rank.
-fn print_flow_split(parts: &[FlowRankMeasure], steps: u32) {
+fn print_flow_split(parts: &[FlowRankMeasure], simd: Simd, steps: u32) {
     let particles: u64 = parts.iter().map(|part| part.particles).sum();
     let seconds = parts.iter().map(|part| part.seconds).fold(0.0, f64::max);
     let steps_f = f64::from(steps.max(1));
     println!(
-        "firn mpi flow ranks={} threads={} particles={particles} steps={steps} seconds={seconds:.3} ns_per_particle_step={:.2} steps_per_s={:.2}",
+        "firn mpi flow ranks={} threads={} simd={} particles={particles} steps={steps} seconds={seconds:.3} ns_per_particle_step={:.2} steps_per_s={:.2}",
         parts.len(),
         rayon::current_num_threads(),
+        simd.name(),
         seconds * 1e9 / (steps_f * particles as f64),
         steps_f / seconds,
     );

@@ -92,6 +92,47 @@ fn run_alone(scene: &str, out: &Path, frames: u32) {
     assert_success(&output, "one process");
 }
 
+/// `mpirun -np ranks firn run scene` to frame `frames` into `out`; its PLY
+/// frames.
+fn run_split(ranks: usize, scene: &str, out: &Path, frames: u32) -> Vec<(String, Vec<u8>)> {
+    let output = mpirun(
+        ranks,
+        &[
+            "run",
+            scene,
+            "--out",
+            out.to_str().unwrap(),
+            "--frames",
+            &frames.to_string(),
+        ],
+    );
+    assert_success(&output, &format!("{ranks} ranks"));
+    self::frames(out)
+}
+
+/// `scene` run to frame `stop` on `first` ranks, then resumed to frame `end`
+/// on `second` ranks, into `out`; its PLY frames.
+fn stopped_and_resumed(
+    scene: &str,
+    out: &Path,
+    (first, stop): (usize, u32),
+    (second, end): (usize, u32),
+) -> Vec<(String, Vec<u8>)> {
+    run_split(first, scene, out, stop);
+    let out_text = out.to_str().unwrap();
+    let end_text = end.to_string();
+    assert_success(
+        &mpirun(
+            second,
+            &[
+                "run", scene, "--out", out_text, "--frames", &end_text, "--resume",
+            ],
+        ),
+        &format!("resumed on {second} ranks"),
+    );
+    frames(out)
+}
+
 /// The crossing scene with `transfer`, written into `dir`.
 fn scene_with(dir: &Path, transfer: &str) -> PathBuf {
     let text = fs::read_to_string(crossing_scene()).unwrap().replace(
@@ -118,19 +159,7 @@ fn every_rank_count_writes_the_one_process_frames_byte_for_byte() {
         assert_eq!(reference.len(), 4, "frames 0 to 3");
         for ranks in 1..=4 {
             let out = dir.path().join(format!("{transfer}-{ranks}"));
-            let output = mpirun(
-                ranks,
-                &[
-                    "run",
-                    scene,
-                    "--out",
-                    out.to_str().unwrap(),
-                    "--frames",
-                    "3",
-                ],
-            );
-            assert_success(&output, &format!("{ranks} ranks"));
-            let split = frames(&out);
+            let split = run_split(ranks, scene, &out, 3);
             for ((name, whole), (_, parts)) in reference.iter().zip(&split) {
                 assert!(
                     whole == parts,
@@ -153,20 +182,8 @@ fn a_run_stopped_on_two_ranks_resumes_on_three_with_the_same_bytes() {
     let alone = dir.path().join("alone");
     run_alone(scene, &alone, 4);
     let split = dir.path().join("split");
-    let out = split.to_str().unwrap();
-    assert_success(
-        &mpirun(2, &["run", scene, "--out", out, "--frames", "2"]),
-        "2 ranks",
-    );
-    assert_success(
-        &mpirun(
-            3,
-            &["run", scene, "--out", out, "--frames", "4", "--resume"],
-        ),
-        "resumed on 3 ranks",
-    );
     assert!(
-        frames(&alone) == frames(&split),
+        frames(&alone) == stopped_and_resumed(scene, &split, (2, 2), (3, 4)),
         "the resumed frames differ"
     );
 }
@@ -191,38 +208,14 @@ fn a_flow_on_any_rank_count_writes_the_one_process_frames_and_resumes_on_another
     assert_eq!(reference.len(), 5, "frames 0 to 4");
     for ranks in 2..=4 {
         let out = dir.path().join(format!("ranks-{ranks}"));
-        let output = mpirun(
-            ranks,
-            &[
-                "run",
-                scene,
-                "--out",
-                out.to_str().unwrap(),
-                "--frames",
-                "4",
-            ],
-        );
-        assert_success(&output, &format!("{ranks} ranks"));
         assert!(
-            frames(&out) == reference,
+            run_split(ranks, scene, &out, 4) == reference,
             "the flow's frames differ with {ranks} ranks"
         );
     }
-    let split = dir.path().join("resumed");
-    let out = split.to_str().unwrap();
-    assert_success(
-        &mpirun(3, &["run", scene, "--out", out, "--frames", "2"]),
-        "3 ranks",
-    );
-    assert_success(
-        &mpirun(
-            2,
-            &["run", scene, "--out", out, "--frames", "4", "--resume"],
-        ),
-        "resumed on 2 ranks",
-    );
+    let resumed = dir.path().join("resumed");
     assert!(
-        frames(&split) == reference,
+        stopped_and_resumed(scene, &resumed, (3, 2), (2, 4)) == reference,
         "the resumed flow's frames differ"
     );
 }
@@ -277,12 +270,14 @@ fn the_flow_bench_runs_split_and_reports_every_rank() {
             "2",
             "--warmup",
             "1",
+            "--simd",
+            "portable",
         ],
     );
     assert_success(&output, "the split flow bench");
     let stdout = String::from_utf8_lossy(&output.stdout);
     assert!(
-        stdout.contains("firn mpi flow ranks=2 threads=1 particles=5000 steps=2"),
+        stdout.contains("firn mpi flow ranks=2 threads=1 simd=portable particles=5000 steps=2"),
         "{stdout}"
     );
     // 5000 particles are chunks 0-4 of 1024: rank 0 moves 0, 2 and 4.

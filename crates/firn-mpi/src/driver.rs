@@ -277,11 +277,13 @@ pub fn follow<E: Exchange + Clone>(exchange: E, scene: &Scene) -> i32 {
                         rank.gather();
                     }
                 }
-                RankPart::Flow(rank, Some(flow)) => {
+                RankPart::Flow(rank, flow) => {
+                    let flow = flow
+                        .as_mut()
+                        .expect("a follower holds its copy of the flow");
                     rank.advance_to(flow, until);
                     rank.gather(flow);
                 }
-                RankPart::Flow(_, None) => unreachable!("a follower holds its copy of the flow"),
             },
             // Every rank learns of a failure; rank 0 reports it.
             Command::Pieces { frame } => {
