@@ -309,7 +309,7 @@ impl BackendRecord {
     /// The GPU memory lines, if any, each on its own line.
     fn print_memory(&self) {
         if let Some(memory) = &self.gpu_memory {
-            println!("{}", memory.lines());
+            outln!("{}", memory.lines());
         }
     }
 }
@@ -345,12 +345,12 @@ fn simd_words(simd: Option<&str>) -> String {
 /// Prints `phases` as a small table, or why a run on `backend` has none.
 fn print_phase_table(backend: &BackendRecord, phases: &[PhaseRecord]) {
     if backend.backend != "cpu" {
-        println!(
+        outln!(
             "  phases: not measured on the GPU; --phases profiles the CPU solver (--backend cpu)"
         );
     }
     for phase in phases {
-        println!(
+        outln!(
             "  {:<15} {:>9.2} ns  {:>5.1} %",
             phase.phase,
             phase.ns_per_particle_substep,
@@ -406,7 +406,7 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
     if let Some(mpi) = firn_mpi::mpi_exchange::MpiRun::launched() {
         return crate::ranks::bench(&args, &mpi);
     }
-    println!("cpu: {}", crate::machine::Cpu::detect().describe());
+    outln!("cpu: {}", crate::machine::Cpu::detect().describe());
     if (args.render || args.flow || args.sweep.sweep.is_some())
         && matches!(args.backend, Some(BackendChoice::Gpu))
     {
@@ -440,7 +440,7 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
         for &particles in &args.particles {
             for &transfer in transfers {
                 let record = measure(snowball_drop(particles, grid, transfer), grid, &args)?;
-                println!(
+                outln!(
                     "firn{} transfer={} particles={} grid={} steps={} seconds={:.3} ns_per_particle_step={:.2} substeps_per_s={:.2} memory_mib={:.1} threads={}{}",
                     record.backend.words(),
                     transfer_name(transfer),
@@ -470,7 +470,7 @@ pub fn write_json(path: &std::path::Path, records: &[impl Serialize]) -> Result<
     let json = records_json(records)?;
     firn_io::write_atomically(path, |out| out.write_all(json.as_bytes()))
         .map_err(|error| Failure::BadInput(format!("error: {error}")))?;
-    println!("wrote {}", path.display());
+    outln!("wrote {}", path.display());
     Ok(())
 }
 
@@ -520,7 +520,7 @@ fn bench_placement(scene: &mut Scene, args: &BenchArgs) -> Result<Placement, Fai
     }
     let chosen = choose_backend(scene)?;
     if let Some(note) = chosen.note {
-        println!("{note}");
+        outln!("{note}");
     }
     Ok(chosen.placement)
 }
@@ -597,7 +597,7 @@ fn measure_scene(path: &std::path::Path, args: &BenchArgs) -> Result<SceneRecord
         .implicit_ns_per_node_product
         .map(|ns| format!(" implicit_ns_per_node_product={ns:.1}"))
         .unwrap_or_default();
-    println!(
+    outln!(
         "firn{} scene={} integrator={} transfer={} particles={} simulated_s={} substeps={} mean_dt={:.3e} wall_s={:.3} wall_s_per_simulated_s={:.2} ns_per_particle_step={:.1}{iterations}{per_node} threads={}{}",
         record.backend.words(),
         record.scene,

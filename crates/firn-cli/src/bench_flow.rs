@@ -113,7 +113,7 @@ pub fn bench_flow(args: &BenchArgs) -> Result<(), Failure> {
         };
         for (curl, simd) in runs {
             let record = measure(particles, curl, simd, args)?;
-            println!(
+            outln!(
                 "firn flow curl={} simd={} particles={} steps={} seconds={:.3} ns_per_particle_step={:.2} steps_per_s={:.2} cpu_ns_per_particle_step={} memory_mib={:.1} threads={}",
                 record.curl,
                 record.simd,

@@ -53,7 +53,7 @@ pub fn bench_render(
         measure(&wall, RenderStyle::Volume, size, repeats),
     ];
     for record in &records {
-        println!(
+        outln!(
             "firn render style={} scene={} particles={} size={}x{} ms_per_frame={:.1} threads={}",
             record.style,
             record.scene,

@@ -198,7 +198,7 @@ pub fn bench_sweep(kind: SweepKind, args: &BenchArgs) -> Result<(), Failure> {
         ))
     })?;
     let transfers = args.transfer.schemes();
-    println!(
+    outln!(
         "sweep {} ({}; {} threads; up to {} timed substeps or {} s per size)",
         kind.name(),
         match kind {
@@ -209,7 +209,7 @@ pub fn bench_sweep(kind: SweepKind, args: &BenchArgs) -> Result<(), Failure> {
         args.steps,
         options.sweep_seconds
     );
-    println!(
+    outln!(
         "{:<9} {:<12} {:>10} {:>22} {:>8} {:>8} {:>11} {:>10} {:>10} {:>9} {:>9}",
         "transfer",
         "size",
@@ -227,13 +227,13 @@ pub fn bench_sweep(kind: SweepKind, args: &BenchArgs) -> Result<(), Failure> {
     let mut failures = Vec::new();
     for size in &sizes {
         for &transfer in transfers {
-            print!("{:<9} {:<12}", transfer_name(transfer), size.label);
+            out!("{:<9} {:<12}", transfer_name(transfer), size.label);
             let _ = std::io::stdout().flush();
             let record = measure_size(kind, size, transfer, args, budget);
             match &record {
-                Ok(record) if !record.fits => println!(" {}", record.note),
-                Ok(record) => println!(" {}", table_columns(record)),
-                Err(message) => println!(" failed: {message}"),
+                Ok(record) if !record.fits => outln!(" {}", record.note),
+                Ok(record) => outln!(" {}", table_columns(record)),
+                Err(message) => outln!(" failed: {message}"),
             }
             match record {
                 Ok(record) => records.push(record),
@@ -600,7 +600,7 @@ fn write_outputs(kind: SweepKind, records: &[SweepRecord], out: &Path) -> Result
         let path = out.join(name);
         firn_io::write_atomically(&path, |file| file.write_all(bytes))
             .map_err(|error| Failure::BadInput(format!("error: {error}")))?;
-        println!("wrote {}", path.display());
+        outln!("wrote {}", path.display());
         Ok::<(), Failure>(())
     };
     write(format!("{stem}.csv"), csv(records).as_bytes())?;
@@ -611,7 +611,7 @@ fn write_outputs(kind: SweepKind, records: &[SweepRecord], out: &Path) -> Result
         .iter()
         .any(|record| record.substeps_per_second.is_some())
     {
-        println!("no size was measured: no charts");
+        outln!("no size was measured: no charts");
         return Ok(());
     }
     let threads = records.first().map_or(1, |record| record.threads);
@@ -663,7 +663,7 @@ fn write_outputs(kind: SweepKind, records: &[SweepRecord], out: &Path) -> Result
         let series = charts::build_series(&samples(kind, records, metric));
         charts::draw_chart(&path, &text, &x_ticks, &series)
             .map_err(|error| Failure::Failed(format!("error: {error}")))?;
-        println!("wrote {}", path.display());
+        outln!("wrote {}", path.display());
     }
     Ok(())
 }

@@ -5,8 +5,9 @@ use std::path::PathBuf;
 
 use clap::Args;
 use firn_core::Scene;
+use firn_core::scene::Backend;
 use firn_core::scene::{Bytes, CacheFormat, Domain, FlowSettings, Shape, TimeStep};
-use firn_gpu::snow::MemoryEstimate;
+use firn_gpu::AdapterPolicy;
 use firn_mpm::grid::GridLayout;
 use firn_run::Budget;
 use firn_run::backend::{first_line, gpu_supports};
@@ -33,7 +34,7 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
     if args.json {
         let json = serde_json::to_string_pretty(&scene)
             .map_err(|error| Failure::Failed(error.to_string()))?;
-        println!("{json}");
+        outln!("{json}");
         return Ok(());
     }
     let budget = Budget::of(&scene);
@@ -41,26 +42,31 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
         budget.check_memory(&scene, machine).map_err(too_large)?;
     }
     if let Some(flow) = scene.kind.flow() {
-        check_flow(&scene, flow, &budget);
-        return Ok(());
+        return check_flow(&scene, flow, &budget);
     }
     let cells = scene.domain.cells();
     let domain = &scene.domain;
     let nodes = GridLayout::new(domain.min, domain.max, domain.cell_size).node_dims();
-    println!("scene       {}", scene.name);
-    println!(
+    outln!("scene       {}", scene.name);
+    outln!(
         "domain      {} m, h = {} m",
         box_text(&scene.domain),
         scene.domain.cell_size
     );
-    println!(
+    outln!(
         "grid        {} x {} x {} cells ({} x {} x {} nodes with padding)",
-        cells[0], cells[1], cells[2], nodes.x, nodes.y, nodes.z
+        cells[0],
+        cells[1],
+        cells[2],
+        nodes.x,
+        nodes.y,
+        nodes.z
     );
-    println!("transfer    {:?}", scene.solver.transfer);
-    println!(
+    outln!("transfer    {:?}", scene.solver.transfer);
+    outln!(
         "particles   about {} (from the bodies' volumes; {} lattice points tested)",
-        budget.work.particles, budget.work.lattice_points
+        budget.work.particles,
+        budget.work.lattice_points
     );
     for ((index, body), estimate) in scene.bodies.iter().enumerate().zip(&budget.work.bodies) {
         let shape = match body.shape {
@@ -87,13 +93,15 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
                 clumps.size, clumps.contrast
             )
         });
-        println!(
+        outln!(
             "  body {index}    {shape}, material {}{clumps}, {} particles per cell, about {} particles",
-            material.name, body.particles_per_cell, estimate.particles
+            material.name,
+            body.particles_per_cell,
+            estimate.particles
         );
     }
     for material in &scene.materials {
-        println!(
+        outln!(
             "material    {}: E = {:.3e} Pa, nu = {}, xi = {}, theta_c = {:.2e}, theta_s = {:.2e}, rho0 = {} kg/m3",
             material.name,
             material.youngs_modulus,
@@ -104,14 +112,14 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
             material.density
         );
     }
-    println!(
+    outln!(
         "colliders   {} (plus the 6 domain walls)",
         scene.colliders.len()
     );
     if let Some(wind) = &scene.wind {
         let field = &wind.field;
         let direction = field.background_direction;
-        println!(
+        outln!(
             "wind        {:.3} m/s along [{}, {}, {}] with turbulence of about {:.3} m/s rms (L = {} m); drag {} kg/(m2 s), packed at {} kg/m3",
             field.background_speed(),
             direction.x,
@@ -128,7 +136,7 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
             } else {
                 "rests as drift where it lands"
             };
-            println!(
+            outln!(
                 "spindrift   snow under {} kg/m3 lifts where the wind over it exceeds {} m/s, {} per second where fully exposed; drift falls at {} m/s and {landing}",
                 spindrift.loose_density,
                 spindrift.threshold_speed,
@@ -137,12 +145,12 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
             );
         }
     }
-    println!(
+    outln!(
         "memory      about {} at the start (sparse grid near the bodies, bins and particles){}",
         Bytes(budget.cpu_bytes),
         machine_text()
     );
-    println!("gpu         {}", gpu_line(&scene, budget.gpu.as_ref()));
+    let gpu = print_gpu_line(&scene, &budget);
     let policy = match scene.time.step {
         TimeStep::Fixed { dt } => format!("fixed {dt:.2e} s"),
         TimeStep::Adaptive { cfl, max_dt } => {
@@ -150,29 +158,29 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
         }
     };
     let first = scene.first_step();
-    println!(
+    outln!(
         "time step   {policy}; first step {:.3e} s ({:.0} substeps per frame, at most {})",
         first.dt,
         first.substeps_per_frame.ceil(),
         scene.time.max_substeps_per_frame
     );
-    println!(
+    outln!(
         "frames      {} at {} fps ({} s)",
         scene.time.frame_count(),
         scene.time.fps,
         scene.time.duration
     );
-    println!("output      {}", scene.output.directory.display());
+    outln!("output      {}", scene.output.directory.display());
     if scene.output.formats.contains(&CacheFormat::Mesh) {
         let mesh = &scene.output.mesh;
-        println!(
+        outln!(
             "mesh        voxel {} m, {} smoothing pass(es), surface at {} of the rest density",
             mesh.voxel_size_for(scene.domain.cell_size),
             mesh.smoothing,
             mesh.iso
         );
     }
-    Ok(())
+    gpu
 }
 
 /// A scene past the machine's memory, or an unreadable limit (exit code 2).
@@ -188,22 +196,67 @@ fn machine_text() -> String {
     }
 }
 
-/// Whether the GPU backend runs the scene and, for snow, the GPU memory it
-/// needs (no adapter is opened).
-fn gpu_line(scene: &Scene, estimate: Option<&MemoryEstimate>) -> String {
+/// Whether the GPU backend runs the scene on the adapter `--backend gpu`
+/// would take, held against that adapter's limits and, for a software
+/// adapter, the host memory its buffers live in (no device is opened).
+/// `Err` when it cannot: the line says why and what to change.
+fn gpu_line(scene: &Scene, budget: &Budget) -> Result<String, String> {
     if let Err(error) = gpu_supports(scene) {
-        return format!("CPU only: {}", first_line(&error));
+        return Err(format!("CPU only: {}", first_line(&error)));
     }
-    let Some(estimate) = estimate else {
-        return "the GPU backend runs this scene (--backend gpu)".into();
+    let buffers = budget.gpu.as_ref().map_or(String::new(), |estimate| {
+        format!(
+            ": {:.1} MiB of GPU buffers ({} bytes per particle, {} per node, {} nodes)",
+            estimate.total_bytes() as f64 / (1024.0 * 1024.0),
+            estimate.bytes_per_particle,
+            estimate.bytes_per_node,
+            estimate.nodes
+        )
+    });
+    let Some(adapter) = firn_gpu::choose(AdapterPolicy::AllowSoftware) else {
+        return Err(format!(
+            "no GPU adapter was found: this scene runs on the CPU (on a GPU it would need{})",
+            buffers.trim_start_matches(':')
+        ));
     };
-    format!(
-        "the GPU backend runs this scene: {:.1} MiB of GPU buffers ({} bytes per particle, {} per node, {} nodes)",
-        estimate.total_bytes() as f64 / (1024.0 * 1024.0),
-        estimate.bytes_per_particle,
-        estimate.bytes_per_node,
-        estimate.nodes
-    )
+    let machine = machine_memory().ok().flatten();
+    if let Err(error) = budget.check_gpu(&adapter, machine) {
+        return Err(error.to_string().replace("\n  ", "\n            "));
+    }
+    let memory = match (adapter.is_software, machine, &budget.gpu) {
+        (_, _, None) => String::new(),
+        (true, Some(machine), Some(_)) => format!(
+            ", held in host memory beside the host's copy ({} in all, of {})",
+            Bytes(budget.cpu_bytes + budget.gpu.map_or(0, |gpu| gpu.total_bytes())),
+            Bytes(machine.bytes)
+        ),
+        (true, None, Some(_)) => String::new(),
+        (false, _, Some(_)) => "; the adapter does not report its memory".into(),
+    };
+    Ok(format!(
+        "the GPU backend runs this scene on {}{buffers}{memory}",
+        adapter.name
+    ))
+}
+
+/// Prints the GPU line; fails (exit code 2) when the scene asks for the GPU
+/// (`backend = "gpu"`) and the GPU cannot run it.
+fn print_gpu_line(scene: &Scene, budget: &Budget) -> Result<(), Failure> {
+    match gpu_line(scene, budget) {
+        Ok(line) => {
+            outln!("gpu         {line}");
+            Ok(())
+        }
+        Err(line) => {
+            outln!("gpu         {line}");
+            if scene.compute.backend == Backend::Gpu {
+                return Err(Failure::BadInput(
+                    "error: the scene asks for the GPU ([compute] backend = \"gpu\"), which cannot run it (see the gpu line above)\n  fix: follow the gpu line's fix, or set backend = \"auto\" or \"cpu\"".into(),
+                ));
+            }
+            Ok(())
+        }
+    }
 }
 
 /// The domain's corners as `[x, y, z] to [x, y, z]`.
@@ -217,10 +270,10 @@ fn box_text(domain: &Domain) -> String {
 
 /// The summary of a curl-noise flow scene: particle slots, the field's
 /// parameters, emitters and obstacles.
-fn check_flow(scene: &Scene, flow: &FlowSettings, budget: &Budget) {
-    println!("scene       {} (curl-noise flow)", scene.name);
-    println!("domain      {}", box_text(&scene.domain));
-    println!(
+fn check_flow(scene: &Scene, flow: &FlowSettings, budget: &Budget) -> Result<(), Failure> {
+    outln!("scene       {} (curl-noise flow)", scene.name);
+    outln!("domain      {}", box_text(&scene.domain));
+    outln!(
         "field       noise share {}, strength {}, length scale {}, background {} along [{}, {}, {}], curl {:?}",
         flow.noise_share,
         flow.noise_strength,
@@ -231,26 +284,27 @@ fn check_flow(scene: &Scene, flow: &FlowSettings, budget: &Budget) {
         flow.background_direction.z,
         flow.curl
     );
-    println!(
+    outln!(
         "stepping    {:?}, {} substeps per frame ({:.3e} s)",
         flow.integrator,
         flow.substeps,
         1.0 / (scene.time.fps * f64::from(flow.substeps))
     );
-    println!("particles   {} slots", budget.work.particles);
-    println!("emitters    {}", flow.emitters.len());
-    println!("obstacles   {}", flow.obstacles.len());
-    println!(
+    outln!("particles   {} slots", budget.work.particles);
+    outln!("emitters    {}", flow.emitters.len());
+    outln!("obstacles   {}", flow.obstacles.len());
+    outln!(
         "memory      about {} with every slot alive{}",
         Bytes(budget.cpu_bytes),
         machine_text()
     );
-    println!("gpu         {}", gpu_line(scene, None));
-    println!(
+    let gpu = print_gpu_line(scene, budget);
+    outln!(
         "frames      {} at {} fps ({} s)",
         scene.time.frame_count(),
         scene.time.fps,
         scene.time.duration
     );
-    println!("output      {}", scene.output.directory.display());
+    outln!("output      {}", scene.output.directory.display());
+    gpu
 }

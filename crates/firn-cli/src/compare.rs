@@ -125,7 +125,7 @@ pub fn compare(args: CompareArgs) -> Result<(), Failure> {
     })?;
     write_png(&plan.out, &canvas).map_err(|error| Failure::Failed(format!("error: {error}")))?;
     plan.write_report(rows)?;
-    println!(
+    outln!(
         "firn: {} scene(s) at {} time(s) in {:.1} s; picture in {}, numbers in {}",
         plan.scenes.len(),
         plan.times.len(),
@@ -229,7 +229,7 @@ impl Plan {
                 .map(|&time| time_text(time))
                 .collect();
             if !late.is_empty() {
-                eprintln!(
+                errln!(
                     "note: {label} lasts {duration} s; t = {} s {} past its end (the simulation simply continues)",
                     late.join(", "),
                     if late.len() == 1 { "is" } else { "are" }
@@ -275,7 +275,7 @@ impl Plan {
                 paste(row, column, &panel);
                 let wall_seconds = still_started.elapsed().as_secs_f64();
                 if !quiet {
-                    eprintln!(
+                    errln!(
                         "still {}/{total}: {label} at t = {} s, {substeps} substeps so far, {wall_seconds:.1} s ({:.1} s in all)",
                         row * self.times.len() + column + 1,
                         time_text(time),

@@ -15,18 +15,18 @@ const INSTALL_HINT: &str = "install a GPU driver, or Mesa's software Vulkan driv
 
 /// Prints firn's version, the CPU, the adapters and `auto`'s choice.
 pub fn info() -> Result<(), Failure> {
-    println!("firn {}", env!("CARGO_PKG_VERSION"));
-    println!("cpu: {}", crate::machine::Cpu::detect().describe());
-    println!(
+    outln!("firn {}", env!("CARGO_PKG_VERSION"));
+    outln!("cpu: {}", crate::machine::Cpu::detect().describe());
+    outln!(
         "cpu threads: {}, SIMD path {} (the snow model uses {})",
         rayon::current_num_threads(),
         Simd::detect().name(),
         preferred_simd().name()
     );
     let adapters = firn_gpu::adapters();
-    print!("{}", adapter_lines(&adapters));
+    out!("{}", adapter_lines(&adapters));
     let hardware = firn_gpu::choose(AdapterPolicy::HardwareOnly);
-    println!("{}", auto_choice(hardware.as_ref(), &adapters));
+    outln!("{}", auto_choice(hardware.as_ref(), &adapters));
     Ok(())
 }
 

@@ -1,5 +1,12 @@
 //! The `firn` command: run, check and benchmark snow simulations.
 
+// Every line goes through `console`'s macros, which end quietly on a
+// closed pipe.
+#![deny(clippy::print_stdout, clippy::print_stderr)]
+
+#[macro_use]
+mod console;
+
 mod backend;
 mod bench;
 mod bench_flow;
@@ -11,6 +18,7 @@ mod check;
 mod compare;
 mod compare_layout;
 mod info;
+mod launch;
 mod machine;
 mod pictures;
 mod presets;
@@ -87,7 +95,7 @@ fn quiet_device_select_layer() {
 fn main() -> ExitCode {
     quiet_device_select_layer();
     let cli = Cli::parse();
-    let result = match cli.command {
+    let result = launch::refuse_mpirun_without_mpi().and_then(|()| match cli.command {
         Command::Run(args) => run::run(args),
         Command::Check(args) => check::check(args),
         Command::Presets => {
@@ -99,7 +107,7 @@ fn main() -> ExitCode {
         Command::Compare(args) => compare::compare(args),
         Command::Info => info::info(),
         Command::View(args) => view::view(args),
-    };
+    });
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(Failure::BadInput(message)) => {
@@ -117,6 +125,6 @@ fn main() -> ExitCode {
 /// failure another rank reports) prints nothing.
 fn say(message: &str) {
     if !message.is_empty() {
-        eprintln!("{message}");
+        errln!("{message}");
     }
 }

@@ -64,11 +64,11 @@ pub fn run(args: &RunArgs, mpi: &MpiRun) -> Result<(), Failure> {
 fn said(failure: Failure) -> Failure {
     match failure {
         Failure::BadInput(message) => {
-            eprintln!("{message}");
+            errln!("{message}");
             Failure::BadInput(String::new())
         }
         Failure::Failed(message) => {
-            eprintln!("{message}");
+            errln!("{message}");
             Failure::Failed(String::new())
         }
     }
@@ -117,7 +117,7 @@ pub fn bench(args: &BenchArgs, mpi: &MpiRun) -> Result<(), Failure> {
         });
     agree_on(&exchange, refused.map_or(Ok(()), Err))?;
     if exchange.rank() == 0 {
-        println!("cpu (rank 0): {}", crate::machine::Cpu::detect().describe());
+        outln!("cpu (rank 0): {}", crate::machine::Cpu::detect().describe());
     }
     if args.flow {
         // As without mpirun: the widest path by default, else --simd's.
@@ -289,7 +289,7 @@ fn print_flow_split(parts: &[FlowRankMeasure], simd: Simd, steps: u32) {
     let particles: u64 = parts.iter().map(|part| part.particles).sum();
     let seconds = parts.iter().map(|part| part.seconds).fold(0.0, f64::max);
     let steps_f = f64::from(steps.max(1));
-    println!(
+    outln!(
         "firn mpi flow ranks={} threads={} simd={} particles={particles} steps={steps} seconds={seconds:.3} ns_per_particle_step={:.2} steps_per_s={:.2}",
         parts.len(),
         rayon::current_num_threads(),
@@ -298,7 +298,7 @@ fn print_flow_split(parts: &[FlowRankMeasure], simd: Simd, steps: u32) {
         steps_f / seconds,
     );
     for (rank, part) in parts.iter().enumerate() {
-        println!(
+        outln!(
             "  rank {rank}: particles={} bytes_sent_per_step={:.0} gathering_ms_per_step={:.3}",
             part.particles,
             part.bytes_sent as f64 / steps_f,
@@ -313,7 +313,7 @@ fn print_split(parts: &[RankMeasure], grid: u32, transfer: Transfer, steps: u32)
     let particles: u64 = parts.iter().map(|part| part.particles).sum();
     let seconds = parts.iter().map(|part| part.seconds).fold(0.0, f64::max);
     let substeps = f64::from(steps.max(1));
-    println!(
+    outln!(
         "firn mpi ranks={} threads={} transfer={} particles={particles} grid={grid} steps={steps} seconds={seconds:.3} ns_per_particle_step={:.2} substeps_per_s={:.2}",
         parts.len(),
         rayon::current_num_threads(),
@@ -329,7 +329,7 @@ fn print_split(parts: &[RankMeasure], grid: u32, transfer: Transfer, steps: u32)
                 format!("{}={ms:.3}", phase.name())
             })
             .collect();
-        println!(
+        outln!(
             "  rank {rank}: particles={} bytes_sent_per_substep={:.0} exchange_ms_per_substep: {}",
             part.particles,
             part.bytes_sent as f64 / substeps,

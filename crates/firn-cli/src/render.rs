@@ -120,7 +120,7 @@ pub fn render(args: RenderArgs) -> Result<(), Failure> {
     manifest
         .write(&run.manifest_path())
         .map_err(|error| Failure::Failed(format!("error: {error}")))?;
-    println!(
+    outln!(
         "firn: rendered {} frames in {} style(s); pictures in {}",
         frames.len(),
         scene.render.styles.len(),

@@ -69,7 +69,7 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
     let (scene, scene_file) = scene_for(&args)?;
     let chosen = choose_backend(&scene)?;
     if let (Some(note), false) = (&chosen.note, args.quiet) {
-        eprintln!("{note}");
+        errln!("{note}");
     }
     let placement = chosen.placement;
     let described = placement.describe();
@@ -165,15 +165,35 @@ pub(crate) fn record(
     .map_err(failed)?;
     terminal.clear_bar();
     warn_unconverged(&recording, args.quiet);
-    println!(
-        "firn: {} frames of {} particles in {:.1} s ({:.0} ns per particle-substep); caches and manifest in {}",
-        recording.frame(),
-        recording.solver().particle_count(),
-        started.elapsed().as_secs_f64(),
-        recording.mean_cost(),
+    outln!(
+        "{}; caches and manifest in {}",
+        summary(
+            recording.frame(),
+            recording.solver().particle_count(),
+            started.elapsed().as_secs_f64(),
+            recording.mean_cost(),
+        ),
         recording.run_directory().path().display()
     );
     Ok(())
+}
+
+/// What a run did: frames, particles, time and, when particles were
+/// stepped and some are left, the cost per particle-substep.
+fn summary(frames: u32, particles: usize, seconds: f64, cost: Option<f64>) -> String {
+    let counted = |count: usize, one: &str| match count {
+        1 => format!("1 {one}"),
+        count => format!("{count} {one}s"),
+    };
+    let done = format!(
+        "firn: {} of {}",
+        counted(frames as usize, "frame"),
+        counted(particles, "particle")
+    );
+    match cost.filter(|_| particles > 0) {
+        Some(ns) => format!("{done} in {seconds:.1} s ({ns:.0} ns per particle-substep)"),
+        None => format!("{done} in {seconds:.1} s"),
+    }
 }
 
 /// Sets up rayon's pool.
@@ -216,7 +236,7 @@ fn resume_failure(error: ResumeError) -> Failure {
 /// Says on stderr what runs where (`described`): the start line.
 fn announce(recording: &Recording, last_frame: u32, described: &str) {
     let solver = recording.solver();
-    eprintln!(
+    errln!(
         "firn: {}: {} particles, frames {} to {}, on {}",
         solver.scene().name,
         solver.particle_count(),
@@ -230,7 +250,7 @@ fn announce(recording: &Recording, last_frame: u32, described: &str) {
 fn warn_unconverged(recording: &Recording, quiet: bool) {
     let unconverged = recording.unconverged_substeps();
     if unconverged > 0 && !quiet {
-        eprintln!(
+        errln!(
             "warning: the semi-implicit solve stopped before reaching its tolerance in {unconverged} substeps (see \"solver\" in manifest.json)\n  fix: raise [solver] solver_max_iterations, or lower dt"
         );
     }
@@ -268,7 +288,7 @@ impl Observer for Terminal {
             progress.substeps_per_second()
         );
         if self.log_lines {
-            eprintln!(
+            errln!(
                 "frame {}/{}  {status}  ETA {:.0} s",
                 progress.frame,
                 progress.last_frame,
@@ -304,4 +324,25 @@ pub fn progress_bar(last_frame: u32, first_frame: u32, quiet: bool) -> ProgressB
     );
     bar.set_position(first_frame as u64);
     bar
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_run_without_particles_left_gives_no_cost_per_particle() {
+        assert_eq!(
+            summary(1, 0, 0.31, Some(308_169.0)),
+            "firn: 1 frame of 0 particles in 0.3 s"
+        );
+        assert_eq!(
+            summary(3, 1200, 2.0, Some(95.4)),
+            "firn: 3 frames of 1200 particles in 2.0 s (95 ns per particle-substep)"
+        );
+        assert_eq!(
+            summary(2, 1, 1.0, None),
+            "firn: 2 frames of 1 particle in 1.0 s"
+        );
+    }
 }

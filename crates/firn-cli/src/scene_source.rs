@@ -16,7 +16,7 @@ pub const DEFAULT_SCENE_NAME: &str = "<bundled snowball-wall.toml>";
 pub fn load_scene(path: Option<&Path>) -> Result<(Scene, Option<PathBuf>), Failure> {
     let loaded = read_scene(path)?;
     for warning in loaded.0.mesh_warnings() {
-        eprintln!("warning: {warning}");
+        errln!("warning: {warning}");
     }
     Ok(loaded)
 }

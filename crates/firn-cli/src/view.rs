@@ -77,7 +77,7 @@ pub fn view(args: ViewArgs) -> Result<(), Failure> {
         ViewError::Failed(_) => Failure::Failed(format!("error: {error}")),
         _ => Failure::BadInput(format!("error: {error}")),
     })?;
-    println!(
+    outln!(
         "firn view: {} frames in {:.1} s ({:.1} FPS) on {}; {} substeps ({:.0}/s) on the {}; simulated {:.3} s{}",
         report.frames,
         report.seconds,

@@ -15,7 +15,7 @@ use firn_gpu::{AdapterPolicy, GpuSnow};
 use glam::DVec3;
 
 mod common;
-use common::{firn, manifest, stderr, text, tiny_ball_scene, write_scene};
+use common::{firn, firn_within, manifest, stderr, text, tiny_ball_scene, write_scene};
 
 /// How far (m) the mean particle position of a GPU run may stray from the
 /// CPU run's over the tiny scene's three frames: 1/500 of a grid cell.
@@ -261,6 +261,65 @@ fn a_bogus_backend_key_is_a_located_input_error() {
         "{said}"
     );
     assert!(!out.exists(), "nothing is written for bad input");
+}
+
+/// A snowball in a cube of `side` metres cut into cells of `cell_size`,
+/// on `backend`.
+fn wide_scene(dir: &Path, side: f64, cell_size: f64, backend: &str) -> std::path::PathBuf {
+    let text = format!(
+        "format = 1\nname = \"wide\"\n\n[compute]\nbackend = \"{backend}\"\n\n\
+         [time]\nduration = 0.1\n\n[domain]\nmax = [{side}, {side}, {side}]\ncell_size = {cell_size}\n\n\
+         [[bodies]]\nshape = \"sphere\"\ncenter = [0.5, 0.5, 0.5]\nradius = 0.05\n"
+    );
+    write_scene(dir, &format!("wide-{backend}.toml"), &text)
+}
+
+/// `firn check` holds a scene to the adapter `--backend gpu` would take: a
+/// dense grid whose word plane passes the adapter's storage-buffer limit
+/// does not fit (the buffer, the figures, a fix), and a scene that asks for
+/// the GPU then fails; a software adapter's buffers, which live in host
+/// memory, are held to the machine's memory too.
+#[test]
+fn check_holds_the_scene_to_the_adapters_limits_and_memory() {
+    let Some(context) = firn_gpu::context_for_tests() else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let limit = context.adapter.max_storage_binding;
+    let cells = ((limit / 4) as f64).cbrt().ceil() + 1.0;
+    let wide = wide_scene(dir.path(), 1.0, 1.0 / cells, "auto");
+    let output = firn(&["check", wide.to_str().unwrap()]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let stdout = text(&output.stdout);
+    assert!(
+        stdout.contains("the scene does not fit the GPU: one word plane")
+            && stdout.contains(&format!("allows {limit} bytes per storage buffer"))
+            && stdout.contains(&context.adapter.name)
+            && stdout.contains("fix: use a larger cell_size"),
+        "{stdout}"
+    );
+    assert!(!stdout.contains("runs this scene"), "{stdout}");
+    let asked = wide_scene(dir.path(), 1.0, 1.0 / cells, "gpu");
+    let output = firn(&["check", asked.to_str().unwrap()]);
+    assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+    assert!(stderr(&output).contains("asks for the GPU"));
+
+    let roomy = wide_scene(dir.path(), 2.0, 0.01, "auto");
+    let output = firn(&["check", roomy.to_str().unwrap()]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(text(&output.stdout).contains("the GPU backend runs this scene on"));
+    if context.adapter.is_software {
+        // About 470 MiB of dense grid on the GPU, a few MiB on the CPU.
+        let limited = [("FIRN_MEMORY_LIMIT", "256MiB")];
+        let args = ["check", roomy.to_str().unwrap()];
+        let output = firn_within(&args, &limited, std::time::Duration::from_secs(60));
+        assert!(output.status.success(), "{}", stderr(&output));
+        let stdout = text(&output.stdout);
+        assert!(
+            stdout.contains("keeps its buffers in this machine's memory, which allows 256 MiB"),
+            "{stdout}"
+        );
+    }
 }
 
 #[test]

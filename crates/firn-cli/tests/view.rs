@@ -284,6 +284,8 @@ fn the_viewer_plays_back_a_finished_run() {
     assert_ball_and_panel(&image);
 }
 
+/// `--record` with `--screenshot` writes both: every frame, and the last
+/// one again as the screenshot.
 #[test]
 fn the_viewer_records_every_frame() {
     let Some(display) = VirtualDisplay::start() else {
@@ -292,6 +294,7 @@ fn the_viewer_records_every_frame() {
     let dir = tempfile::tempdir().unwrap();
     let scene = write_scene(dir.path(), "ball.toml", BALL);
     let record = dir.path().join("frames");
+    let shot = dir.path().join("last.png");
     let output = display.firn(&[
         "view",
         scene.to_str().unwrap(),
@@ -301,6 +304,8 @@ fn the_viewer_records_every_frame() {
         "3",
         "--record",
         record.to_str().unwrap(),
+        "--screenshot",
+        shot.to_str().unwrap(),
         "--backend",
         "cpu",
     ]);
@@ -311,6 +316,11 @@ fn the_viewer_records_every_frame() {
         assert_eq!(image.dimensions(), (320, 200));
     }
     assert!(!record.join("frame-00003.png").exists());
+    let last = image::open(record.join("frame-00002.png"))
+        .unwrap()
+        .to_rgb8();
+    let screenshot = image::open(&shot).expect("the screenshot beside the recording");
+    assert_eq!(screenshot.to_rgb8(), last);
 }
 
 #[test]

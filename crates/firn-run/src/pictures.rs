@@ -3,6 +3,7 @@
 //! and style under `images/STYLE/`, and per style an animated GIF and, when
 //! ffmpeg is on PATH, an MP4 of the whole run.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use firn_core::Scene;
@@ -113,7 +114,9 @@ pub fn write_animations(
         }
     }
     if ffmpeg.is_none() && !quiet {
-        eprintln!(
+        // A closed standard error (`2>&1 | head`) loses the note, not the run.
+        let _ = writeln!(
+            std::io::stderr(),
             "note: ffmpeg is not on PATH, so no MP4 was written (the GIF preview was); \
              install ffmpeg to get MP4 videos"
         );

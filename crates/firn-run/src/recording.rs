@@ -329,8 +329,9 @@ impl Recording {
 
     /// Mean wall-clock nanoseconds per particle-substep over the frames
     /// recorded that took substeps, each frame's particle-substeps counted
-    /// with its own particle count (a flow's emitters fill it over time).
-    pub fn mean_cost(&self) -> f64 {
+    /// with its own particle count (a flow's emitters fill it over time);
+    /// `None` when no frame stepped a particle.
+    pub fn mean_cost(&self) -> Option<f64> {
         let (seconds, work) = self
             .manifest
             .frames
@@ -340,11 +341,7 @@ impl Recording {
                 let particle_substeps = record.wall_seconds * 1e9 / record.ns_per_particle_substep;
                 (seconds + record.wall_seconds, work + particle_substeps)
             });
-        if work > 0.0 {
-            seconds * 1e9 / work
-        } else {
-            0.0
-        }
+        (work > 0.0).then(|| seconds * 1e9 / work)
     }
 
     /// Advances the solver to the end of `frame` and brings its particles
