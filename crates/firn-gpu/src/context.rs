@@ -23,7 +23,8 @@ pub struct AdapterReport {
     pub driver: String,
     /// Whether it renders in software on the CPU.
     pub is_software: bool,
-    /// Largest storage buffer one binding may cover, in bytes.
+    /// Largest storage buffer firn can bind, in bytes: the lesser of the
+    /// adapter's binding and buffer size limits.
     pub max_storage_binding: u64,
     /// Storage buffers one compute shader may bind.
     pub max_storage_buffers_per_stage: u32,
@@ -46,7 +47,7 @@ impl AdapterReport {
                 .trim()
                 .to_string(),
             is_software: info.device_type == wgpu::DeviceType::Cpu,
-            max_storage_binding: limits.max_storage_buffer_binding_size,
+            max_storage_binding: largest_binding(&limits),
             max_storage_buffers_per_stage: limits.max_storage_buffers_per_shader_stage,
             max_workgroups_per_dimension: limits.max_compute_workgroups_per_dimension,
             float_atomics: adapter
@@ -54,6 +55,13 @@ impl AdapterReport {
                 .contains(wgpu::Features::SHADER_FLOAT32_ATOMIC),
         }
     }
+}
+
+/// The largest storage buffer `limits` let firn bind, in bytes.
+pub fn largest_binding(limits: &wgpu::Limits) -> u64 {
+    limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size)
 }
 
 /// Which adapters a device may be opened on.

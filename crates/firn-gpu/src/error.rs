@@ -39,6 +39,27 @@ pub enum GpuError {
         /// What to change.
         fix: String,
     },
+    /// A software adapter's buffers, which live in host memory, would pass
+    /// what the machine allows beside the host's copy of the state.
+    #[error(
+        "the scene does not fit the GPU: its buffers need {needed} and the host's copy of \
+         the state {host}, but the software adapter ({adapter}) keeps its buffers in this \
+         machine's memory, which allows {available} ({limited_by})\n  fix: {fix}"
+    )]
+    HostMemory {
+        /// The GPU buffers.
+        needed: firn_core::scene::Bytes,
+        /// The host's copy of the state.
+        host: firn_core::scene::Bytes,
+        /// What the machine allows.
+        available: firn_core::scene::Bytes,
+        /// Where that figure comes from ("physical memory", ...).
+        limited_by: &'static str,
+        /// The adapter's name.
+        adapter: String,
+        /// What to change.
+        fix: String,
+    },
     /// The snow simulation blew up; the message says why and what to change.
     #[error("{0}")]
     Snow(#[from] firn_mpm::SimulationError),

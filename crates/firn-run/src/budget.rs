@@ -16,6 +16,7 @@ use firn_core::Scene;
 use firn_core::scene::{Bytes, SceneKind, WorkEstimate};
 use firn_flow::FlowSimulation;
 use firn_gpu::snow::MemoryEstimate;
+use firn_gpu::{AdapterReport, GpuError};
 use firn_mpm::Simulation;
 
 use crate::backend::Placement;
@@ -119,16 +120,59 @@ impl Budget {
     }
 
     /// Refuses what `placement` cannot hold: the host memory on any
-    /// backend, and a GPU buffer past the adapter's limits.
+    /// backend, and on the GPU a buffer past the adapter's limits or, on a
+    /// software adapter, buffers past the host memory.
     pub fn check_placement(&self, scene: &Scene, placement: &Placement) -> Result<(), RunError> {
-        if let Some(machine) = machine_memory().map_err(RunError::TooLarge)? {
+        let machine = machine_memory().map_err(RunError::TooLarge)?;
+        if let Some(machine) = machine {
             self.check_memory(scene, machine)
                 .map_err(RunError::TooLarge)?;
         }
         if let (Placement::Gpu(context), Some(gpu)) = (placement, &self.gpu) {
             gpu.check_fits(context)?;
+            self.check_gpu_memory(&context.adapter, machine)?;
         }
         Ok(())
+    }
+
+    /// Refuses a snow scene whose GPU buffers `adapter` cannot hold: a
+    /// buffer past its limits or, on a software adapter (its buffers are
+    /// host memory), the buffers and the host's copy past `machine`.
+    /// Hardware adapters do not report their memory through wgpu; a run
+    /// that passes theirs fails when the buffers are made.
+    pub fn check_gpu(
+        &self,
+        adapter: &AdapterReport,
+        machine: Option<MachineMemory>,
+    ) -> Result<(), GpuError> {
+        if let Some(gpu) = &self.gpu {
+            gpu.check_fits_adapter(adapter)?;
+        }
+        self.check_gpu_memory(adapter, machine)
+    }
+
+    /// The host-memory half of [`Budget::check_gpu`].
+    fn check_gpu_memory(
+        &self,
+        adapter: &AdapterReport,
+        machine: Option<MachineMemory>,
+    ) -> Result<(), GpuError> {
+        let (Some(gpu), Some(machine), true) = (&self.gpu, machine, adapter.is_software) else {
+            return Ok(());
+        };
+        if gpu.total_bytes().saturating_add(self.cpu_bytes) <= machine.bytes {
+            return Ok(());
+        }
+        Err(GpuError::HostMemory {
+            needed: Bytes(gpu.total_bytes()),
+            host: Bytes(self.cpu_bytes),
+            available: Bytes(machine.bytes),
+            limited_by: machine.source,
+            adapter: adapter.name.clone(),
+            fix: "use a larger cell_size or a smaller [domain] (the GPU grid is dense over the \
+                  whole domain), or run with --backend cpu (its grid is sparse)"
+                .into(),
+        })
     }
 }
 

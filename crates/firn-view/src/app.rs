@@ -236,8 +236,8 @@ impl Running {
         self.follow_camera();
         self.frames += 1;
         let last = options.frames.is_some_and(|frames| self.frames >= frames);
-        let capture_to = self.capture_path(options, last);
-        self.draw(panel, capture_to.as_deref())?;
+        let capture_to = self.capture_paths(options, last);
+        self.draw(panel, &capture_to)?;
         Ok(last)
     }
 
@@ -292,26 +292,30 @@ impl Running {
         visible as f32 / config.height.max(1) as f32
     }
 
-    /// Where this frame's picture is written, if anywhere.
-    fn capture_path(&mut self, options: &ViewOptions, last: bool) -> Option<PathBuf> {
+    /// Where this frame's picture is written: the recording's next frame,
+    /// the `--screenshot` after the last frame, and a screenshot asked for
+    /// with P or the panel (any of them, or none).
+    fn capture_paths(&mut self, options: &ViewOptions, last: bool) -> Vec<PathBuf> {
+        let mut paths = Vec::new();
         if let Some(directory) = &options.record {
-            return Some(directory.join(format!("frame-{:05}.png", self.frames - 1)));
+            paths.push(directory.join(format!("frame-{:05}.png", self.frames - 1)));
         }
         if last && let Some(path) = &options.screenshot {
-            return Some(path.clone());
+            paths.push(path.clone());
         }
         if std::mem::take(&mut self.toggles.screenshot) {
             self.screenshots += 1;
-            return Some(PathBuf::from(format!(
+            paths.push(PathBuf::from(format!(
                 "firn-screenshot-{:03}.png",
                 self.screenshots
             )));
         }
-        None
+        paths
     }
 
-    /// Draws the scene and the panel into the window (and into `capture_to`).
-    fn draw(&mut self, mut panel: PanelFrame, capture_to: Option<&Path>) -> Result<(), ViewError> {
+    /// Draws the scene and the panel into the window (and into each of
+    /// `capture_to`).
+    fn draw(&mut self, mut panel: PanelFrame, capture_to: &[PathBuf]) -> Result<(), ViewError> {
         let context = Arc::clone(&self.graphics.context);
         let (device, queue) = (&context.device, &context.queue);
         for (id, deltas) in panel.textures.set.drain() {
@@ -332,7 +336,7 @@ impl Running {
             );
             let view = surface_texture.texture.create_view(&Default::default());
             self.draw_into(&mut encoder, &view, &panel);
-            let target = capture_to.map(|_| self.graphics.capture_target());
+            let target = (!capture_to.is_empty()).then(|| self.graphics.capture_target());
             if let Some(target) = &target {
                 let view = target.create_view(&Default::default());
                 self.draw_into(&mut encoder, &view, &panel);
@@ -344,8 +348,11 @@ impl Running {
         for id in panel.textures.free.drain() {
             self.egui.renderer.free_texture(&id);
         }
-        if let (Some(Some(target)), Some(path)) = (drawn, capture_to) {
-            self.save(&capture(device, queue, &target), path)?;
+        if let Some(Some(target)) = drawn {
+            let image = capture(device, queue, &target);
+            for path in capture_to {
+                self.save(&image, path)?;
+            }
         }
         Ok(())
     }

@@ -5,6 +5,8 @@ use firn_core::scene::{Integrator, Transfer};
 use firn_mpm::grid::GridLayout;
 
 use super::buffers::{LINEARIZED_BYTES, SOLVE_PRODUCTS, SOLVE_VECTORS};
+use crate::context::{AdapterReport, GpuContext, largest_binding};
+use crate::error::GpuError;
 
 /// Bytes per particle: position and mass, velocity and V_p^0 (two `vec4`),
 /// F_E, C_p and V_p^0 τ_p (three `mat3x3` of 48 bytes in storage layout),
@@ -92,6 +94,46 @@ impl MemoryEstimate {
     /// How many particles fit in `budget` bytes beside this grid.
     pub fn particles_within(&self, budget: u64) -> u64 {
         budget.saturating_sub(self.nodes * self.bytes_per_node) / self.bytes_per_particle
+    }
+}
+
+impl MemoryEstimate {
+    /// Fails before anything is allocated when a buffer of this estimate
+    /// would pass `context`'s limits.
+    pub fn check_fits(&self, context: &GpuContext) -> Result<(), GpuError> {
+        self.check_buffers(&context.adapter.name, largest_binding(&context.limits))
+    }
+
+    /// Fails when a buffer of this estimate would pass `adapter`'s limits,
+    /// without opening a device (`firn check`).
+    pub fn check_fits_adapter(&self, adapter: &AdapterReport) -> Result<(), GpuError> {
+        self.check_buffers(&adapter.name, adapter.max_storage_binding)
+    }
+
+    /// Fails when a buffer would pass `limit` bytes on the adapter `adapter`.
+    fn check_buffers(&self, adapter: &str, limit: u64) -> Result<(), GpuError> {
+        let largest = self.largest_buffer_bytes();
+        if largest <= limit && self.particles <= u64::from(u32::MAX) {
+            return Ok(());
+        }
+        let (what, fix) = if self.nodes * 4 >= self.particles * 48 {
+            (
+                format!("one word plane of the dense {}-node grid", self.nodes),
+                "use a larger cell_size or a smaller [domain], or run with --backend cpu (its grid is sparse)",
+            )
+        } else {
+            (
+                format!("one matrix per particle for {} particles", self.particles),
+                "use fewer particles_per_cell or smaller bodies, or run with --backend cpu",
+            )
+        };
+        Err(GpuError::TooLarge {
+            what,
+            needed: largest,
+            limit,
+            adapter: adapter.into(),
+            fix: fix.into(),
+        })
     }
 }
 
