@@ -9,15 +9,17 @@
 # last lines give the median ratio of each transfer scheme: on a shared
 # machine single runs of either drift by tens of percent.
 #
-# Needs the peer script (../shared/peers/taichi_mpm3d.py, or PEER=path) and a
-# Python with taichi (PYTHON=path; e.g. python3 -m venv venv && venv/bin/pip install taichi).
+# The peer is the repository's Taichi script, scripts/peer/taichi_snow.py
+# (PEER=path runs another). It needs a Python with Taichi, given as
+# PYTHON=path: python3 -m venv .venv-peer && .venv-peer/bin/pip install taichi,
+# then PYTHON=.venv-peer/bin/python scripts/bench-vs-peer.sh ...
 set -euo pipefail
 cd "$(dirname "$0")/.."
 particles=${1:-262144}
 grid=${2:-128}
 steps=${3:-200}
 runs=${4:-1}
-peer=${PEER:-../shared/peers/taichi_mpm3d.py}
+peer=${PEER:-scripts/peer/taichi_snow.py}
 python=${PYTHON:-python3}
 if ! [[ $runs =~ ^[1-9][0-9]*$ ]]; then
     echo "bench-vs-peer.sh: RUNS (the fourth argument) must be a whole number of at least 1, not '$runs'" >&2

@@ -1,6 +1,6 @@
 //! `firn bench`: solver speed on the thesis' performance scene, a snowball
 //! dropped on the ground (§6.2), sized to match the peer benchmark
-//! (`taichi_mpm3d.py --shape ball`): a ball of 0.3 m diameter at
+//! (`scripts/peer/taichi_snow.py --shape ball`): a ball of 0.3 m diameter at
 //! (0.5, 0.6, 0.5) in the unit box, Stomakhin's snow, Δt = 0.0128 h.
 //!
 //! With `--scene FILE` it runs a scene file instead, for a stretch of simulated
