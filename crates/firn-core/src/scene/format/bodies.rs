@@ -290,10 +290,15 @@ fn check_body(scene: &Scene, index: usize, body: &Body) -> Check {
 
 /// Clumps must be resolved by the grid and their contrast bounded.
 fn check_clumps(path: &KeyPath, clumps: Clumps, cell_size: f32) -> Check {
+    let rule = if clumps.size.is_finite() {
+        "at least domain.cell_size"
+    } else {
+        "a finite number, at least domain.cell_size"
+    };
     ensure(
         clumps.size.is_finite() && clumps.size >= cell_size,
         path.key("size"),
-        "at least domain.cell_size",
+        rule,
         clumps.size,
         format!(
             "clumps smaller than a grid cell are not resolved: use size = {} or more \

@@ -102,7 +102,7 @@ pub(super) fn check_material(path: &KeyPath, material: &Material) -> Check {
         "set Young's modulus E in pascals, e.g. youngs_modulus = 1.4e5".to_string(),
     )?;
     let nu = material.poisson_ratio;
-    if nu <= -1.0 || !nu.is_finite() {
+    if nu <= -1.0 || nu.is_nan() {
         return Err(Issue::new(
             path.key("poisson_ratio"),
             format!(

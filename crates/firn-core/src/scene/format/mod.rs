@@ -146,6 +146,7 @@ impl Scene {
         check_format_version(&root).map_err(|issue| source.locate(&root, issue))?;
         let raw: RawScene =
             toml::from_str(text).map_err(|err| source.deserialize_error(&root, &err))?;
+        values::check_f32_range(&root).map_err(|issue| source.locate(&root, issue))?;
         let scene = resolve(raw, origin).map_err(|issue| source.locate(&root, issue))?;
         check_scene(&scene).map_err(|issue| source.locate(&root, issue))?;
         Ok(scene)

@@ -81,19 +81,14 @@ pub(super) fn resolve_time(raw: Option<RawTime>) -> Result<TimeSettings, Issue> 
 
 pub(super) fn check_time(time: &TimeSettings) -> Check {
     let path = KeyPath::of("time");
-    let duration_ok = time.duration > 0.0 && time.duration.is_finite();
-    ensure(
-        duration_ok,
+    positive(
+        time.duration,
         path.key("duration"),
-        "greater than 0",
-        Num(time.duration),
         "set the simulated time in seconds, e.g. duration = 2.0".to_string(),
     )?;
-    ensure(
-        time.fps > 0.0 && time.fps.is_finite(),
+    positive(
+        time.fps,
         path.key("fps"),
-        "greater than 0",
-        Num(time.fps),
         "set the output frames per simulated second, e.g. fps = 30".to_string(),
     )?;
     check_frame_count(time)?;
