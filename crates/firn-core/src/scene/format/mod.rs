@@ -7,7 +7,8 @@
 //! 2. The text is deserialized into private raw structs that reject unknown
 //!    keys (`deny_unknown_fields`) and wrong value types. The span that the
 //!    TOML deserializer reports is turned into a key path (`bodies[1].radus`)
-//!    by walking the spanned tree.
+//!    by walking the spanned tree. The tree is then walked for numbers too
+//!    large for the `f32` they were read into (they became infinite).
 //! 3. Defaults and presets are resolved into the model types, and the model is
 //!    checked by the same rules as [`Scene::validate`]. Those errors name a key
 //!    path, which is looked up in the spanned tree to find the line and column
