@@ -84,6 +84,8 @@ const NODEVICE_SELECT: &str = "NODEVICE_SELECT";
 /// on a headless machine, prints "error: XDG_RUNTIME_DIR is invalid" at
 /// every adapter probe (`--backend auto` probes on every run); firn ranks
 /// the adapters itself, so it loses nothing without the layer.
+// The Vulkan loader reads the process environment, which only the unsafe `set_var` changes.
+#[allow(unsafe_code)]
 fn quiet_device_select_layer() {
     if std::env::var_os(NODEVICE_SELECT).is_none() {
         // SAFETY: main calls this first, before any thread exists that could

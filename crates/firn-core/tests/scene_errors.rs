@@ -547,6 +547,60 @@ fn particles_per_cell_range() {
 }
 
 #[test]
+fn numbers_too_large_for_f32_are_too_large() {
+    // 1e300 used to become an infinite f32, refused as too small.
+    let err = error(&format!("{HEAD}{SPHERE}clumps = {{ size = 1e300 }}\n"));
+    check(
+        &err,
+        13,
+        19,
+        Some("bodies[0].clumps.size"),
+        "smaller number",
+    );
+    assert_eq!(
+        err.message,
+        "bodies[0].clumps.size is too large (got 1e300): it is kept as a 32-bit float, at \
+         most 3.40282e38 in size"
+    );
+    // Vector elements and negative numbers alike.
+    let err = error(&format!("{HEAD}{SPHERE}velocity = [0.0, -1e39, 0.0]\n"));
+    check(
+        &err,
+        13,
+        18,
+        Some("bodies[0].velocity[1]"),
+        "smaller number",
+    );
+    // The keys kept as f64 keep their own rules.
+    let err = error(&format!(
+        "{}{SPHERE}",
+        HEAD.replace("duration = 1.0", "duration = 1e300")
+    ));
+    check(&err, 8, 12, Some("time.duration"), "at this frame rate");
+}
+
+#[test]
+fn infinite_values_are_not_called_too_small() {
+    let err = error(&format!("{HEAD}{SPHERE}clumps = {{ size = inf }}\n"));
+    assert_eq!(
+        err.message,
+        "bodies[0].clumps.size must be a finite number, at least domain.cell_size (got inf)"
+    );
+    let err = error(&format!(
+        "{}{SPHERE}",
+        HEAD.replace("duration = 1.0", "duration = inf")
+    ));
+    assert_eq!(
+        err.message,
+        "time.duration must be a finite number greater than 0 (got inf)"
+    );
+    let err = error(&format!(
+        "{HEAD}{SPHERE}material = \"stiff\"\n[materials.stiff]\npoisson_ratio = inf\n"
+    ));
+    assert!(err.message.contains("less than 0.5 (got inf)"), "{err}");
+}
+
+#[test]
 fn duplicate_output_attribute() {
     let err = error(&format!(
         "{HEAD}{SPHERE}\n[output]\nattributes = [\"mass\", \"density\", \"mass\"]\n"

@@ -12,6 +12,9 @@
 //! on the running CPU (the type is crate-private); that is what makes the
 //! intrinsic calls below sound.
 
+// The AVX2 lanes are `std::arch` intrinsics, sound where an `Avx8` exists.
+#![allow(unsafe_code)]
+
 use std::arch::x86_64::*;
 use std::ops::{Add, Div, Mul, Neg, Sub};
 

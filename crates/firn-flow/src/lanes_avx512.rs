@@ -9,6 +9,9 @@
 //! AVX-512F on the running CPU (the type is crate-private); that is what makes
 //! the intrinsic calls below sound.
 
+// The AVX-512 lanes are `std::arch` intrinsics, sound where an `Avx16` exists.
+#![allow(unsafe_code)]
+
 use std::arch::x86_64::*;
 use std::ops::{Add, Div, Mul, Neg, Sub};
 

@@ -5,6 +5,9 @@
 //! crate's raw pointers; everything else reaches them through their
 //! methods and the colour-by-colour drivers below.
 
+// Threads write disjoint nodes and particles through raw pointers.
+#![allow(unsafe_code)]
+
 use std::marker::PhantomData;
 use std::ops::Range;
 

@@ -26,6 +26,9 @@
 //! `pulp`) either fix the instruction set at compile time or pick their own
 //! operation order, and the solvers need run-time choice with our order.
 
+// The instruction-set proofs call `std::arch` intrinsics and `target_feature` code.
+#![allow(unsafe_code)]
+
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::*;
 use std::ops::{Add, Mul};
