@@ -10,11 +10,12 @@
 use std::path::PathBuf;
 
 use firn_core::Scene;
-use firn_core::scene::SceneKind;
+use firn_core::scene::{SceneError, SceneKind};
 use pyo3::exceptions::{PyKeyError, PyTypeError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
-use toml::{Table, Value};
+use toml::de::{DeTable, DeValue};
+use toml::{Spanned, Table, Value};
 
 use crate::errors::scene_error;
 
@@ -30,14 +31,31 @@ pub struct PyScene {
     /// Where it came from: a file's path (relative paths in the scene are
     /// taken from its folder) or `<dict>`.
     origin: String,
+    /// The file's own text, for a scene read from a file: errors name its
+    /// lines.
+    file_text: Option<String>,
     /// The validated scene.
     pub scene: Scene,
 }
 
 impl PyScene {
-    /// Parses and validates `text`, naming `origin` in errors.
+    /// Parses and validates a file's `text`, naming `origin` in errors.
     fn parse(py: Python<'_>, text: &str, origin: &str) -> PyResult<PyScene> {
-        let scene = Scene::from_toml_str(text, origin).map_err(|error| scene_error(py, &error))?;
+        PyScene::parse_document(py, text, origin, Some(text))
+    }
+
+    /// Parses and validates `text`, the TOML of a document that was read
+    /// from `file_text` (where there is one) and changed from Python; an
+    /// error names the file's line of its key where the file set it, or
+    /// the key and the value set from Python.
+    fn parse_document(
+        py: Python<'_>,
+        text: &str,
+        origin: &str,
+        file_text: Option<&str>,
+    ) -> PyResult<PyScene> {
+        let scene = Scene::from_toml_str(text, origin)
+            .map_err(|error| scene_error(py, &placed(error, text, file_text)))?;
         let document = text.parse::<Table>().map_err(|error| {
             scene_error(
                 py,
@@ -54,16 +72,23 @@ impl PyScene {
         Ok(PyScene {
             document,
             origin: origin.into(),
+            file_text: file_text.map(str::to_string),
             scene,
         })
     }
 
-    /// The scene of `document`, validated as if it were read from a file;
-    /// line numbers refer to `to_toml()`'s text.
-    fn from_document(py: Python<'_>, document: Table, origin: &str) -> PyResult<PyScene> {
+    /// The scene of `document`, changed from Python, validated as if it
+    /// were read from a file; `file_text` is the file it was first read
+    /// from, if any.
+    fn from_document(
+        py: Python<'_>,
+        document: Table,
+        origin: &str,
+        file_text: Option<&str>,
+    ) -> PyResult<PyScene> {
         let text =
             toml::to_string(&document).map_err(|error| PyTypeError::new_err(error.to_string()))?;
-        PyScene::parse(py, &text, origin)
+        PyScene::parse_document(py, &text, origin, file_text)
     }
 }
 
@@ -96,12 +121,12 @@ impl PyScene {
     }
 
     /// A scene from nested dicts and lists with the keys of the TOML format.
-    /// Errors name `origin` and a line of `to_toml()`'s text.
+    /// Errors name `origin`, the key and the value given.
     #[staticmethod]
     #[pyo3(signature = (values, origin = "<dict>"))]
     fn from_dict(py: Python<'_>, values: &Bound<'_, PyDict>, origin: &str) -> PyResult<PyScene> {
         let document = table_from_dict(values, "")?;
-        PyScene::from_document(py, document, origin)
+        PyScene::from_document(py, document, origin, None)
     }
 
     /// The scene's keys as nested dicts and lists.
@@ -139,7 +164,7 @@ impl PyScene {
     ) -> PyResult<()> {
         let mut document = self.document.clone();
         set_path(&mut document, path, to_toml(value, path)?)?;
-        *self = PyScene::from_document(py, document, &self.origin)?;
+        *self = PyScene::from_document(py, document, &self.origin, self.file_text.as_deref())?;
         Ok(())
     }
 
@@ -202,6 +227,78 @@ impl PyScene {
             self.origin
         )
     }
+}
+
+/// `error`, found in `text` (the document as TOML), placed where the user
+/// wrote its key: on the line of `file_text` that holds the key with the
+/// value it still has, or else at no line, with the key and the value that
+/// was set from Python.
+fn placed(mut error: SceneError, text: &str, file_text: Option<&str>) -> SceneError {
+    let Some(key) = error.key.clone().filter(|_| file_text != Some(text)) else {
+        return error;
+    };
+    let Ok(document) = text.parse::<Table>() else {
+        return error;
+    };
+    let now = lookup(&document, &key).ok();
+    let in_file = file_text.and_then(|file| {
+        let original = file.parse::<Table>().ok()?;
+        let unchanged = lookup(&original, &key).ok() == now;
+        unchanged.then(|| line_and_column(file, &key)).flatten()
+    });
+    match (in_file, now) {
+        (Some((line, column)), _) => {
+            error.line = Some(line);
+            error.column = Some(column);
+        }
+        (None, Some(value)) => {
+            error.line = None;
+            error.column = None;
+            error.message = format!(
+                "{} (set from Python: {key} = {})",
+                error.message,
+                value_text(value)
+            );
+        }
+        (None, None) => {
+            error.line = None;
+            error.column = None;
+        }
+    }
+    error
+}
+
+/// A value as TOML writes it inline (`-1.0`, `[0.0, 1.0, 0.0]`).
+fn value_text(value: &Value) -> String {
+    let mut table = Table::new();
+    table.insert("v".into(), value.clone());
+    toml::to_string(&table).map_or_else(
+        |_| value.to_string(),
+        |line| line.trim().trim_start_matches("v = ").to_string(),
+    )
+}
+
+/// 1-based line and column (in characters) of the value at key path `path`
+/// in the TOML text `text`, if the text holds it.
+fn line_and_column(text: &str, path: &str) -> Option<(usize, usize)> {
+    let root = DeTable::parse(text).ok()?;
+    let mut node = Spanned::new(root.span(), DeValue::Table(root.into_inner()));
+    for (key, indices) in steps(path).ok()? {
+        let DeValue::Table(table) = node.into_inner() else {
+            return None;
+        };
+        node = table.get(key.as_str())?.clone();
+        for index in indices {
+            let DeValue::Array(array) = node.into_inner() else {
+                return None;
+            };
+            node = array.get(index)?.clone();
+        }
+    }
+    let before = &text[..node.span().start.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    Some((line, before[line_start..].chars().count() + 1))
 }
 
 /// One step of a key path: a table key, then array indices.

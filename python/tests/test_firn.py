@@ -89,16 +89,40 @@ def test_run_matches_the_command_line_byte_for_byte(tmp_path):
         assert cli.read_bytes() == py.read_bytes(), cli.name
 
 
-def test_a_bad_dict_raises_scene_error_with_line_and_key():
+def test_a_bad_dict_raises_scene_error_with_the_key_and_value_given():
     values = small_snowball().to_dict()
     values["domain"]["cell_size"] = -0.02
     with pytest.raises(firn.SceneError) as raised:
         firn.Scene.from_dict(values)
     error = raised.value
     assert isinstance(error, ValueError)
-    assert error.line is not None and error.line > 0
-    assert "cell_size" in str(error) and "fix:" in str(error)
-    assert error.key is not None and "cell_size" in error.key
+    # No line of a file holds the key: the error says where the value came from.
+    assert error.line is None
+    assert "set from Python: domain.cell_size = -0.02" in str(error)
+    assert "fix:" in str(error)
+    assert error.key == "domain.cell_size"
+
+
+def test_an_error_names_the_files_own_line_or_the_value_set_from_python():
+    path = ROOT / "scenes" / "snowball-wall.toml"
+    lines = path.read_text().splitlines()
+    scene = firn.Scene.load(str(path))
+    with pytest.raises(firn.SceneError) as raised:
+        scene["bodies[0].radius"] = -1.0
+    error = raised.value
+    assert error.line is None, str(error)
+    assert "set from Python: bodies[0].radius = -1.0" in str(error)
+    # A key the file still holds as written: the file's own line, although
+    # the scene has changed since (and its TOML text has other lines).
+    scene["bodies[0].velocity"] = [1.0, 0.0, 0.0]
+    with pytest.raises(firn.SceneError) as raised:
+        scene["domain.max"] = [0.2, 0.2, 0.2]
+    error = raised.value
+    assert error.key == "bodies[0].center", str(error)
+    center = next(n for n, line in enumerate(lines, 1) if line.startswith("center = [0.25"))
+    assert error.line == center, str(error)
+    assert str(error).startswith(f"error: {path}:{center}:")
+    assert "set from Python" not in str(error)
 
 
 def test_a_change_that_is_not_valid_is_refused_and_not_kept():
