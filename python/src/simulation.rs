@@ -138,14 +138,7 @@ impl Solver {
 
 /// The backend named `name`: "cpu", "gpu" or "auto".
 pub fn backend_named(name: &str) -> PyResult<Backend> {
-    match name {
-        "cpu" => Ok(Backend::Cpu),
-        "gpu" => Ok(Backend::Gpu),
-        "auto" => Ok(Backend::Auto),
-        other => Err(PyValueError::new_err(format!(
-            "backend must be \"cpu\", \"gpu\" or \"auto\", not {other:?}"
-        ))),
-    }
+    name.parse().map_err(PyValueError::new_err)
 }
 
 /// Which of the two simulation classes is starting.

@@ -1,7 +1,7 @@
 //! `--backend` and the command line's view of choosing a backend: the
 //! choice itself (`firn_run::backend`) with its errors as exit code 2.
 
-use clap::ValueEnum;
+use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use firn_core::Scene;
 use firn_core::scene::Backend;
 use firn_gpu::GpuError;
@@ -9,26 +9,12 @@ use firn_run::Chosen;
 
 use crate::Failure;
 
-/// Values of `--backend`.
-#[derive(Clone, Copy, Debug, ValueEnum)]
-pub enum BackendChoice {
-    /// A hardware GPU when there is one and it runs the scene, else the CPU.
-    Auto,
-    /// The CPU solver.
-    Cpu,
-    /// The GPU backend, a software adapter if there is no hardware GPU.
-    Gpu,
-}
-
-impl BackendChoice {
-    /// The scene model's backend for this choice.
-    pub fn backend(self) -> Backend {
-        match self {
-            BackendChoice::Auto => Backend::Auto,
-            BackendChoice::Cpu => Backend::Cpu,
-            BackendChoice::Gpu => Backend::Gpu,
-        }
-    }
+/// `--backend`'s values: the scene format's backend names, each with its
+/// summary in `--help`.
+pub fn backend_values() -> impl TypedValueParser<Value = Backend> {
+    let values =
+        Backend::ALL.map(|backend| PossibleValue::new(backend.name()).help(backend.summary()));
+    PossibleValuesParser::new(values).map(|name| name.parse().unwrap_or_default())
 }
 
 /// Chooses where `scene` runs, by its `[compute] backend` (which
@@ -53,13 +39,6 @@ pub fn gpu_failure(error: &GpuError) -> Failure {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn choices_map_to_the_scene_models_backends() {
-        assert_eq!(BackendChoice::Auto.backend(), Backend::Auto);
-        assert_eq!(BackendChoice::Cpu.backend(), Backend::Cpu);
-        assert_eq!(BackendChoice::Gpu.backend(), Backend::Gpu);
-    }
 
     #[test]
     fn an_unsupported_scene_keeps_its_fix() {

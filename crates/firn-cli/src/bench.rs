@@ -18,7 +18,7 @@ use clap::{Args, ValueEnum};
 use firn_core::Material;
 use firn_core::math::lanes::Simd;
 use firn_core::scene::{
-    Body, CacheFormat, Camera, Contact, ContactMode, Domain, ImplicitSettings, Integrator,
+    Backend, Body, CacheFormat, Camera, Contact, ContactMode, Domain, ImplicitSettings, Integrator,
     OutputSettings, RenderSettings, Scene, SceneKind, SolverSettings, TimeSettings, TimeStep,
     Transfer,
 };
@@ -30,7 +30,7 @@ use glam::Vec3;
 use serde::Serialize;
 
 use crate::Failure;
-use crate::backend::{BackendChoice, choose_backend, gpu_failure};
+use crate::backend::{backend_values, choose_backend, gpu_failure};
 use crate::bench_gpu::GpuMemoryRecord;
 use crate::bench_render::bench_render;
 use crate::bench_sweep::SweepArgs;
@@ -112,8 +112,8 @@ pub struct BenchArgs {
     /// Compute backend of the snowball and --scene runs (default: auto, or
     /// the --scene file's [compute] backend). --render, --flow and --sweep
     /// run on the CPU.
-    #[arg(long, value_enum)]
-    pub backend: Option<BackendChoice>,
+    #[arg(long, value_parser = backend_values())]
+    pub backend: Option<Backend>,
     /// GPU runs: the memory budget, GiB, of the estimate of how many
     /// particles fit (on the bench's grid and on 256^3).
     #[arg(long, default_value_t = 4.0)]
@@ -408,7 +408,7 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
     }
     outln!("cpu: {}", crate::machine::Cpu::detect().describe());
     if (args.render || args.flow || args.sweep.sweep.is_some())
-        && matches!(args.backend, Some(BackendChoice::Gpu))
+        && args.backend == Some(Backend::Gpu)
     {
         return Err(Failure::BadInput(
             "error: --backend gpu applies to the snowball bench and --scene; --render, --flow and --sweep measure the CPU\n  fix: leave out --backend, or --render, --flow and --sweep".into(),
@@ -515,8 +515,8 @@ fn bench_scene(path: &std::path::Path, args: &BenchArgs) -> Result<Scene, Failur
 
 /// Where a bench scene runs: `--backend`, else the scene's own backend.
 fn bench_placement(scene: &mut Scene, args: &BenchArgs) -> Result<Placement, Failure> {
-    if let Some(choice) = args.backend {
-        scene.compute.backend = choice.backend();
+    if let Some(backend) = args.backend {
+        scene.compute.backend = backend;
     }
     let chosen = choose_backend(scene)?;
     if let Some(note) = chosen.note {

@@ -9,13 +9,14 @@ use std::time::Instant;
 
 use clap::Args;
 use firn_core::Scene;
+use firn_core::scene::Backend;
 use firn_run::error::ResumeError;
 use firn_run::recording::{FrameToPicture, Observer, Progress, Stepper};
 use firn_run::{Budget, Placement, Recording, RunDirectory, RunError, Solver};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use crate::Failure;
-use crate::backend::{BackendChoice, choose_backend};
+use crate::backend::{backend_values, choose_backend};
 use crate::bench::IntegratorChoice;
 use crate::pictures::prepare_image_dirs;
 use crate::scene_source::load_scene;
@@ -53,8 +54,8 @@ pub struct RunArgs {
     pub integrator: Option<IntegratorChoice>,
     /// Compute backend (default: the scene's [compute] backend, else auto:
     /// a hardware GPU when there is one, else the CPU).
-    #[arg(long, value_enum)]
-    pub backend: Option<BackendChoice>,
+    #[arg(long, value_parser = backend_values())]
+    pub backend: Option<Backend>,
 }
 
 /// Runs the simulation described by `args`.
@@ -94,8 +95,8 @@ pub(crate) fn scene_for(args: &RunArgs) -> Result<(Scene, Option<PathBuf>), Fail
     if let Some(choice) = args.integrator {
         scene.solver.integrator = choice.applied_to(scene.solver.integrator);
     }
-    if let Some(choice) = args.backend {
-        scene.compute.backend = choice.backend();
+    if let Some(backend) = args.backend {
+        scene.compute.backend = backend;
     }
     Ok((scene, scene_file))
 }

@@ -7,10 +7,10 @@ use clap::{Args, ValueEnum};
 use firn_core::scene::Backend;
 use firn_run::RunDirectory;
 use firn_view::draw::DrawStyle;
-use firn_view::{ViewBackend, ViewError, ViewInput, ViewOptions};
+use firn_view::{ViewError, ViewInput, ViewOptions};
 
 use crate::Failure;
-use crate::backend::BackendChoice;
+use crate::backend::backend_values;
 use crate::render::{ColorByArg, parse_size};
 use crate::scene_source::load_scene;
 
@@ -23,8 +23,8 @@ pub struct ViewArgs {
     /// Where a live scene is simulated (default: the scene's [compute]
     /// backend, else auto: the window's GPU if it is a hardware GPU that runs
     /// the scene, else the CPU).
-    #[arg(long, value_enum)]
-    pub backend: Option<BackendChoice>,
+    #[arg(long, value_parser = backend_values())]
+    pub backend: Option<Backend>,
     /// Window size as WIDTHxHEIGHT.
     #[arg(long, default_value = "1280x720")]
     pub size: String,
@@ -135,14 +135,10 @@ fn options(args: ViewArgs) -> Result<ViewOptions, Failure> {
             (ViewInput::Scene(Box::new(scene)), backend)
         }
     };
-    let backend = args.backend.map_or(scene_backend, BackendChoice::backend);
+    let backend = args.backend.unwrap_or(scene_backend);
     Ok(ViewOptions {
         input: Some(input),
-        backend: match backend {
-            Backend::Auto => ViewBackend::Auto,
-            Backend::Cpu => ViewBackend::Cpu,
-            Backend::Gpu => ViewBackend::Gpu,
-        },
+        backend,
         size,
         frames: args.frames,
         screenshot: args.screenshot,

@@ -9,7 +9,7 @@ use std::sync::Arc;
 
 use firn_core::Scene;
 use firn_core::scene::{Backend, SceneKind};
-use firn_gpu::{AdapterPolicy, GpuContext, GpuError, GpuFlow, GpuSnow};
+use firn_gpu::{AdapterPolicy, AdapterReport, GpuContext, GpuError, GpuFlow, GpuSnow};
 
 /// Where a simulation runs, once chosen.
 #[derive(Clone, Debug)]
@@ -83,27 +83,33 @@ pub fn choose_backend(scene: &Scene) -> Result<Chosen, GpuError> {
     }
 }
 
+/// `auto`'s rule, the one every front door (`firn run`, the viewer, Python,
+/// MPI ranks) follows: a scene runs on `adapter` when it is a hardware GPU
+/// and the GPU backend runs the scene. `Err` says why not, where there was
+/// a hardware GPU to take (`None` when there was none).
+pub fn auto_takes(scene: &Scene, adapter: Option<&AdapterReport>) -> Result<(), Option<String>> {
+    if !adapter.is_some_and(|adapter| !adapter.is_software) {
+        return Err(None);
+    }
+    gpu_supports(scene).map_err(|error| Some(first_line(&error)))
+}
+
 /// `auto`: the hardware GPU if there is one that runs the scene, else the CPU.
 fn choose_auto(scene: &Scene) -> Chosen {
-    let on_cpu = |why: String| Chosen {
+    let on_cpu = |why: Option<String>| Chosen {
         placement: Placement::Cpu,
-        note: Some(format!("firn: --backend auto stays on the CPU: {why}")),
+        note: why.map(|why| format!("firn: --backend auto stays on the CPU: {why}")),
     };
-    if firn_gpu::choose(AdapterPolicy::HardwareOnly).is_none() {
-        return Chosen {
-            placement: Placement::Cpu,
-            note: None,
-        };
-    }
-    if let Err(error) = gpu_supports(scene) {
-        return on_cpu(first_line(&error));
+    let hardware = firn_gpu::choose(AdapterPolicy::HardwareOnly);
+    if let Err(why) = auto_takes(scene, hardware.as_ref()) {
+        return on_cpu(why);
     }
     match GpuContext::new(AdapterPolicy::HardwareOnly) {
         Ok(context) => Chosen {
             placement: Placement::Gpu(context),
             note: None,
         },
-        Err(error) => on_cpu(first_line(&error)),
+        Err(error) => on_cpu(Some(first_line(&error))),
     }
 }
 

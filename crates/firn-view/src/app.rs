@@ -6,10 +6,11 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
+use firn_core::scene::Backend;
 use firn_gpu::GpuContext;
 use firn_render::scene_view::{ramp_range, scene_stage, sprite_radius};
 use firn_render::trails::Trails;
-use firn_run::backend::gpu_supports;
+use firn_run::backend::{auto_takes, gpu_supports};
 use firn_run::simulation::HostParticles;
 use winit::application::ApplicationHandler;
 use winit::event::WindowEvent;
@@ -24,7 +25,7 @@ use crate::input::{Input, KeyCommand};
 use crate::panel::{self, PanelOutput, ViewToggles};
 use crate::playback::Playback;
 use crate::session::{Action, Content, Session};
-use crate::{ViewBackend, ViewInput, ViewOptions, ViewReport};
+use crate::{ViewInput, ViewOptions, ViewReport};
 
 /// The viewer between window events.
 pub struct App {
@@ -502,7 +503,7 @@ impl EguiLayer {
 /// The session for `input`, live on the backend `backend` picks.
 fn start_session(
     input: ViewInput,
-    backend: ViewBackend,
+    backend: Backend,
     context: &Arc<GpuContext>,
 ) -> Result<Session, ViewError> {
     match input {
@@ -521,18 +522,17 @@ fn start_session(
 /// with `auto` when it is a hardware GPU that runs the scene; else the CPU.
 fn simulation_device(
     scene: &firn_core::Scene,
-    backend: ViewBackend,
+    backend: Backend,
     context: &Arc<GpuContext>,
 ) -> Result<Option<Arc<GpuContext>>, ViewError> {
-    let supported = gpu_supports(scene);
     match backend {
-        ViewBackend::Cpu => Ok(None),
-        ViewBackend::Gpu => supported
+        Backend::Cpu => Ok(None),
+        Backend::Gpu => gpu_supports(scene)
             .map(|()| Some(Arc::clone(context)))
             .map_err(|error| ViewError::BadInput(format!("--backend gpu: {error}"))),
-        ViewBackend::Auto => {
-            Ok((supported.is_ok() && !context.adapter.is_software).then(|| Arc::clone(context)))
-        }
+        Backend::Auto => Ok(auto_takes(scene, Some(&context.adapter))
+            .is_ok()
+            .then(|| Arc::clone(context))),
     }
 }
 

@@ -26,6 +26,7 @@ pub mod session;
 use std::path::PathBuf;
 
 use firn_core::Scene;
+use firn_core::scene::Backend;
 use winit::event_loop::{ControlFlow, EventLoop};
 
 pub use error::ViewError;
@@ -39,24 +40,15 @@ pub enum ViewInput {
     RunDirectory(PathBuf),
 }
 
-/// Where a live scene is simulated.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ViewBackend {
-    /// The window's GPU when it is a hardware GPU that runs the scene, else the CPU.
-    Auto,
-    /// The CPU (the window's device only draws).
-    Cpu,
-    /// The window's device, a software one included.
-    Gpu,
-}
-
 /// How the viewer opens and when it closes.
 #[derive(Debug)]
 pub struct ViewOptions {
     /// What to show (taken when the window opens).
     pub input: Option<ViewInput>,
-    /// Where a live scene is simulated.
-    pub backend: ViewBackend,
+    /// Where a live scene is simulated: `auto` takes the window's device
+    /// when it is a hardware GPU that runs the scene, `gpu` takes it even
+    /// when it is a software one.
+    pub backend: Backend,
     /// Window size in pixels.
     pub size: [u32; 2],
     /// Close after this many displayed frames (automation).

@@ -17,13 +17,37 @@ pub enum Backend {
 }
 
 impl Backend {
-    /// The name the scene format and the command line use.
+    /// Every backend, in the order the command line lists them.
+    pub const ALL: [Backend; 3] = [Backend::Auto, Backend::Cpu, Backend::Gpu];
+
+    /// The name the scene format, the command line and Python use.
     pub fn name(self) -> &'static str {
         match self {
             Backend::Auto => "auto",
             Backend::Cpu => "cpu",
             Backend::Gpu => "gpu",
         }
+    }
+
+    /// What the backend does, in a line (for `--help`).
+    pub fn summary(self) -> &'static str {
+        match self {
+            Backend::Auto => "a hardware GPU when there is one and it runs the scene, else the CPU",
+            Backend::Cpu => "the CPU solver, on every core",
+            Backend::Gpu => "the GPU backend, a software adapter if there is no hardware GPU",
+        }
+    }
+}
+
+impl std::str::FromStr for Backend {
+    type Err = String;
+
+    /// The backend named `name` ("auto", "cpu" or "gpu").
+    fn from_str(name: &str) -> Result<Backend, String> {
+        Backend::ALL
+            .into_iter()
+            .find(|backend| backend.name() == name)
+            .ok_or_else(|| format!("backend must be \"auto\", \"cpu\" or \"gpu\", not {name:?}"))
     }
 }
 
