@@ -5,13 +5,14 @@
 #
 #   scripts/vector-peak.sh
 #
-# docs/benchmarks.md ("Curl-noise flow") divides the flow noise's count of
-# 256-bit operations per particle-step by the mixed rate printed here to get
-# the least CPU time per particle-step any schedule could reach on the
-# machine. Zen 1 runs each 256-bit operation as two 128-bit halves on four
-# 128-bit pipes (two of them add, two multiply), so it peaks at two 256-bit
-# operations per cycle, one of them an add; Zen 2 and later have 256-bit
-# pipes and twice that. Needs a C compiler (cc) and a CPU with AVX2.
+# docs/benchmark-history.md ("Curl-noise flow": "The floor on this VM")
+# divides the flow noise's count of 256-bit operations per particle-step by
+# the mixed rate printed here to get the least CPU time per particle-step
+# any schedule could reach on the machine. Zen 1 runs each 256-bit
+# operation as two 128-bit halves on four 128-bit pipes (two of them add,
+# two multiply), so it peaks at two 256-bit operations per cycle, one of
+# them an add; Zen 2 and later have 256-bit pipes and twice that. Needs a C
+# compiler (cc) and a CPU with AVX2.
 set -euo pipefail
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT

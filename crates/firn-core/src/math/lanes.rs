@@ -29,7 +29,8 @@ pub struct U32s<const N: usize>(pub [u32; N]);
 /// once, while a zipped loop stays a loop until the caller has been
 /// simplified several times over. The snow model holds about a thousand of
 /// them, and re-simplifying its 16-lane SVD for each took three quarters of
-/// firn-mpm's release build (docs/benchmarks.md, "Build time").
+/// firn-mpm's release build (docs/benchmark-history.md, "Build time": "Why
+/// it was slow").
 #[inline(always)]
 pub fn map1<T: Copy, U: Copy + Default, const N: usize>(a: [T; N], f: impl Fn(T) -> U) -> [U; N] {
     let mut out = [U::default(); N];
