@@ -88,7 +88,7 @@ pub fn choose_backend(scene: &Scene) -> Result<Chosen, GpuError> {
 /// and the GPU backend runs the scene. `Err` says why not, where there was
 /// a hardware GPU to take (`None` when there was none).
 pub fn auto_takes(scene: &Scene, adapter: Option<&AdapterReport>) -> Result<(), Option<String>> {
-    if !adapter.is_some_and(|adapter| !adapter.is_software) {
+    if adapter.is_none_or(|adapter| adapter.is_software) {
         return Err(None);
     }
     gpu_supports(scene).map_err(|error| Some(first_line(&error)))
