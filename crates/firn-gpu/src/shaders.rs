@@ -5,7 +5,7 @@
 //! WGSL has no includes, so a program is the concatenation of its parts:
 //! the shared physics first, in one place per side (`shaders/common/`:
 //! the B-spline weights and the 3x3 SVD of `firn_core::math`, the snow model
-//! of `firn_mpm::constitutive`, the colliders of `firn_mpm::contact`;
+//! of `firn_mpm::snow_model`, the colliders of `firn_mpm::contact`;
 //! `shaders/flow/`: the noise, random draws, field and emitters of the
 //! `firn_flow` files with the same stems), then the structs and bindings,
 //! then the kernels. A kernel's `.wgsl` file has the stem of the Rust file

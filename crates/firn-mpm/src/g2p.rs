@@ -3,7 +3,7 @@
 //! PIC/FLIP blend v_p = (1 − α) v_PIC + α v_FLIP with cubic B-splines, or
 //! APIC's v_p and C_p with quadratic ones), then its deformation update
 //! F̂_E = (I + Δt ∇v_p) F_E, plasticity and stress (step 7, eq. 34-43,
-//! [`crate::constitutive`]), the particle collisions (step 9) and the
+//! [`crate::snow_model`]), the particle collisions (step 9) and the
 //! advection x_p += Δt v_p (step 10). [`crate::reference::grid_to_particles`]
 //! is the plain form of this stage.
 //!
@@ -23,79 +23,35 @@
 //! thread count or the instruction set ([`Simd`]): AVX-512, AVX2 and
 //! portable code give the same bits.
 
-use firn_core::math::bspline::{StencilValues, cubic_weights, quadratic_values};
-#[cfg(target_arch = "x86_64")]
-use firn_core::math::isa::Vec4Pair;
-use firn_core::math::isa::{Avx2, Isa, Kernel, PairLanes, PortablePairs};
-use firn_core::math::lanes::{F32s, Mat3s, Simd, U32s, Vec3s};
+use firn_core::math::isa::{Isa, Kernel};
+use firn_core::math::lanes::{F32s, Mat3s, Simd, Vec3s};
 use std::ops::Range;
 
-use glam::{Mat3, Vec3, Vec4};
+use glam::{Mat3, Vec3};
 
 use crate::binning::{Bins, OccupiedBlock};
-use crate::constitutive::{ElasticUpdate, MaterialConstants, MaterialLanes};
 use crate::contact::Colliders;
-use crate::disjoint::{BlockParticles, ParticleMatrix, update_by_block};
+use crate::disjoint::{BlockParticles, update_by_block};
 use crate::grid::{Grid, Node};
-use crate::local_nodes::{CUBIC_SPAN, LocalNodes, QUADRATIC_SPAN, at};
+use crate::local_nodes::LocalNodes;
 use crate::particles::Particles;
+use crate::snow_model::{ElasticUpdate, MaterialConstants, MaterialLanes};
+
+mod apic;
+mod checks;
+#[cfg(target_arch = "x86_64")]
+mod lanes;
+mod pic_flip;
+
+use apic::ApicInterpolation;
+use checks::problem_kind;
+pub use checks::{GatherStats, ParticleProblem, ProblemKind};
+#[cfg(target_arch = "x86_64")]
+use lanes::{load_matrices, store_matrices};
+use pic_flip::PicFlipInterpolation;
 
 /// Particles per batch: one AVX-512 register of `f32`.
 pub const BATCH: usize = 16;
-
-/// What the gather learned about the particles, for the next Δt and for
-/// catching a simulation that blows up.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct GatherStats {
-    /// Largest |v_p|².
-    pub max_speed_squared: f32,
-    /// Largest squared elastic wave speed, hardening included.
-    pub max_wave_speed_squared: f32,
-    /// The first particle in trouble (the lowest
-    /// [`ParticleProblem::order`]), if any.
-    pub problem: Option<ParticleProblem>,
-}
-
-/// A particle whose state went wrong.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ParticleProblem {
-    /// Particle index.
-    pub particle: usize,
-    /// The particle's place in the whole run's order: its index, or in a
-    /// part of a split run its key ([`UpdateContext::keys`]).
-    pub order: u64,
-    /// What went wrong.
-    pub kind: ProblemKind,
-    /// Where the particle was.
-    pub position: Vec3,
-}
-
-/// Kinds of particle trouble.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ProblemKind {
-    /// Position, velocity or deformation became NaN or infinite.
-    NonFinite,
-    /// The particle moved outside the domain.
-    LeftDomain,
-}
-
-impl GatherStats {
-    /// Combines two partial results; order-independent, hence deterministic.
-    #[inline(always)]
-    fn merge(self, other: GatherStats) -> GatherStats {
-        let problem = match (self.problem, other.problem) {
-            (Some(a), Some(b)) => Some(if a.order <= b.order { a } else { b }),
-            (a, b) => a.or(b),
-        };
-        GatherStats {
-            max_speed_squared: self.max_speed_squared.max(other.max_speed_squared),
-            max_wave_speed_squared: self
-                .max_wave_speed_squared
-                .max(other.max_wave_speed_squared),
-            problem,
-        }
-    }
-}
 
 /// Everything the particle update needs besides the particle itself.
 #[derive(Clone, Copy)]
@@ -469,68 +425,6 @@ fn finish_batch(
     stats
 }
 
-/// Why lane `lane`, which failed a check, is in trouble.
-#[inline(always)]
-fn problem_kind(finite: U32s<BATCH>, lane: usize) -> ProblemKind {
-    if finite.0[lane] == 0 {
-        ProblemKind::NonFinite
-    } else {
-        ProblemKind::LeftDomain
-    }
-}
-
-/// Loads the batch's ∇v_p (stored by the interpolation) and F_E into the
-/// lanes, eight particles per transpose; lanes past the batch's end repeat
-/// its last particle, so they stay finite.
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn load_matrices(
-    avx2: Avx2,
-    particles: &BlockParticles,
-    batch: Range<usize>,
-    interpolated: &mut Interpolated,
-) {
-    let last = batch.end - 1;
-    for first in (0..batch.len()).step_by(8) {
-        let places = std::array::from_fn(|lane| (batch.start + first + lane).min(last));
-        avx2.load_eight(
-            &mut interpolated.velocity_gradient,
-            first,
-            particles.matrices(ParticleMatrix::VelocityGradient, places),
-        );
-        avx2.load_eight(
-            &mut interpolated.elastic,
-            first,
-            particles.matrices(ParticleMatrix::Elastic, places),
-        );
-    }
-}
-
-/// Stores the batch's new F_E and V_p^0 τ_p from the lanes, eight particles
-/// per transpose.
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn store_matrices(
-    avx2: Avx2,
-    particles: &mut BlockParticles,
-    batch: Range<usize>,
-    update: &ElasticUpdate<BATCH>,
-) {
-    for first in (0..batch.len()).step_by(8) {
-        let places = batch.start + first..batch.end.min(batch.start + first + 8);
-        avx2.store_eight(
-            &update.elastic,
-            first,
-            particles.matrices_mut(ParticleMatrix::Elastic, places.clone()),
-        );
-        avx2.store_eight(
-            &update.stress,
-            first,
-            particles.matrices_mut(ParticleMatrix::Stress, places),
-        );
-    }
-}
-
 /// Steps 7-10 for PIC/FLIP with FLIP share `flip`:
 /// v_p = (1 − α) Σ w_ip v_i^{n+1} + α (v_p + Σ w_ip (v_i^{n+1} − v_i)) and
 /// ∇v_p = Σ v_i^{n+1} (∇w_ip)ᵀ.
@@ -556,319 +450,4 @@ pub fn gather_apic(
     simd: Simd,
 ) -> GatherStats {
     gather_with(particles, bins, context, simd, &ApicInterpolation { grid })
-}
-
-/// The PIC/FLIP blend with cubic B-splines, read from [`LocalNodes`].
-struct PicFlipInterpolation<'a> {
-    grid: &'a Grid,
-    /// FLIP share α.
-    flip: f32,
-}
-
-impl Interpolation for PicFlipInterpolation<'_> {
-    type LocalNode = Node;
-
-    #[inline(always)]
-    fn grid(&self) -> &Grid {
-        self.grid
-    }
-
-    #[inline(always)]
-    fn local_node(node: &Node) -> Node {
-        *node
-    }
-
-    #[inline(always)]
-    fn interpolate(
-        &self,
-        local: &LocalNodes<Node>,
-        position: Vec3,
-        velocity: Vec3,
-    ) -> (Vec3, Mat3) {
-        self.blend(PortablePairs, local, position, velocity)
-    }
-
-    #[inline(always)]
-    fn interpolate_pair(
-        &self,
-        local: &LocalNodes<Node>,
-        isa: Isa,
-        particles: [(Vec3, Vec3); 2],
-    ) -> [(Vec3, Mat3); 2] {
-        let [(position_a, velocity_a), (position_b, velocity_b)] = particles;
-        match isa.avx2() {
-            #[cfg(target_arch = "x86_64")]
-            Some(avx2) => [
-                self.blend(avx2, local, position_a, velocity_a),
-                self.blend(avx2, local, position_b, velocity_b),
-            ],
-            _ => [
-                self.blend(PortablePairs, local, position_a, velocity_a),
-                self.blend(PortablePairs, local, position_b, velocity_b),
-            ],
-        }
-    }
-}
-
-impl PicFlipInterpolation<'_> {
-    /// v_p = (1 − α) v_PIC + α (v_p + Δv_FLIP) (step 8) and ∇v_p (step 7)
-    /// of a particle at `position` with the old `velocity`, from its
-    /// stencil sums ([`PicFlipSums`]) in `lanes`.
-    #[inline(always)]
-    fn blend<P: PairLanes>(
-        &self,
-        lanes: P,
-        local: &LocalNodes<Node>,
-        position: Vec3,
-        velocity: Vec3,
-    ) -> (Vec3, Mat3) {
-        let sums = PicFlipSums::of(lanes, local, self.grid, position);
-        let flip = self.flip;
-        let [old, new] = lanes.halves(sums.velocities);
-        let pic = new.truncate();
-        let change = (new - old).truncate();
-        // The slopes are per cell: ∇w_ip is theirs over h.
-        let inverse_h = 1.0 / self.grid.layout.cell_size;
-        let column = |sums: P::Pair| (lanes.halves(sums)[1] * inverse_h).truncate();
-        let gradient = Mat3::from_cols(
-            column(sums.gradient[0]),
-            column(sums.gradient[1]),
-            column(sums.gradient[2]),
-        );
-        (pic * (1.0 - flip) + (velocity + change) * flip, gradient)
-    }
-}
-
-/// One particle's sums over its 4x4x4 stencil (eq. 41 and the PIC/FLIP
-/// blend), each over both node vectors (v_i, v_i^{n+1}) at once, as a
-/// pair ([`Node::pair`]): Σ w_ip (v_i, v_i^{n+1}), whose halves give
-/// v_PIC = Σ w_ip v_i^{n+1} and Δv_FLIP = Σ w_ip v_i^{n+1} − Σ w_ip v_i,
-/// and per axis a the sums Σ (h ∂w_ip/∂x_a) (·, v_i^{n+1}), whose high
-/// halves over h are the columns of ∇v_p = Σ v_i^{n+1} (∇w_ip)ᵀ. The
-/// fourth lanes of each half carry nothing that is read.
-struct PicFlipSums<P: PairLanes> {
-    velocities: P::Pair,
-    gradient: [P::Pair; 3],
-}
-
-impl<P: PairLanes> PicFlipSums<P> {
-    /// The sums of a particle at `position`, from the nodes around its
-    /// block, by the tensor product of the weights w_ijk = w_i^x w_j^y w_k^z:
-    /// along z per stencil row, the rows along y per slab, the slabs along
-    /// x (the slopes take a weight's place on their axis). Every instruction
-    /// set does these lane-wise operations in this order, so the same bits.
-    #[inline(always)]
-    fn of(lanes: P, local: &LocalNodes<Node>, grid: &Grid, position: Vec3) -> PicFlipSums<P> {
-        let weights = cubic_weights(grid.layout.to_grid(position));
-        let window = local.window::<4, CUBIC_SPAN>(weights.base);
-        let ((wx, sx), (wy, sy), (wz, sz)) = (weights.along(0), weights.along(1), weights.along(2));
-        let zero = lanes.splat(0.0);
-        // Per slab i: Σ_jk w_j w_k, Σ_jk s_j w_k and Σ_jk w_j s_k of its nodes.
-        let mut slabs = [zero; 4];
-        let mut slabs_y = [zero; 4];
-        let mut slabs_z = [zero; 4];
-        for i in 0..4 {
-            let mut rows = [zero; 4];
-            let mut rows_z = [zero; 4];
-            for j in 0..4 {
-                let mut nodes = [zero; 4];
-                for (k, node) in nodes.iter_mut().enumerate() {
-                    *node = window[at(i, j, k)].pair(lanes);
-                }
-                rows[j] = weighted_sum(lanes, &nodes, &wz);
-                rows_z[j] = weighted_sum(lanes, &nodes, &sz);
-            }
-            slabs[i] = weighted_sum(lanes, &rows, &wy);
-            slabs_y[i] = weighted_sum(lanes, &rows, &sy);
-            slabs_z[i] = weighted_sum(lanes, &rows_z, &wy);
-        }
-        PicFlipSums {
-            velocities: weighted_sum(lanes, &slabs, &wx),
-            gradient: [
-                weighted_sum(lanes, &slabs, &sx),
-                weighted_sum(lanes, &slabs_y, &wx),
-                weighted_sum(lanes, &slabs_z, &wx),
-            ],
-        }
-    }
-}
-
-/// Σ_n weights[n] terms[n], added in order n = 0, 1, 2, 3.
-#[inline(always)]
-fn weighted_sum<P: PairLanes>(lanes: P, terms: &[P::Pair; 4], weights: &[f32; 4]) -> P::Pair {
-    let mut sum = terms[0] * lanes.splat(weights[0]);
-    for n in 1..4 {
-        sum = sum + terms[n] * lanes.splat(weights[n]);
-    }
-    sum
-}
-
-/// APIC with quadratic B-splines, read from [`LocalNodes`].
-struct ApicInterpolation<'a> {
-    grid: &'a Grid,
-}
-
-impl Interpolation for ApicInterpolation<'_> {
-    type LocalNode = Vec4;
-
-    #[inline(always)]
-    fn grid(&self) -> &Grid {
-        self.grid
-    }
-
-    #[inline(always)]
-    fn local_node(node: &Node) -> Vec4 {
-        node.velocity_new
-    }
-
-    #[inline(always)]
-    fn interpolate(&self, local: &LocalNodes<Vec4>, position: Vec3, _: Vec3) -> (Vec3, Mat3) {
-        let weights = quadratic_values(self.grid.layout.to_grid(position));
-        let sums = StencilSums::of(local, &weights);
-        sums.velocity_and_affine(weights.offset, self.inverse_inertia_h())
-    }
-
-    #[inline(always)]
-    fn interpolate_pair(
-        &self,
-        local: &LocalNodes<Vec4>,
-        isa: Isa,
-        particles: [(Vec3, Vec3); 2],
-    ) -> [(Vec3, Mat3); 2] {
-        // Arrays spelled out, not `map`ped: `array::map` can be compiled as
-        // a function of its own, outside the caller's instruction set.
-        let weights_at =
-            |(position, _): (Vec3, Vec3)| quadratic_values(self.grid.layout.to_grid(position));
-        let weights = [weights_at(particles[0]), weights_at(particles[1])];
-        let sums = match isa.avx2() {
-            #[cfg(target_arch = "x86_64")]
-            Some(avx2) => StencilSums::of_pair(avx2, local, [&weights[0], &weights[1]]),
-            _ => [
-                StencilSums::of(local, &weights[0]),
-                StencilSums::of(local, &weights[1]),
-            ],
-        };
-        let result =
-            |n: usize| sums[n].velocity_and_affine(weights[n].offset, self.inverse_inertia_h());
-        [result(0), result(1)]
-    }
-}
-
-impl ApicInterpolation<'_> {
-    /// 4/h: C_p = (4/h²) Σ w_ip v_i (x_i − x_p)ᵀ from the moment in cells
-    /// (the offset in world units is cells · h).
-    #[inline(always)]
-    fn inverse_inertia_h(&self) -> f32 {
-        4.0 / self.grid.layout.cell_size
-    }
-}
-
-/// Weighted velocities w_ip v_i summed per x-slab, y-row and z-column of a
-/// particle's 3x3x3 stencil: their totals give v_p, their first moments
-/// C_p ([`StencilSums::velocity_and_affine`]).
-#[derive(Clone, Copy)]
-struct StencilSums {
-    slabs: [Vec4; 3],
-    rows: [Vec4; 3],
-    columns: [Vec4; 3],
-}
-
-impl StencilSums {
-    /// The sums of one particle with stencil `weights`, from the nodes
-    /// around its block.
-    #[inline(always)]
-    fn of(local: &LocalNodes<Vec4>, weights: &StencilValues<3>) -> StencilSums {
-        let window = local.window::<3, QUADRATIC_SPAN>(weights.base);
-        let mut sums = StencilSums {
-            slabs: [Vec4::ZERO; 3],
-            rows: [Vec4::ZERO; 3],
-            columns: [Vec4::ZERO; 3],
-        };
-        for (i, slab) in sums.slabs.iter_mut().enumerate() {
-            for (j, row) in sums.rows.iter_mut().enumerate() {
-                let wxy = weights.values[i].x * weights.values[j].y;
-                for (k, column) in sums.columns.iter_mut().enumerate() {
-                    let weighted = window[at(i, j, k)] * (wxy * weights.values[k].z);
-                    *slab += weighted;
-                    *row += weighted;
-                    *column += weighted;
-                }
-            }
-        }
-        sums
-    }
-
-    /// [`StencilSums::of`] for two particles at once, one per 128-bit half
-    /// of each 256-bit register: lane by lane the same operations, so the
-    /// same bits.
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    fn of_pair(
-        avx2: Avx2,
-        local: &LocalNodes<Vec4>,
-        weights: [&StencilValues<3>; 2],
-    ) -> [StencilSums; 2] {
-        let [a, b] = weights;
-        let splats = |x: f32, y: f32| avx2.pair(Vec4::splat(x), Vec4::splat(y));
-        // No `array::map` here: it can be compiled as a function of its own,
-        // without AVX2.
-        let windows = [
-            local.window::<3, QUADRATIC_SPAN>(a.base),
-            local.window::<3, QUADRATIC_SPAN>(b.base),
-        ];
-        let z_weight = |k: usize| splats(a.values[k].z, b.values[k].z);
-        let z_weights = [z_weight(0), z_weight(1), z_weight(2)];
-        let mut slabs = [avx2.zero_pair(); 3];
-        let mut rows = [avx2.zero_pair(); 3];
-        let mut columns = [avx2.zero_pair(); 3];
-        for (i, slab) in slabs.iter_mut().enumerate() {
-            for (j, row) in rows.iter_mut().enumerate() {
-                let wxy = splats(a.values[i].x * a.values[j].y, b.values[i].x * b.values[j].y);
-                for (k, column) in columns.iter_mut().enumerate() {
-                    let nodes = avx2.pair(windows[0][at(i, j, k)], windows[1][at(i, j, k)]);
-                    let weighted = nodes * (wxy * z_weights[k]);
-                    *slab = *slab + weighted;
-                    *row = *row + weighted;
-                    *column = *column + weighted;
-                }
-            }
-        }
-        let halves = |pairs: [Vec4Pair; 3]| {
-            let [p0, p1, p2] = [pairs[0].halves(), pairs[1].halves(), pairs[2].halves()];
-            [[p0[0], p1[0], p2[0]], [p0[1], p1[1], p2[1]]]
-        };
-        let ([slabs_a, slabs_b], [rows_a, rows_b], [columns_a, columns_b]) =
-            (halves(slabs), halves(rows), halves(columns));
-        [
-            StencilSums {
-                slabs: slabs_a,
-                rows: rows_a,
-                columns: columns_a,
-            },
-            StencilSums {
-                slabs: slabs_b,
-                rows: rows_b,
-                columns: columns_b,
-            },
-        ]
-    }
-
-    /// v_p = Σ w_ip v_i and `scale` Σ w_ip v_i (x_i − x_p)ᵀ in cells, for a
-    /// particle `offset` cells from its stencil's first node.
-    #[inline(always)]
-    fn velocity_and_affine(&self, offset: Vec3, scale: f32) -> (Vec3, Mat3) {
-        let slabs = self.slabs;
-        let velocity = slabs[0] + slabs[1] + slabs[2];
-        // Σ w v (n − offset) along one axis, from the sums at n = 0, 1, 2,
-        // scaled in the SIMD lanes (the bits of glam's `Mat3 * f32`).
-        let moment = |sums: [Vec4; 3], offset: f32| {
-            ((sums[1] + sums[2] * 2.0 - velocity * offset) * scale).truncate()
-        };
-        let affine = Mat3::from_cols(
-            moment(self.slabs, offset.x),
-            moment(self.rows, offset.y),
-            moment(self.columns, offset.z),
-        );
-        (velocity.truncate(), affine)
-    }
 }

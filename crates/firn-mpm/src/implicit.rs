@@ -49,11 +49,11 @@ use glam::{Mat3, Mat3A, Vec3, Vec3A};
 use rayon::prelude::*;
 
 use crate::binning::Bins;
-use crate::constitutive::MaterialConstants;
 use crate::contact::{Constraint, PlacedCollider, collide_all, collide_all_constrained};
 use crate::disjoint::scatter_by_colour;
 use crate::grid::{BLOCK_NODES, Grid, GridLayout, PageTable, StencilIndex};
 use crate::particles::Particles;
+use crate::snow_model::MaterialConstants;
 
 /// The differential of V_p^0 ∂Ψ/∂F_E for one particle, at its current F_E.
 ///

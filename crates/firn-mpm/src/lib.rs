@@ -20,7 +20,6 @@
 pub mod binning;
 pub mod block_sums;
 mod coloring;
-pub mod constitutive;
 pub mod contact;
 mod disjoint;
 pub mod g2p;
@@ -34,6 +33,7 @@ pub mod particles;
 pub mod profile;
 pub mod reference;
 pub mod simulation;
+pub mod snow_model;
 pub mod spindrift;
 pub mod wind;
 

@@ -20,11 +20,11 @@ use firn_core::math::svd::svd3;
 use firn_core::scene::Transfer;
 use glam::{IVec3, Mat3, UVec3, Vec3};
 
-use crate::constitutive::MaterialConstants;
 use crate::contact::{PlacedCollider, collide_all};
 use crate::grid::GridLayout;
 use crate::grid_update::WindStep;
 use crate::particles::Particles;
+use crate::snow_model::MaterialConstants;
 use crate::wind::relax;
 
 /// What one explicit substep needs besides the particles and the grid.

@@ -11,7 +11,6 @@ use glam::{DVec3, Mat3, Vec3};
 
 use crate::binning::Bins;
 use crate::block_sums::SumTrade;
-use crate::constitutive::{MaterialConstants, max_wave_speed_squared};
 use crate::contact::{ColliderSet, Colliders, PlacedCollider};
 use crate::g2p::{
     GatherStats, ParticleProblem, ProblemKind, UpdateContext, gather_apic, gather_pic_flip,
@@ -23,6 +22,7 @@ use crate::implicit::{ImplicitSolver, ImplicitStep, SolverStats};
 use crate::p2g;
 use crate::particles::{Particles, PermuteBuffers};
 use crate::profile::{PhaseClock, PhaseTimes};
+use crate::snow_model::{MaterialConstants, max_wave_speed_squared};
 use crate::spindrift::{self, Drift, Escaped, SpindriftStep};
 use crate::wind::AirDrag;
 

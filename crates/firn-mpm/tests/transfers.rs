@@ -6,13 +6,13 @@ use firn_core::math::lanes::Simd;
 use firn_core::scene::Transfer;
 use firn_mpm::Particles;
 use firn_mpm::binning::Bins;
-use firn_mpm::constitutive::MaterialConstants;
 use firn_mpm::contact::Colliders;
 use firn_mpm::g2p::{self, UpdateContext, preferred_simd};
 use firn_mpm::grid::{Grid, GridLayout};
 use firn_mpm::grid_update::{self, GridForces};
 use firn_mpm::p2g;
 use firn_mpm::simulation::diagnostics;
+use firn_mpm::snow_model::MaterialConstants;
 use glam::{DVec3, Mat3, Vec3};
 
 const H: f32 = 0.05;

@@ -1,4 +1,4 @@
-// The snow model of Stomakhin et al. 2013, as in firn_mpm::constitutive:
+// The snow model of Stomakhin et al. 2013, as in firn_mpm::snow_model:
 // fixed-corotated elasticity with hardening (thesis eq. 34-36) and
 // plasticity by clamping the singular values of F_E (eq. 41-43), with the
 // CPU's fast path for particles inside the yield surface.

@@ -3,7 +3,7 @@
 
 use bytemuck::{Pod, Zeroable};
 use firn_core::scene::{ColliderGeometry, ContactMode, Motion};
-use firn_mpm::constitutive::MaterialConstants;
+use firn_mpm::snow_model::MaterialConstants;
 use glam::{Mat3, Vec3};
 
 /// `Params`: the run's constants and the current frame's time window.

@@ -62,9 +62,9 @@ use std::sync::Arc;
 
 use firn_core::Scene;
 use firn_core::scene::{Integrator, Material, SceneKind, TimeStep, Transfer, Wind};
-use firn_mpm::constitutive::{MaterialConstants, max_wave_speed_squared};
 use firn_mpm::grid::GridLayout;
 use firn_mpm::implicit::SolverStats;
+use firn_mpm::snow_model::{MaterialConstants, max_wave_speed_squared};
 use firn_mpm::{Escaped, SimulationError, Snapshot};
 use glam::{Mat3, Vec3};
 
