@@ -23,7 +23,8 @@ class FirnPreferences(bpy.types.AddonPreferences):
     bl_idname = __package__
 
     module_folder: bpy.props.StringProperty(
-        name="firn Module Folder", subtype="DIR_PATH",
+        name="firn Module Folder",
+        subtype="DIR_PATH",
         description="Folder holding the 'firn' package (not needed when Blender's Python imports firn)",
     )
 

@@ -25,7 +25,7 @@ SCENE_FILE = "scene.toml"
 _job = None
 
 
-class Cancelled(Exception):
+class CancelledError(Exception):
     """Raised from firn's progress callback to stop the run."""
 
 
@@ -123,13 +123,13 @@ class Job:
         if self.echo:
             print(f"firn: {self.status()}", flush=True)
         if self.cancel.is_set() or 0 <= self.cancel_after <= info["frame"]:
-            raise Cancelled()
+            raise CancelledError()
 
     def run(self):
         """Runs the scene to its end (on any thread)."""
         try:
             self.firn.run(self.scene, out=self.run_directory, render=False, resume=self.resume, progress=self.progress)
-        except Cancelled:
+        except CancelledError:
             self.cancelled = True
         except Exception as error:  # noqa: BLE001 -- shown to the user as a report
             self.error = error
@@ -209,7 +209,7 @@ def finish(operator, context, job):
         operator.report({"ERROR"}, f"firn: {job.error}")
         return {"CANCELLED"}
     if job.cancelled:
-        settings.status = f"Cancelled after frame {job.latest.get('frame', 0)}: bake again to resume"
+        settings.status = f"CancelledError after frame {job.latest.get('frame', 0)}: bake again to resume"
         operator.report({"WARNING"}, settings.status)
         return {"CANCELLED"}
     seconds = time.monotonic() - job.started
@@ -244,17 +244,23 @@ class FIRN_OT_bake(bpy.types.Operator):
     bl_options = {"REGISTER"}
 
     cancel_after_frame: bpy.props.IntProperty(
-        name="Cancel After Frame", default=-1, options={"HIDDEN", "SKIP_SAVE"},
+        name="Cancel After Frame",
+        default=-1,
+        options={"HIDDEN", "SKIP_SAVE"},
         description="Stop as a cancel would after this frame (-1: run to the end); for tests and farms",
     )
     synchronous: bpy.props.BoolProperty(
-        name="Synchronous", default=False, options={"HIDDEN", "SKIP_SAVE"},
+        name="Synchronous",
+        default=False,
+        options={"HIDDEN", "SKIP_SAVE"},
         description="Run in the calling thread (always so under blender -b)",
     )
 
     @classmethod
     def poll(cls, context):
-        return _job is None and context.scene is not None and any(o.firn.role == "DOMAIN" for o in context.scene.objects)
+        return (
+            _job is None and context.scene is not None and any(o.firn.role == "DOMAIN" for o in context.scene.objects)
+        )
 
     def execute(self, context):
         global _job

@@ -16,6 +16,8 @@ import re
 import struct
 from dataclasses import dataclass, field
 
+from mathutils import Vector
+
 from .axes import to_firn, unit_scale
 
 #: The folder, inside the cache, of the run's caches.
@@ -46,7 +48,7 @@ class Motion:
     def moves(self):
         """Whether the translation changes over the range."""
         first = self.translations[0]
-        return any(any(abs(a - b) > 1e-9 for a, b in zip(t, first)) for t in self.translations)
+        return any(any(abs(a - b) > 1e-9 for a, b in zip(t, first, strict=True)) for t in self.translations)
 
     def rotation_angle(self):
         """The largest rotation, radians, away from the first frame's."""
@@ -58,8 +60,8 @@ class Motion:
         origin moves: one `{time, position}` per frame."""
         origin = self.translations[0]
         return [
-            {"time": time, "position": [r + t - o for r, t, o in zip(reference, translation, origin)]}
-            for time, translation in zip(self.times, self.translations)
+            {"time": time, "position": [r + t - o for r, t, o in zip(reference, translation, origin, strict=True)]}
+            for time, translation in zip(self.times, self.translations, strict=True)
         ]
 
 
@@ -141,7 +143,7 @@ def bounds(vertices):
 def centre(vertices):
     """The centre of `vertices`' bounding box."""
     lower, upper = bounds(vertices)
-    return [(a + b) / 2 for a, b in zip(lower, upper)]
+    return [(a + b) / 2 for a, b in zip(lower, upper, strict=True)]
 
 
 def obj_text(vertices, triangles):
@@ -155,7 +157,7 @@ def flat_normal(vertices, triangles):
     """The unit normal, the way the faces point, of the plane all the
     vertices lie in; None when they do not lie in one."""
     lower, upper = bounds(vertices)
-    extent = max(b - a for a, b in zip(lower, upper))
+    extent = max(b - a for a, b in zip(lower, upper, strict=True))
     for a, b, c in triangles:
         normal = cross(difference(vertices[b], vertices[a]), difference(vertices[c], vertices[a]))
         length = math.sqrt(dot(normal, normal))
@@ -169,12 +171,12 @@ def flat_normal(vertices, triangles):
 
 def difference(a, b):
     """a - b."""
-    return [x - y for x, y in zip(a, b)]
+    return [x - y for x, y in zip(a, b, strict=True)]
 
 
 def dot(a, b):
     """a · b."""
-    return sum(x * y for x, y in zip(a, b))
+    return sum(x * y for x, y in zip(a, b, strict=True))
 
 
 def cross(a, b):
@@ -204,8 +206,6 @@ def sample_motions(scene, objects, scale):
 
 def domain_keys(scene, domain, scale):
     """`[domain]` from the domain object's world bounding box."""
-    from mathutils import Vector
-
     corners = [to_firn(domain.matrix_world @ Vector(c), scale) for c in domain.bound_box]
     lower, upper = bounds(corners)
     settings = domain.firn

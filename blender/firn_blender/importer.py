@@ -24,9 +24,22 @@ START_KEY = "firn_frame_start"
 COUNT_KEY = "firn_frame_count"
 
 PLY_TYPES = {
-    "char": "b", "uchar": "B", "short": "h", "ushort": "H", "int": "i", "uint": "I",
-    "float": "f", "double": "d", "int8": "b", "uint8": "B", "int16": "h", "uint16": "H",
-    "int32": "i", "uint32": "I", "float32": "f", "float64": "d",
+    "char": "b",
+    "uchar": "B",
+    "short": "h",
+    "ushort": "H",
+    "int": "i",
+    "uint": "I",
+    "float": "f",
+    "double": "d",
+    "int8": "b",
+    "uint8": "B",
+    "int16": "h",
+    "uint16": "H",
+    "int32": "i",
+    "uint32": "I",
+    "float32": "f",
+    "float64": "d",
 }
 
 
@@ -245,7 +258,9 @@ def load_run(scene, run_directory, frame_start, frames):
     made = []
     if settings.import_surface:
         made.append(
-            sequence_object(scene, SURFACE, os.path.join(run_directory, "mesh"), frame_start, frames, surface_material())
+            sequence_object(
+                scene, SURFACE, os.path.join(run_directory, "mesh"), frame_start, frames, surface_material()
+            )
         )
     if settings.import_volume:
         volume = volume_object(scene, os.path.join(run_directory, "vdb"), frame_start, frames)
@@ -254,9 +269,13 @@ def load_run(scene, run_directory, frame_start, frames):
         made.append(volume)
     if settings.import_particles:
         made.append(
-            sequence_object(scene, PARTICLES, os.path.join(run_directory, "ply"), frame_start, frames, surface_material())
+            sequence_object(
+                scene, PARTICLES, os.path.join(run_directory, "ply"), frame_start, frames, surface_material()
+            )
         )
-    made.append(sequence_object(scene, DRIFT, os.path.join(run_directory, "drift"), frame_start, frames, surface_material()))
+    made.append(
+        sequence_object(scene, DRIFT, os.path.join(run_directory, "drift"), frame_start, frames, surface_material())
+    )
     return [obj for obj in made if obj is not None]
 
 

@@ -16,7 +16,14 @@ def draw_object(layout, obj):
         layout.prop(settings, "use_custom_material")
         column = layout.column(align=True)
         column.enabled = settings.use_custom_material
-        for name in ("youngs_modulus", "poisson_ratio", "hardening", "critical_compression", "critical_stretch", "density"):
+        for name in (
+            "youngs_modulus",
+            "poisson_ratio",
+            "hardening",
+            "critical_compression",
+            "critical_stretch",
+            "density",
+        ):
             column.prop(settings, name)
         layout.prop(settings, "particles_per_cell")
         layout.prop(settings, "velocity")
@@ -55,8 +62,13 @@ def draw_bake(layout, scene):
             box.prop(settings, name)
         box.prop(settings, "use_spindrift")
         if settings.use_spindrift:
-            for name in ("spindrift_threshold", "spindrift_loose_density", "spindrift_rate",
-                         "spindrift_fall_speed", "spindrift_settle"):
+            for name in (
+                "spindrift_threshold",
+                "spindrift_loose_density",
+                "spindrift_rate",
+                "spindrift_fall_speed",
+                "spindrift_settle",
+            ):
                 box.prop(settings, name)
     row = layout.row(align=True)
     row.label(text="Load:")

@@ -63,9 +63,7 @@ class FirnObjectSettings(bpy.types.PropertyGroup):
     youngs_modulus: FloatProperty(name="Young's Modulus (Pa)", default=1.4e5, min=1.0)
     poisson_ratio: FloatProperty(name="Poisson's Ratio", default=0.2, min=-0.99, max=0.49)
     hardening: FloatProperty(name="Hardening", default=10.0, min=0.0)
-    critical_compression: FloatProperty(
-        name="Critical Compression", default=0.025, min=0.0, max=0.999, precision=4
-    )
+    critical_compression: FloatProperty(name="Critical Compression", default=0.025, min=0.0, max=0.999, precision=4)
     critical_stretch: FloatProperty(name="Critical Stretch", default=0.0075, min=0.0, precision=4)
     density: FloatProperty(name="Density (kg/m³)", default=400.0, min=0.001)
     particles_per_cell: IntProperty(name="Particles per Cell", default=8, min=1, max=64)
@@ -82,7 +80,11 @@ class FirnObjectSettings(bpy.types.PropertyGroup):
 
     # The domain.
     cell_size: FloatProperty(
-        name="Cell Size", default=0.05, min=0.0, subtype="DISTANCE", precision=4,
+        name="Cell Size",
+        default=0.05,
+        min=0.0,
+        subtype="DISTANCE",
+        precision=4,
         description="Grid spacing: the finest detail is a few cells wide",
     )
 
@@ -91,7 +93,9 @@ class FirnSceneSettings(bpy.types.PropertyGroup):
     """The bake of a scene: where it goes, the air, and what comes back."""
 
     cache_directory: StringProperty(
-        name="Cache", default="//firn_cache", subtype="DIR_PATH",
+        name="Cache",
+        default="//firn_cache",
+        subtype="DIR_PATH",
         description="Folder of the scene file, its meshes and the caches ('//' is the .blend's folder)",
     )
     transfer: EnumProperty(
@@ -101,7 +105,11 @@ class FirnSceneSettings(bpy.types.PropertyGroup):
     )
     seed: IntProperty(name="Seed", default=1, min=0)
     voxel_size: FloatProperty(
-        name="Voxel Size", default=0.0, min=0.0, subtype="DISTANCE", precision=4,
+        name="Voxel Size",
+        default=0.0,
+        min=0.0,
+        subtype="DISTANCE",
+        precision=4,
         description="Voxel edge of the surface mesh and the volume (0: the cell size)",
     )
     backend: EnumProperty(
@@ -113,7 +121,9 @@ class FirnSceneSettings(bpy.types.PropertyGroup):
     use_wind: BoolProperty(name="Wind", description="Air blowing over the snow")
     wind_direction: FloatVectorProperty(name="Direction", size=3, default=(1.0, 0.0, 0.0), subtype="DIRECTION")
     wind_strength: FloatProperty(
-        name="Background Strength", default=10.0, min=0.0,
+        name="Background Strength",
+        default=10.0,
+        min=0.0,
         description="The steady wind blows at (1 - gusts) times this, m/s",
     )
     wind_noise_share: FloatProperty(name="Gusts", default=0.5, min=0.0, max=1.0)

@@ -182,8 +182,12 @@ def render(facts):
     facts["render"] = {
         "size": SIZE,
         "luma": [
-            [0.2126 * pixels[4 * (y * SIZE[0] + x)] + 0.7152 * pixels[4 * (y * SIZE[0] + x) + 1]
-             + 0.0722 * pixels[4 * (y * SIZE[0] + x) + 2] for x in range(SIZE[0])]
+            [
+                0.2126 * pixels[4 * (y * SIZE[0] + x)]
+                + 0.7152 * pixels[4 * (y * SIZE[0] + x) + 1]
+                + 0.0722 * pixels[4 * (y * SIZE[0] + x) + 2]
+                for x in range(SIZE[0])
+            ]
             for y in range(SIZE[1])
         ],
         "snow_pixels": sorted(projected),
