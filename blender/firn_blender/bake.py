@@ -114,6 +114,7 @@ class Job:
         self.error = None
         self.cancelled = False
         self.done = False
+        self.baked_before = False
         self.echo = False
         self.started = time.monotonic()
 
@@ -153,18 +154,17 @@ class Job:
         return info["frame"] / info["last_frame"]
 
 
-def resumable(run_directory, scene_path, toml):
-    """Whether the run in `run_directory` was stopped before its end and
-    was made from the same scene text."""
+def run_state(run_directory, scene_path, toml):
+    """The state ("running", "finished", "failed") of the run in
+    `run_directory` when it was made from the same scene text, else None."""
     manifest = os.path.join(run_directory, "manifest.json")
     if not (os.path.exists(manifest) and os.path.exists(scene_path)):
-        return False
+        return None
     with open(scene_path, encoding="utf-8") as file:
         if file.read() != toml:
-            return False
+            return None
     with open(manifest, encoding="utf-8") as file:
-        state = json.load(file).get("status", {}).get("state")
-    return state == "running" and os.path.exists(os.path.join(run_directory, "checkpoint.firnckpt"))
+        return json.load(file).get("status", {}).get("state")
 
 
 def prepare(context, cancel_after):
@@ -187,12 +187,17 @@ def prepare(context, cancel_after):
     except firn.SceneError as error:
         raise BakeError(blender_message(error, made.origins)) from error
     toml = firn_scene.to_toml()
-    resume = resumable(run_directory, scene_path, toml)
+    state = run_state(run_directory, scene_path, toml)
+    resume = state == "running" and os.path.exists(os.path.join(run_directory, "checkpoint.firnckpt"))
+    job = Job(firn, firn_scene, run_directory, resume, made, cancel_after)
+    if state == "finished":
+        job.done = job.baked_before = True
+        return job
     if not resume and os.path.exists(run_directory):
         shutil.rmtree(run_directory)
     with open(scene_path, "w", encoding="utf-8") as file:
         file.write(toml)
-    return Job(firn, firn_scene, run_directory, resume, made, cancel_after)
+    return job
 
 
 def finish(operator, context, job):
@@ -213,6 +218,10 @@ def finish(operator, context, job):
         operator.report({"WARNING"}, settings.status)
         return {"CANCELLED"}
     seconds = time.monotonic() - job.started
+    if job.baked_before:
+        settings.status = "Already baked: loaded the caches (Free Bake to bake again)"
+        operator.report({"INFO"}, settings.status)
+        return {"FINISHED"}
     settings.status = f"Baked {made.frame_count + 1} frames in {seconds:.1f} s" + (" (resumed)" if job.resume else "")
     settings.progress = 1.0
     operator.report({"INFO"}, settings.status)
@@ -276,6 +285,8 @@ class FIRN_OT_bake(bpy.types.Operator):
         _job = job
         settings.baking = True
         settings.progress = 0.0
+        if job.baked_before:
+            return finish(self, context, job)
         if bpy.app.background or self.synchronous or context.window_manager.windows[:] == []:
             return self.run_here(context, job)
         threading.Thread(target=job.run, name="firn bake", daemon=True).start()

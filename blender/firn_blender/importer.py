@@ -4,6 +4,7 @@ volume object reading the VDB sequence, and optionally the particles and
 the drift as point objects. All of them sit in the collection "firn",
 placed by the transform from firn's axes to Blender's."""
 
+import json
 import os
 import struct
 from array import array
@@ -252,6 +253,45 @@ def volume_material():
     return material
 
 
+def points_group(material):
+    """A geometry node group that turns a mesh's vertices into points of
+    the "radius" input, with `material` (point clouds render in Cycles)."""
+    group = bpy.data.node_groups.get("firn Points")
+    if group is not None:
+        return group
+    group = bpy.data.node_groups.new("firn Points", "GeometryNodeTree")
+    if hasattr(group, "interface"):
+        group.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+        group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    else:
+        group.inputs.new("NodeSocketGeometry", "Geometry")
+        group.outputs.new("NodeSocketGeometry", "Geometry")
+    nodes, links = group.nodes, group.links
+    inputs, outputs = nodes.new("NodeGroupInput"), nodes.new("NodeGroupOutput")
+    points = nodes.new("GeometryNodeMeshToPoints")
+    points.name = "points"
+    shade = nodes.new("GeometryNodeSetMaterial")
+    shade.inputs["Material"].default_value = material
+    links.new(inputs.outputs[0], points.inputs["Mesh"])
+    links.new(points.outputs["Points"], shade.inputs["Geometry"])
+    links.new(shade.outputs["Geometry"], outputs.inputs[0])
+    return group
+
+
+def as_points(obj, radius):
+    """Renders `obj`'s vertices as spheres of `radius` (firn's metres)."""
+    group = points_group(surface_material())
+    group.nodes["points"].inputs["Radius"].default_value = radius
+    modifier = obj.modifiers.get("firn Points") or obj.modifiers.new("firn Points", "NODES")
+    modifier.node_group = group
+
+
+def particle_radius(run_directory):
+    """A third of the run's cell size, metres: about a particle's reach."""
+    with open(os.path.join(run_directory, "manifest.json"), encoding="utf-8") as file:
+        return json.load(file)["scene"]["domain"]["cell_size"] / 3.0
+
+
 def load_run(scene, run_directory, frame_start, frames):
     """Imports the frames of `run_directory` that exist; the objects made."""
     settings = scene.firn
@@ -267,15 +307,13 @@ def load_run(scene, run_directory, frame_start, frames):
         if volume is not None and made and made[0] is not None:
             volume.hide_render = True
         made.append(volume)
-    if settings.import_particles:
-        made.append(
-            sequence_object(
-                scene, PARTICLES, os.path.join(run_directory, "ply"), frame_start, frames, surface_material()
-            )
-        )
-    made.append(
-        sequence_object(scene, DRIFT, os.path.join(run_directory, "drift"), frame_start, frames, surface_material())
-    )
+    points = [DRIFT] + ([PARTICLES] if settings.import_particles else [])
+    for name in points:
+        folder = os.path.join(run_directory, "ply" if name == PARTICLES else "drift")
+        obj = sequence_object(scene, name, folder, frame_start, frames, surface_material())
+        if obj is not None:
+            as_points(obj, particle_radius(run_directory))
+        made.append(obj)
     return [obj for obj in made if obj is not None]
 
 

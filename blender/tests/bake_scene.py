@@ -31,7 +31,7 @@ def clear():
         bpy.data.objects.remove(obj)
 
 
-def shot():
+def shot(cell_size=0.04, voxel_size=0.02):
     """The scene's objects; returns them by name."""
     scene = bpy.context.scene
     scene.frame_start, scene.frame_end = 1, 10
@@ -43,7 +43,7 @@ def shot():
     domain.display_type = "WIRE"
     domain.hide_render = True
     domain.firn.role = "DOMAIN"
-    domain.firn.cell_size = 0.04
+    domain.firn.cell_size = cell_size
     bpy.ops.mesh.primitive_uv_sphere_add(radius=0.12, location=(-0.2, 0.05, 0.3), segments=24, ring_count=12)
     ball = bpy.context.object
     ball.name = "Snowball"
@@ -68,7 +68,7 @@ def shot():
     for curve in block.animation_data.action.fcurves:
         for key in curve.keyframe_points:
             key.interpolation = "LINEAR"
-    scene.firn.voxel_size = 0.02
+    scene.firn.voxel_size = voxel_size
     return {"domain": domain, "ball": ball, "ground": ground, "block": block}
 
 
@@ -145,6 +145,13 @@ def sequences(facts):
     facts["volume_files"] = files
     facts["volume_grids"] = [grid.name for grid in volume.data.grids]
     facts["surface_matrix"] = [list(row) for row in surface.matrix_world]
+    particles = bpy.data.objects["firn Particles"]
+    scene.frame_set(RENDER_FRAME)
+    facts["particles"] = {
+        "vertices": len(particles.data.vertices),
+        "modifiers": [m.node_group.name for m in particles.modifiers if m.type == "NODES"],
+    }
+    particles.hide_render = True
 
 
 def render(facts):
@@ -200,6 +207,7 @@ def main():
     clear()
     objects = shot()
     facts = {}
+    bpy.context.scene.firn.import_particles = True
     bad_settings(objects, facts)
     started = time.monotonic()
     facts["bake_error"] = bake(os.path.join(OUT, "whole"))
@@ -227,4 +235,5 @@ def main():
         json.dump(facts, file)
 
 
-main()
+if __name__ == "__main__":
+    main()

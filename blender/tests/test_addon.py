@@ -132,6 +132,14 @@ def test_volume_object_reads_the_vdb_of_each_frame(baked):
     assert "density" in facts["volume_grids"]
 
 
+def test_particles_come_back_as_points(baked):
+    out, facts = baked
+    with open(out / "whole" / "run" / "manifest.json", encoding="utf-8") as file:
+        manifest = json.load(file)
+    assert facts["particles"]["vertices"] == manifest["particle_count"] > 500
+    assert facts["particles"]["modifiers"] == ["firn Points"]
+
+
 def test_cycles_render_shows_snow_where_the_cache_projects_and_ground_elsewhere(baked):
     _, facts = baked
     render = facts["render"]
