@@ -214,7 +214,7 @@ def finish(operator, context, job):
         operator.report({"ERROR"}, f"firn: {job.error}")
         return {"CANCELLED"}
     if job.cancelled:
-        settings.status = f"CancelledError after frame {job.latest.get('frame', 0)}: bake again to resume"
+        settings.status = f"Cancelled after frame {job.latest.get('frame', 0)}: bake again to resume"
         operator.report({"WARNING"}, settings.status)
         return {"CANCELLED"}
     seconds = time.monotonic() - job.started

@@ -17,6 +17,7 @@ import os
 import sys
 
 import bpy
+from mathutils import Vector
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 MODE, OUT = sys.argv[sys.argv.index("--") + 1 :][:2]
@@ -40,9 +41,10 @@ def the_shot():
 
 def camera_and_light(scene):
     """A camera low over the ground towards the block, a sun and a sky."""
-    bpy.ops.object.camera_add(location=(-0.55, -1.25, 0.85))
+    bpy.ops.object.camera_add(location=(-0.45, -1.15, 0.75))
     camera = bpy.context.object
-    camera.rotation_euler = (math.radians(58.0), 0.0, math.radians(-22.0))
+    aim = Vector((0.2, 0.05, 0.12)) - camera.location
+    camera.rotation_euler = aim.to_track_quat("-Z", "Y").to_euler()
     scene.camera = camera
     bpy.ops.object.light_add(type="SUN", rotation=(math.radians(40.0), math.radians(10.0), math.radians(30.0)))
     bpy.context.object.data.energy = 3.5
@@ -67,26 +69,30 @@ def render(objects):
 
 
 def screenshot(objects):
-    """Starts the bake in the interface with the ball's firn panel shown,
-    writes a screenshot of the window a third of the way, and cancels."""
+    """Starts the bake in the interface with the ball's firn panel shown in
+    the largest area, writes a screenshot of that area a third of the way,
+    and cancels."""
     bpy.context.scene.firn.cache_directory = os.path.join(CACHE, "interface")
+    bpy.context.preferences.view.show_splash = False
     window = bpy.context.window_manager.windows[0]
-    properties = max((a for a in window.screen.areas if a.type == "PROPERTIES"), key=lambda a: a.height)
-    properties.spaces[0].context = "PHYSICS"
+    properties = max(window.screen.areas, key=lambda a: a.width * a.height)
+    properties.type = "PROPERTIES"
     ball = objects["ball"]
     bpy.context.view_layer.objects.active = ball
     ball.select_set(True)
 
     def start():
+        properties.spaces[0].context = "PHYSICS"
         with bpy.context.temp_override(window=window, area=properties):
             bpy.ops.firn.bake("INVOKE_DEFAULT")
         bpy.app.timers.register(wait, first_interval=0.5)
 
     def wait():
         if bpy.context.scene.firn.progress < 0.3:
+            properties.spaces[0].context = "PHYSICS"
             return 0.5
         with bpy.context.temp_override(window=window, area=properties):
-            bpy.ops.screen.screenshot(filepath=os.path.abspath(OUT))
+            bpy.ops.screen.screenshot_area(filepath=os.path.abspath(OUT))
         print("firn: screenshot at", bpy.context.scene.firn.status, flush=True)
         bpy.ops.firn.cancel_bake()
         bpy.app.timers.register(stop, first_interval=0.5)
