@@ -1,0 +1,408 @@
+"""Blender objects to a firn scene: the scene's keys (a dict in firn's TOML
+format), the meshes it refers to, and where each part came from, so that
+firn's errors can name the Blender object and setting.
+
+Everything is taken at the scene's first frame, in world space, and put
+into firn's axes (y up, metres; see `axes`). A snow body is its evaluated
+mesh, written as OBJ in firn's axes and placed at its own bounding box's
+centre, so it lands exactly where the object is. A collider is a plane (a
+flat mesh) or a mesh; when its transform changes over the frame range it
+gets one keyframe per frame of its translation. firn's colliders only
+translate for now: rotation is sampled too and reported, so that rotation
+keys can be added when firn reads them."""
+
+import math
+import re
+import struct
+from dataclasses import dataclass, field
+
+from mathutils import Vector
+
+from .axes import to_firn, unit_scale
+
+#: The folder, inside the cache, of the run's caches.
+RUN_FOLDER = "run"
+#: The folder, inside the cache, of the exported meshes.
+MESH_FOLDER = "meshes"
+#: Smallest rotation, in radians, reported as a rotating collider.
+ROTATION_TOLERANCE = 1e-5
+
+
+class ExportError(Exception):
+    """A Blender setting firn cannot take; names the object and setting."""
+
+    def __init__(self, obj_name, setting, message):
+        super().__init__(f"{obj_name}: {setting}: {message}")
+        self.obj_name = obj_name
+        self.setting = setting
+
+
+@dataclass
+class Motion:
+    """An object's world transform sampled at each frame of the range."""
+
+    times: list = field(default_factory=list)
+    translations: list = field(default_factory=list)
+    rotations: list = field(default_factory=list)
+
+    def moves(self):
+        """Whether the translation changes over the range."""
+        first = self.translations[0]
+        return any(any(abs(a - b) > 1e-9 for a, b in zip(t, first, strict=True)) for t in self.translations)
+
+    def rotation_angle(self):
+        """The largest rotation, radians, away from the first frame's."""
+        first = self.rotations[0]
+        return max(first.rotation_difference(r).angle for r in self.rotations)
+
+    def keyframes(self, reference):
+        """firn keyframes moving `reference` (firn's axes) as the object's
+        origin moves: one `{time, position}` per frame."""
+        origin = self.translations[0]
+        return [
+            {"time": time, "position": [r + t - o for r, t, o in zip(reference, translation, origin, strict=True)]}
+            for time, translation in zip(self.times, self.translations, strict=True)
+        ]
+
+
+@dataclass
+class Export:
+    """A firn scene made from Blender objects."""
+
+    scene: dict
+    meshes: dict
+    origins: dict
+    warnings: list
+    frame_start: int
+    frame_count: int
+
+
+def tidy(value):
+    """A float as the shortest decimal with the same single-precision value
+    (Blender's data is single precision), and -0.0 as 0.0; lists and dicts
+    tidied through."""
+    if isinstance(value, dict):
+        return {key: tidy(item) for key, item in value.items()}
+    if isinstance(value, list):
+        return [tidy(item) for item in value]
+    if not isinstance(value, float) or not math.isfinite(value):
+        return value
+    single = struct.unpack("f", struct.pack("f", value))[0]
+    for digits in range(6, 10):
+        short = float(f"{value:.{digits}g}")
+        if struct.unpack("f", struct.pack("f", short))[0] == single:
+            return short + 0.0
+    return single + 0.0
+
+
+def safe_name(name):
+    """`name` with only letters, digits, `_` and `-` (for files and keys)."""
+    return re.sub(r"[^A-Za-z0-9_-]", "_", name) or "object"
+
+
+def frame_rate(scene):
+    """Frames per second of `scene`."""
+    return scene.render.fps / scene.render.fps_base
+
+
+def duration_of(frames, fps):
+    """Seconds of `frames` frames at `fps` such that firn makes exactly
+    `frames` frames of it (ceil(duration × fps) == frames)."""
+    duration = frames / fps
+    while math.ceil(duration * fps) > frames:
+        duration = math.nextafter(duration, 0.0)
+    return duration
+
+
+def role_objects(scene, role):
+    """The scene's objects with firn role `role`, in name order."""
+    return sorted((o for o in scene.objects if o.firn.role == role), key=lambda o: o.name)
+
+
+def world_mesh(obj, depsgraph, scale):
+    """`obj`'s evaluated mesh in firn's axes: vertices and triangles."""
+    evaluated = obj.evaluated_get(depsgraph)
+    mesh = evaluated.to_mesh()
+    try:
+        mesh.calc_loop_triangles()
+        matrix = evaluated.matrix_world
+        vertices = [to_firn(matrix @ v.co, scale) for v in mesh.vertices]
+        triangles = [tuple(t.vertices) for t in mesh.loop_triangles]
+    finally:
+        evaluated.to_mesh_clear()
+    return vertices, triangles
+
+
+def bounds(vertices):
+    """The lower and upper corners of `vertices`."""
+    lower = [min(v[axis] for v in vertices) for axis in range(3)]
+    upper = [max(v[axis] for v in vertices) for axis in range(3)]
+    return lower, upper
+
+
+def centre(vertices):
+    """The centre of `vertices`' bounding box."""
+    lower, upper = bounds(vertices)
+    return [(a + b) / 2 for a, b in zip(lower, upper, strict=True)]
+
+
+def obj_text(vertices, triangles):
+    """A Wavefront OBJ of the triangles, shortest round-trip decimals."""
+    lines = [f"v {tidy(x)!r} {tidy(y)!r} {tidy(z)!r}" for x, y, z in vertices]
+    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in triangles]
+    return ("\n".join(lines) + "\n").encode()
+
+
+def flat_normal(vertices, triangles):
+    """The unit normal, the way the faces point, of the plane all the
+    vertices lie in; None when they do not lie in one."""
+    lower, upper = bounds(vertices)
+    extent = max(b - a for a, b in zip(lower, upper, strict=True))
+    for a, b, c in triangles:
+        normal = cross(difference(vertices[b], vertices[a]), difference(vertices[c], vertices[a]))
+        length = math.sqrt(dot(normal, normal))
+        if length > 1e-12 * extent * extent:
+            normal = [n / length for n in normal]
+            origin = vertices[a]
+            flat = all(abs(dot(difference(v, origin), normal)) <= 1e-6 * extent for v in vertices)
+            return normal if flat else None
+    return None
+
+
+def difference(a, b):
+    """a - b."""
+    return [x - y for x, y in zip(a, b, strict=True)]
+
+
+def dot(a, b):
+    """a · b."""
+    return sum(x * y for x, y in zip(a, b, strict=True))
+
+
+def cross(a, b):
+    """a × b."""
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+
+def sample_motions(scene, objects, scale):
+    """The world transforms of `objects` at every frame of the range, in
+    firn's axes (translation) and Blender's (rotation, a quaternion)."""
+    motions = {obj.name: Motion() for obj in objects}
+    if not objects:
+        return motions
+    fps = frame_rate(scene)
+    current = scene.frame_current
+    for frame in range(scene.frame_start, scene.frame_end + 1):
+        scene.frame_set(frame)
+        for obj in objects:
+            motion = motions[obj.name]
+            matrix = obj.matrix_world
+            motion.times.append((frame - scene.frame_start) / fps)
+            motion.translations.append(to_firn(matrix.to_translation(), scale))
+            motion.rotations.append(matrix.to_quaternion())
+    scene.frame_set(current)
+    return motions
+
+
+def domain_keys(scene, domain, scale):
+    """`[domain]` from the domain object's world bounding box."""
+    corners = [to_firn(domain.matrix_world @ Vector(c), scale) for c in domain.bound_box]
+    lower, upper = bounds(corners)
+    settings = domain.firn
+    if settings.cell_size <= 0.0:
+        raise ExportError(domain.name, "Cell Size", f"must be greater than 0 (got {settings.cell_size:g})")
+    return {
+        "min": lower,
+        "max": upper,
+        "cell_size": settings.cell_size * scale,
+        "walls": {"mode": settings.contact, "friction": settings.friction},
+    }
+
+
+def material_keys(settings):
+    """A `[materials.NAME]` table of a body's custom parameters."""
+    return {
+        "preset": settings.preset,
+        "youngs_modulus": settings.youngs_modulus,
+        "poisson_ratio": settings.poisson_ratio,
+        "hardening": settings.hardening,
+        "critical_compression": settings.critical_compression,
+        "critical_stretch": settings.critical_stretch,
+        "density": settings.density,
+    }
+
+
+def body_keys(obj, vertices, mesh_file, scale, materials):
+    """A `[[bodies]]` table of a snow object; adds its custom material."""
+    settings = obj.firn
+    body = {
+        "shape": "mesh",
+        "mesh": mesh_file,
+        "center": centre(vertices),
+        "velocity": to_firn(settings.velocity, scale),
+        "particles_per_cell": settings.particles_per_cell,
+        "material": settings.preset,
+    }
+    if settings.use_custom_material:
+        name = safe_name(obj.name)
+        materials[name] = material_keys(settings)
+        body["material"] = name
+    if settings.use_clumps:
+        body["clumps"] = {"size": settings.clump_size * scale, "contrast": settings.clump_contrast}
+    return body
+
+
+def collider_keys(obj, vertices, triangles, mesh_file, motion):
+    """A `[[colliders]]` table: the shape, the contact and the motion."""
+    settings = obj.firn
+    normal = flat_normal(vertices, triangles) if settings.collider_shape != "MESH" else None
+    if settings.collider_shape == "PLANE" and normal is None:
+        raise ExportError(obj.name, "Shape", "a plane collider must be a flat mesh")
+    if normal is not None:
+        collider = {"shape": "plane", "point": centre(vertices), "normal": normal}
+        reference = collider["point"]
+    else:
+        collider = {"shape": "mesh", "mesh": mesh_file, "center": centre(vertices)}
+        reference = collider["center"]
+    collider["mode"] = settings.contact
+    collider["friction"] = settings.friction
+    if settings.motion != "STATIC" and motion.moves():
+        collider["keyframes"] = motion.keyframes(reference)
+    return collider
+
+
+def wind_keys(settings, scale):
+    """`[wind]` (and `[wind.spindrift]`) from the scene's settings."""
+    direction = to_firn(settings.wind_direction, 1.0)
+    length = math.sqrt(sum(a * a for a in direction)) or 1.0
+    wind = {
+        "background_direction": [a / length for a in direction],
+        "background_strength": settings.wind_strength,
+        "noise_share": settings.wind_noise_share,
+        "length_scale": settings.wind_length_scale * scale,
+        "drag": settings.wind_drag,
+    }
+    if settings.use_spindrift:
+        wind["spindrift"] = {
+            "threshold_speed": settings.spindrift_threshold,
+            "loose_density": settings.spindrift_loose_density,
+            "rate": settings.spindrift_rate,
+            "fall_speed": settings.spindrift_fall_speed,
+            "settle": settings.spindrift_settle,
+        }
+    return wind
+
+
+def output_keys(settings, run_directory, scale):
+    """`[output]`: the caches the importer reads."""
+    formats = []
+    if settings.import_surface:
+        formats.append("mesh")
+    if settings.import_volume:
+        formats.append("vdb")
+    if settings.import_particles or (settings.use_wind and settings.use_spindrift):
+        formats.append("ply")
+    output = {"directory": run_directory, "formats": formats, "attributes": ["velocity"]}
+    if settings.voxel_size > 0.0:
+        voxel = settings.voxel_size * scale
+        output["mesh"] = {"voxel_size": voxel}
+        output["vdb"] = {"voxel_size": voxel}
+    return output
+
+
+def the_domain(scene):
+    """The one domain object."""
+    domains = role_objects(scene, "DOMAIN")
+    if len(domains) != 1:
+        names = ", ".join(o.name for o in domains) or "none"
+        raise ExportError(scene.name, "Domain", f"mark exactly one object as the firn domain (found: {names})")
+    return domains[0]
+
+
+def build(scene, depsgraph_of, run_directory):
+    """The firn scene of `scene`'s marked objects. `depsgraph_of()` gives
+    the evaluated depsgraph at the current frame."""
+    settings = scene.firn
+    scale = unit_scale(scene)
+    domain = the_domain(scene)
+    snow = role_objects(scene, "SNOW")
+    colliders = role_objects(scene, "COLLIDER")
+    if not snow:
+        raise ExportError(scene.name, "Snow", "mark at least one mesh object as firn snow")
+    if scene.frame_end <= scene.frame_start:
+        raise ExportError(scene.name, "Frame Range", "the scene's frame range must hold at least two frames")
+    motions = sample_motions(scene, [o for o in colliders if o.firn.motion != "STATIC"], scale)
+    current = scene.frame_current
+    scene.frame_set(scene.frame_start)
+    depsgraph = depsgraph_of()
+    fps = frame_rate(scene)
+    frames = scene.frame_end - scene.frame_start
+    keys = {
+        "format": 1,
+        "name": safe_name(scene.name),
+        "domain": domain_keys(scene, domain, scale),
+        "time": {"duration": duration_of(frames, fps), "fps": fps},
+        "solver": {"transfer": settings.transfer, "seed": settings.seed, "gravity": gravity(scene, scale)},
+        "bodies": [],
+        "colliders": [],
+        "output": output_keys(settings, run_directory, scale),
+        "render": {"enabled": False},
+        "compute": {"backend": settings.backend},
+    }
+    meshes, origins, warnings, materials = {}, {"domain": (domain.name, "domain")}, [], {}
+    for obj in snow:
+        vertices, triangles = checked_mesh(obj, depsgraph, scale)
+        mesh_file = f"{MESH_FOLDER}/{safe_name(obj.name)}.obj"
+        meshes[mesh_file] = obj_text(vertices, triangles)
+        origins[f"bodies[{len(keys['bodies'])}]"] = (obj.name, "snow body")
+        keys["bodies"].append(body_keys(obj, vertices, mesh_file, scale, materials))
+    for obj in colliders:
+        vertices, triangles = checked_mesh(obj, depsgraph, scale)
+        motion = motions.get(obj.name, Motion())
+        collider = collider_keys(obj, vertices, triangles, f"{MESH_FOLDER}/{safe_name(obj.name)}.obj", motion)
+        if collider["shape"] == "mesh":
+            meshes[collider["mesh"]] = obj_text(vertices, triangles)
+        origins[f"colliders[{len(keys['colliders'])}]"] = (obj.name, "collider")
+        keys["colliders"].append(collider)
+        warnings += motion_warnings(obj, motion)
+    scene.frame_set(current)
+    if materials:
+        keys["materials"] = materials
+    if not keys["colliders"]:
+        del keys["colliders"]
+    if settings.use_wind:
+        keys["wind"] = wind_keys(settings, scale)
+        origins["wind"] = (scene.name, "wind")
+    keys = tidy(keys)
+    keys["time"] = {"duration": duration_of(frames, fps), "fps": fps}
+    return Export(keys, meshes, origins, warnings, scene.frame_start, frames)
+
+
+def gravity(scene, scale):
+    """The scene's gravity in firn's axes (m/s²), zero when it is off."""
+    if not scene.use_gravity:
+        return [0.0, 0.0, 0.0]
+    return to_firn(scene.gravity, scale)
+
+
+def checked_mesh(obj, depsgraph, scale):
+    """`obj`'s world mesh in firn's axes; an error when it has no faces."""
+    if obj.type != "MESH":
+        raise ExportError(obj.name, "Role", "only mesh objects can be firn snow or colliders")
+    vertices, triangles = world_mesh(obj, depsgraph, scale)
+    if not triangles:
+        raise ExportError(obj.name, "Mesh", "the mesh has no faces to fill or to collide with")
+    return vertices, triangles
+
+
+def motion_warnings(obj, motion):
+    """What firn cannot follow of a collider's motion yet."""
+    if obj.firn.motion == "STATIC" or not motion.rotations:
+        return []
+    angle = motion.rotation_angle()
+    if angle <= ROTATION_TOLERANCE:
+        return []
+    return [
+        f"{obj.name}: the collider turns by up to {math.degrees(angle):.1f}° over the frames; "
+        "firn's colliders only translate yet, so it is baked moving without turning"
+    ]
