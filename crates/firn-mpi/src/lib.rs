@@ -4,14 +4,15 @@
 //!
 //! The grid's blocks are cut into slabs of whole block columns along x
 //! ([`slabs`]); each rank owns the particles of its slab and steps them
-//! with [`firn_mpm::Simulation`] ([`rank`]). Particles carry their place in
-//! the one-process array, so every block sums its particles in the
-//! one-process order; in the scatter each rank sends its neighbours the
-//! sums of its blocks next to theirs ([`firn_mpm::block_sums`]), so every
-//! node sums the one process's blocks in the one process's order
-//! (docs/architecture.md, "MPI"). A flow, whose particles never read each
-//! other, splits by particles instead: every rank steps its part of a copy
-//! of the whole flow ([`rank_flow`]).
+//! with a [`firn_mpm::Simulation`] ([`rank`]), which holds no state of the
+//! split: the rank keeps its particles' keys beside it. Particles carry
+//! their place in the one-process array, so every block sums its
+//! particles in the one-process order; in the scatter each rank sends its
+//! neighbours the sums of its blocks next to theirs
+//! ([`firn_mpm::block_sums`]), so every node sums the one process's blocks
+//! in the one process's order (docs/architecture.md, "MPI"). A flow, whose
+//! particles never read each other, splits by particles instead: every
+//! rank steps its part of a copy of the whole flow ([`rank_flow`]).
 //!
 //! The ranks talk through [`exchange::Exchange`]: particles and block sums
 //! by an all-to-all of word buffers, and reductions, a scan and broadcasts.
@@ -28,6 +29,7 @@ pub mod exchange;
 #[cfg(feature = "mpi")]
 pub mod mpi_exchange;
 pub mod packing;
+mod part;
 pub mod rank;
 pub mod rank_flow;
 pub mod slabs;

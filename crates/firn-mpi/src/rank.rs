@@ -9,12 +9,12 @@
 //!    by block ([`REORDER_INTERVAL`]): each particle's key becomes its
 //!    place in that sorted array, the particles of lower ranks first;
 //! 3. the substep itself, every block summing its particles in key order
-//!    (the solver orders each block's particles by key,
-//!    [`Simulation::set_part`]), hence in the one-process order; in its
-//!    scatter the ranks **trade block sums**: each sends the sums of its
-//!    blocks next to a neighbour's to that neighbour (`SlabTrade`,
-//!    [`firn_mpm::block_sums`]), so every node a rank reads sums the one
-//!    process's blocks in the one process's order;
+//!    (the rank's `SnowPart` hands the solver the keys, by which it orders
+//!    each block's particles, [`Simulation::step_part`]), hence in the
+//!    one-process order; in its scatter the ranks **trade block sums**:
+//!    each sends the sums of its blocks next to a neighbour's to that
+//!    neighbour (`SlabTrade`, [`firn_mpm::block_sums`]), so every node a
+//!    rank reads sums the one process's blocks in the one process's order;
 //! 4. **agreement**: a failure anywhere stops every rank with the failing
 //!    rank's message (the lowest key first, as one process reports the
 //!    lowest index), and the largest speeds, reduced over the ranks, give
@@ -33,6 +33,7 @@ use firn_run::{RunDirectory, RunError, caches, checkpoint};
 
 use crate::exchange::{Exchange, join_u64, split_u64};
 use crate::packing::{KeyedParticles, WORDS_PER_PARTICLE};
+use crate::part::SnowPart;
 use crate::slabs::{Slabs, neighbour_reach};
 use glam::IVec3;
 
@@ -101,7 +102,7 @@ pub struct RankTraffic {
 /// One rank's part of a split snow run.
 pub struct RankSnow<E: Exchange> {
     exchange: E,
-    simulation: Simulation,
+    part: SnowPart,
     slabs: Slabs,
     layout: GridLayout,
     buffers: PermuteBuffers,
@@ -127,12 +128,10 @@ impl<E: Exchange> RankSnow<E> {
         let slabs = Slabs::from_words(&header[6..]);
         let mut own = KeyedParticles::default();
         own.unpack(records);
-        let mut simulation = Simulation::part(scene, time, steps);
-        simulation.set_motion_bounds(f32::from_bits(header[4]), f32::from_bits(header[5]));
-        simulation.set_part(own.particles, own.keys);
+        let bounds = [f32::from_bits(header[4]), f32::from_bits(header[5])];
         RankSnow {
             exchange,
-            simulation,
+            part: SnowPart::new(scene, time, steps, bounds, own),
             slabs,
             layout,
             buffers: PermuteBuffers::default(),
@@ -152,12 +151,12 @@ impl<E: Exchange> RankSnow<E> {
 
     /// The particles this rank owns now.
     pub fn owned(&self) -> usize {
-        self.simulation.particles().len()
+        self.simulation().particles().len()
     }
 
     /// The keys of the own particles.
     fn own_keys(&self) -> &[u64] {
-        self.simulation.part_keys()
+        self.part.keys()
     }
 
     /// The current slabs.
@@ -172,14 +171,14 @@ impl<E: Exchange> RankSnow<E> {
 
     /// The rank's simulation, of its own particles.
     pub fn simulation(&self) -> &Simulation {
-        &self.simulation
+        self.part.simulation()
     }
 
     /// Substeps until time `until`, as [`Simulation::advance_to`]; returns
     /// the number of substeps. Every rank must call it.
     pub fn advance_to(&mut self, until: f64) -> Result<u32, RunError> {
         let mut substeps = 0;
-        while until - self.simulation.time() > 1e-9 {
+        while until - self.simulation().time() > 1e-9 {
             self.step(until)?;
             substeps += 1;
         }
@@ -189,14 +188,14 @@ impl<E: Exchange> RankSnow<E> {
     /// One substep of the whole run, never past `until`; returns its Δt.
     /// Every rank must call it.
     pub fn step(&mut self, until: f64) -> Result<f32, RunError> {
-        let own = self.take_own();
+        let own = self.part.take();
         let blocks = self.blocks(&own.particles);
         self.rebalance(&blocks);
         let (mut own, blocks) = self.migrate(own, blocks);
-        if self.simulation.steps().is_multiple_of(REORDER_INTERVAL) {
+        if self.simulation().steps().is_multiple_of(REORDER_INTERVAL) {
             self.renumber(&mut own, &blocks);
         }
-        self.simulation.set_part(own.particles, own.keys);
+        self.part.set(own);
         let mut trade = SlabTrade {
             exchange: &self.exchange,
             slabs: &self.slabs,
@@ -204,13 +203,13 @@ impl<E: Exchange> RankSnow<E> {
             neighbours: self.slabs.neighbours(self.exchange.rank(), self.reach()),
             traffic: &mut self.traffic,
         };
-        let result = self.simulation.step_part(until, &mut trade);
+        let result = self.part.step(until, &mut trade);
         let dt = self.agree(result)?;
-        let (speed, waves) = self.simulation.motion_bounds();
+        let (speed, waves) = self.simulation().motion_bounds();
         let bounds = self.timed(Phase::Agreement, |exchange| {
             exchange.max_f32(&[speed, waves])
         });
-        self.simulation.set_motion_bounds(bounds[0], bounds[1]);
+        self.part.set_motion_bounds([bounds[0], bounds[1]]);
         self.traffic.substeps += 1;
         Ok(dt)
     }
@@ -218,7 +217,7 @@ impl<E: Exchange> RankSnow<E> {
     /// The whole run's state on rank 0, in the one-process order (`None` on
     /// the other ranks). Every rank must call it.
     pub fn gather(&mut self) -> Option<Snapshot> {
-        let particles = self.simulation.particles();
+        let particles = self.simulation().particles();
         let mut words = Vec::with_capacity(self.owned() * WORDS_PER_PARTICLE);
         for (p, &key) in self.own_keys().iter().enumerate() {
             crate::packing::pack(particles, key, p, &mut words);
@@ -236,10 +235,10 @@ impl<E: Exchange> RankSnow<E> {
                 .all(|(place, &key)| key == place as u64),
             "the ranks' particles are not each particle exactly once"
         );
-        let (max_speed_squared, max_wave_speed_squared) = self.simulation.motion_bounds();
+        let (max_speed_squared, max_wave_speed_squared) = self.simulation().motion_bounds();
         Some(Snapshot {
-            time: self.simulation.time(),
-            steps: self.simulation.steps(),
+            time: self.simulation().time(),
+            steps: self.simulation().steps(),
             max_speed_squared,
             max_wave_speed_squared,
             particles: all.particles,
@@ -257,7 +256,7 @@ impl<E: Exchange> RankSnow<E> {
     pub fn write_vtk_piece(&mut self, index: u32, run: &RunDirectory) -> Result<String, RunError> {
         let name = RunDirectory::vtk_piece_name(index, self.rank());
         let written = caches::write_snow_vtk_piece(
-            &self.simulation,
+            self.simulation(),
             self.owned(),
             index,
             &run.path().join(&name),
@@ -297,11 +296,11 @@ impl<E: Exchange> RankSnow<E> {
 
     /// This rank's own particles and the run's counters, as a snapshot.
     fn own_snapshot(&self) -> Snapshot {
-        let particles = self.simulation.particles().clone();
-        let (max_speed_squared, max_wave_speed_squared) = self.simulation.motion_bounds();
+        let particles = self.simulation().particles().clone();
+        let (max_speed_squared, max_wave_speed_squared) = self.simulation().motion_bounds();
         Snapshot {
-            time: self.simulation.time(),
-            steps: self.simulation.steps(),
+            time: self.simulation().time(),
+            steps: self.simulation().steps(),
             max_speed_squared,
             max_wave_speed_squared,
             particles,
@@ -332,12 +331,6 @@ impl<E: Exchange> RankSnow<E> {
         let result = exchange_with(&self.exchange);
         self.traffic.exchange_seconds[phase as usize] += started.elapsed().as_secs_f64();
         result
-    }
-
-    /// The own particles out of the simulation.
-    fn take_own(&mut self) -> KeyedParticles {
-        let (particles, keys) = self.simulation.take_part();
-        KeyedParticles { particles, keys }
     }
 
     /// How far, in block indices, the blocks within one block of a block

@@ -236,12 +236,6 @@ pub struct Simulation {
     wind: Option<AirDrag>,
     /// Σ of the wind's impulse on the snow since this simulation was made.
     wind_impulse: DVec3,
-    /// Whether this simulation is one part of a run split between
-    /// processes ([`Simulation::part`]).
-    in_part: bool,
-    /// In a part of a split run, each particle's key, its place in the whole
-    /// run's order (see [`Simulation::set_part`]).
-    part_keys: Vec<u64>,
     /// Snow the wind carries (`[wind.spindrift]`).
     drift: Drift,
     /// ρ₀ of each material, for spindrift's loose-snow test.
@@ -334,8 +328,6 @@ impl Simulation {
                 .as_ref()
                 .map(|wind| AirDrag::new(wind, domain.cell_size)),
             wind_impulse: DVec3::ZERO,
-            in_part: false,
-            part_keys: Vec::new(),
             drift: Drift::default(),
             escaped: Escaped::default(),
             material_densities: scene.materials.iter().map(|m| m.density).collect(),
@@ -343,46 +335,23 @@ impl Simulation {
         }
     }
 
-    /// An empty part of a run split between processes (MPI ranks), at
-    /// simulated time `time` after `steps` substeps: [`Simulation::set_part`]
-    /// gives it particles, [`Simulation::set_motion_bounds`] the next Δt,
-    /// and [`Simulation::step_part`] steps it.
-    pub fn part(scene: Scene, time: f64, steps: u64) -> Simulation {
-        let mut part = Simulation::with_particles(scene, Particles::default(), time, steps);
-        part.in_part = true;
-        part
+    /// A simulation of no particles yet, at simulated time `time` after
+    /// `steps` substeps, for a caller that brings its own
+    /// ([`Simulation::set_particles`]): one part of a run split between
+    /// processes (firn-mpi), which steps by [`Simulation::step_part`].
+    pub fn empty(scene: Scene, time: f64, steps: u64) -> Simulation {
+        Simulation::with_particles(scene, Particles::default(), time, steps)
     }
 
-    /// Gives this part of a run split between processes (MPI ranks) its
-    /// particles for the substeps to come, those of its blocks. `keys`
-    /// holds each particle's place in the whole run's order (the one
-    /// process's array): every block adds its particles in key order,
-    /// whatever their order here, and a failure names the particle with the
-    /// lowest key. A substep does not reorder the particles (see the MPI
-    /// section of docs/architecture.md). Every part must take the same Δt:
-    /// the caller reduces [`Simulation::motion_bounds`] over the parts and
-    /// hands the result back with [`Simulation::set_motion_bounds`].
-    pub fn set_part(&mut self, particles: Particles, keys: Vec<u64>) {
-        assert!(self.in_part, "set_part on a simulation that is no part");
-        assert_eq!(keys.len(), particles.len(), "one key per particle");
+    /// Replaces the particles for the substeps to come.
+    pub fn set_particles(&mut self, particles: Particles) {
         self.particles = particles;
-        self.part_keys = keys;
     }
 
-    /// Takes the particles and their keys out (leaving none), e.g. to send
-    /// some of them to another part; [`Simulation::set_part`] puts particles
-    /// back.
-    pub fn take_part(&mut self) -> (Particles, Vec<u64>) {
-        (
-            std::mem::take(&mut self.particles),
-            std::mem::take(&mut self.part_keys),
-        )
-    }
-
-    /// The keys of the particles of a part ([`Simulation::set_part`]);
-    /// empty in one process.
-    pub fn part_keys(&self) -> &[u64] {
-        &self.part_keys
+    /// Takes the particles out, leaving none
+    /// ([`Simulation::set_particles`] puts particles back).
+    pub fn take_particles(&mut self) -> Particles {
+        std::mem::take(&mut self.particles)
     }
 
     /// The largest |v_p|² and squared elastic wave speed of the particles
@@ -457,46 +426,69 @@ impl Simulation {
 
     /// Advances one substep, never past time `until`; returns the Δt taken.
     /// Refuses, with nothing changed, when the Δt would be so short that a
-    /// frame took more than `time.max_substeps_per_frame` substeps.
+    /// frame took more than `time.max_substeps_per_frame` substeps. Every
+    /// [`REORDER_INTERVAL`] substeps it first sorts the particles by block.
     pub fn step(&mut self, until: f64) -> Result<f32, SimulationError> {
-        assert!(!self.in_part, "a part of a split run steps by step_part");
-        self.substep(until, None)
-    }
-
-    /// [`Simulation::step`] for a part of a split run: the block sums that
-    /// other parts read, and those this part reads, go through `trade`
-    /// ([`crate::block_sums`]). Every part must call it.
-    pub fn step_part(
-        &mut self,
-        until: f64,
-        trade: &mut dyn SumTrade,
-    ) -> Result<f32, SimulationError> {
-        assert!(self.in_part, "step_part on a simulation that is no part");
-        self.substep(until, Some(trade))
-    }
-
-    /// One substep, trading block sums through `trade` in a part of a split
-    /// run.
-    fn substep(
-        &mut self,
-        until: f64,
-        trade: Option<&mut dyn SumTrade>,
-    ) -> Result<f32, SimulationError> {
-        let next = self.next_dt();
-        self.check_step_length(next)?;
-        let dt = (next as f64).min(until - self.time).max(0.0) as f32;
+        let dt = self.clipped_dt(until)?;
         let layout = self.grid.layout;
         let mut clock = PhaseClock::start();
-        if !self.in_part && self.steps.is_multiple_of(REORDER_INTERVAL) {
+        if self.steps.is_multiple_of(REORDER_INTERVAL) {
             self.bins.rebuild(&layout, &self.particles.position);
             self.particles
                 .permute(self.bins.order(), &mut self.permute_buffers);
         }
         self.bins.rebuild(&layout, &self.particles.position);
-        if self.in_part {
-            self.bins.order_blocks_by(&self.part_keys);
-        }
         clock.lap(&mut self.profile.binning);
+        self.finish_substep(dt, clock, None, None)
+    }
+
+    /// [`Simulation::step`] for one part of a run split between processes
+    /// (MPI ranks), which holds the particles of its blocks in any order
+    /// and never reorders them (see the MPI section of
+    /// docs/architecture.md). `keys` gives each particle's place in the
+    /// whole run's order: every block adds its particles in key order, and
+    /// a failure names the particle with the lowest key. The block sums
+    /// that other parts read, and those this part reads, go through `trade`
+    /// ([`crate::block_sums`]). Every part must take the same Δt: the
+    /// caller reduces [`Simulation::motion_bounds`] over the parts and
+    /// hands the result back with [`Simulation::set_motion_bounds`].
+    pub fn step_part(
+        &mut self,
+        until: f64,
+        keys: &[u64],
+        trade: &mut dyn SumTrade,
+    ) -> Result<f32, SimulationError> {
+        assert_eq!(keys.len(), self.particles.len(), "one key per particle");
+        let dt = self.clipped_dt(until)?;
+        let mut clock = PhaseClock::start();
+        self.bins
+            .rebuild(&self.grid.layout, &self.particles.position);
+        self.bins.order_blocks_by(keys);
+        clock.lap(&mut self.profile.binning);
+        self.finish_substep(dt, clock, Some(trade), Some(keys))
+    }
+
+    /// The Δt of the next substep, never past time `until`, or the error
+    /// of [`Simulation::check_step_length`].
+    fn clipped_dt(&self, until: f64) -> Result<f32, SimulationError> {
+        let next = self.next_dt();
+        self.check_step_length(next)?;
+        Ok((next as f64).min(until - self.time).max(0.0) as f32)
+    }
+
+    /// The rest of a substep of length `dt` once the particles are binned,
+    /// `clock` timing it: the scatter (trading block sums through `trade`
+    /// in a part of a split run), the grid update and solve, the gather
+    /// (naming a failed particle by its key in `keys`, if given), spindrift
+    /// and the clearing of the grid.
+    fn finish_substep(
+        &mut self,
+        dt: f32,
+        mut clock: PhaseClock,
+        trade: Option<&mut dyn SumTrade>,
+        keys: Option<&[u64]>,
+    ) -> Result<f32, SimulationError> {
+        let layout = self.grid.layout;
         let transfer_scheme = self.scene.solver.transfer;
         let (grid, bins, particles) = (&mut self.grid, &self.bins, &self.particles);
         match transfer_scheme {
@@ -550,7 +542,7 @@ impl Simulation {
             colliders: &particle_colliders,
             lower: self.scene.domain.min - tolerance,
             upper: self.scene.domain.max + tolerance,
-            keys: self.in_part.then_some(self.part_keys.as_slice()),
+            keys,
         };
         let stats = match transfer_scheme {
             Transfer::PicFlip => gather_pic_flip(

@@ -1,0 +1,84 @@
+//! One rank's particles in the solver: a [`SnowPart`] is a [`Simulation`]
+//! of the rank's own particles with the key of each, its place in the
+//! whole run's order. The solver knows nothing of parts: every substep the
+//! part hands it the keys and the trade of block sums
+//! ([`Simulation::step_part`]).
+
+use firn_core::Scene;
+use firn_mpm::{Simulation, SimulationError, SumTrade};
+
+use crate::packing::KeyedParticles;
+
+/// A simulation of one rank's particles, with one key per particle.
+pub(crate) struct SnowPart {
+    simulation: Simulation,
+    /// The key of each particle of `simulation`, in its order.
+    keys: Vec<u64>,
+}
+
+impl SnowPart {
+    /// The part of `own` particles at simulated time `time` after `steps`
+    /// substeps, whose next Δt the whole run's largest |v_p|² and squared
+    /// wave speed (`bounds`) make.
+    pub(crate) fn new(
+        scene: Scene,
+        time: f64,
+        steps: u64,
+        bounds: [f32; 2],
+        own: KeyedParticles,
+    ) -> SnowPart {
+        let mut part = SnowPart {
+            simulation: Simulation::empty(scene, time, steps),
+            keys: Vec::new(),
+        };
+        part.set_motion_bounds(bounds);
+        part.set(own);
+        part
+    }
+
+    /// The simulation of the own particles.
+    pub(crate) fn simulation(&self) -> &Simulation {
+        &self.simulation
+    }
+
+    /// The keys of the own particles, in their order.
+    pub(crate) fn keys(&self) -> &[u64] {
+        &self.keys
+    }
+
+    /// Takes the own particles and their keys out (leaving none), e.g. to
+    /// send some of them to another rank; [`SnowPart::set`] puts particles
+    /// back.
+    pub(crate) fn take(&mut self) -> KeyedParticles {
+        KeyedParticles {
+            particles: self.simulation.take_particles(),
+            keys: std::mem::take(&mut self.keys),
+        }
+    }
+
+    /// Gives the part its particles for the substeps to come, those of its
+    /// slab, in any order: the keys order them.
+    pub(crate) fn set(&mut self, own: KeyedParticles) {
+        assert_eq!(own.keys.len(), own.particles.len(), "one key per particle");
+        self.simulation.set_particles(own.particles);
+        self.keys = own.keys;
+    }
+
+    /// One substep of the own particles, never past `until`, trading block
+    /// sums through `trade`; returns its Δt. Every part must take it, with
+    /// the same Δt: the caller reduces [`Simulation::motion_bounds`] over
+    /// the parts and sets the result ([`SnowPart::set_motion_bounds`]).
+    pub(crate) fn step(
+        &mut self,
+        until: f64,
+        trade: &mut dyn SumTrade,
+    ) -> Result<f32, SimulationError> {
+        self.simulation.step_part(until, &self.keys, trade)
+    }
+
+    /// Sets what the next Δt is made of: the largest |v_p|² and squared
+    /// wave speed over all parts.
+    pub(crate) fn set_motion_bounds(&mut self, bounds: [f32; 2]) {
+        self.simulation.set_motion_bounds(bounds[0], bounds[1]);
+    }
+}
