@@ -138,8 +138,10 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
         }
     }
     println!(
-        "memory      about {} at the start (sparse grid near the bodies, bins and particles){}",
+        "memory      about {} at the start: {} for the solver (sparse grid near the bodies, bins and particles) plus {} for writing caches{}",
+        Bytes(budget.host_bytes()),
         Bytes(budget.cpu_bytes),
+        Bytes(budget.writer_bytes),
         machine_text()
     );
     println!("gpu         {}", gpu_line(&scene, budget.gpu.as_ref()));
@@ -241,8 +243,10 @@ fn check_flow(scene: &Scene, flow: &FlowSettings, budget: &Budget) {
     println!("emitters    {}", flow.emitters.len());
     println!("obstacles   {}", flow.obstacles.len());
     println!(
-        "memory      about {} with every slot alive{}",
+        "memory      about {} with every slot alive: {} for the flow plus {} for writing caches{}",
+        Bytes(budget.host_bytes()),
         Bytes(budget.cpu_bytes),
+        Bytes(budget.writer_bytes),
         machine_text()
     );
     println!("gpu         {}", gpu_line(scene, None));
