@@ -146,8 +146,10 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
         }
     }
     outln!(
-        "memory      about {} at the start (sparse grid near the bodies, bins and particles){}",
+        "memory      about {} at the start: {} for the solver (sparse grid near the bodies, bins and particles) plus {} for writing caches{}",
+        Bytes(budget.host_bytes()),
         Bytes(budget.cpu_bytes),
+        Bytes(budget.writer_bytes),
         machine_text()
     );
     let gpu = print_gpu_line(&scene, &budget);
@@ -294,8 +296,10 @@ fn check_flow(scene: &Scene, flow: &FlowSettings, budget: &Budget) -> Result<(),
     outln!("emitters    {}", flow.emitters.len());
     outln!("obstacles   {}", flow.obstacles.len());
     outln!(
-        "memory      about {} with every slot alive{}",
+        "memory      about {} with every slot alive: {} for the flow plus {} for writing caches{}",
+        Bytes(budget.host_bytes()),
         Bytes(budget.cpu_bytes),
+        Bytes(budget.writer_bytes),
         machine_text()
     );
     let gpu = print_gpu_line(scene, budget);

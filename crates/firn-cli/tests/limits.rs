@@ -147,18 +147,18 @@ fn a_scene_past_the_machine_memory_is_refused_before_anything_is_written() {
         &scene(&out, 0.05, "duration = 1.0", body, ""),
     );
     let path = path.to_str().unwrap();
-    let small = [("FIRN_MEMORY_LIMIT", "1MiB")];
+    let small = [("FIRN_MEMORY_LIMIT", "2MiB")];
     for args in [vec!["check", path], vec!["run", path, "--no-render", "-q"]] {
         let output = firn_within(&args, &small, AT_ONCE);
         let message = stderr(&output);
         assert_eq!(output.status.code(), Some(2), "firn {args:?}: {message}");
         assert!(
             message.contains(
-                "for about 8000 particles; this machine allows 1.00 MiB (FIRN_MEMORY_LIMIT)"
+                "for about 8000 particles; this machine allows 2.00 MiB (FIRN_MEMORY_LIMIT)"
             ),
             "{message}"
         );
-        assert!(message.contains("fix: about 4"), "{message}");
+        assert!(message.contains("fix: about 2"), "{message}");
     }
     assert!(!out.exists(), "a refused run wrote {}", out.display());
 }

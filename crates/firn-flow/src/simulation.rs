@@ -667,6 +667,11 @@ impl FlowSimulation {
         0..self.particles.len() as u32
     }
 
+    /// Particles born so far by each emitter (a checkpoint keeps them).
+    pub fn births(&self) -> &[u64] {
+        &self.births
+    }
+
     /// The trails, if kept.
     pub fn trails(&self) -> Option<&Trails> {
         self.trails.as_ref()

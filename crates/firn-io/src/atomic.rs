@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Size of the write buffer between the caller's writes and the file.
-const WRITE_BUFFER_BYTES: usize = 1 << 20;
+pub const WRITE_BUFFER_BYTES: usize = 1 << 20;
 
 /// Distinguishes temporary files of concurrent writes within one process.
 static TEMP_FILE_COUNTER: AtomicU64 = AtomicU64::new(0);

@@ -105,12 +105,11 @@ impl Checkpoint {
 
     /// Writes the checkpoint to `path`, atomically.
     pub fn write(&self, path: &Path) -> Result<(), IoError> {
-        write_atomically(path, |out| {
-            let mut checksummed = ChecksummedWriter::new(out);
-            self.write_contents(&mut checksummed)?;
-            let checksum = checksummed.hasher.finalize();
-            checksummed.inner.write_all(&checksum.to_le_bytes())
-        })
+        let arrays = self
+            .arrays
+            .iter()
+            .map(|(name, bytes)| (name.as_str(), bytes.as_slice()));
+        write_checkpoint(path, &self.meta, arrays)
     }
 
     /// Reads a checkpoint, verifying its magic bytes, format version and checksum.
@@ -127,20 +126,78 @@ impl Checkpoint {
     pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Self, IoError> {
         parse_checkpoint(bytes).map_err(|problem| problem.into_error(path))
     }
+}
 
-    /// Everything but the checksum.
-    fn write_contents(&self, out: &mut dyn Write) -> io::Result<()> {
-        out.write_all(MAGIC)?;
-        out.write_all(&FORMAT_VERSION.to_le_bytes())?;
-        write_u64_prefixed(out, &serde_json::to_vec(&self.meta)?)?;
-        out.write_all(&length_as_u32(self.arrays.len())?.to_le_bytes())?;
-        for (name, bytes) in &self.arrays {
-            out.write_all(&length_as_u32(name.len())?.to_le_bytes())?;
-            out.write_all(name.as_bytes())?;
-            write_u64_prefixed(out, bytes)?;
+/// A checkpoint to write whose arrays stay where they are (the solver's):
+/// [`CheckpointView::write`] streams them into the file, so writing one
+/// costs no copy of the state. The file is the one a [`Checkpoint`] with
+/// the same metadata and arrays writes, byte for byte.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct CheckpointView<'a> {
+    /// Free-form metadata (frame index, time, scene hash, ...).
+    pub meta: serde_json::Value,
+    /// Named arrays as raw bytes, borrowed, in the order they were pushed.
+    pub arrays: Vec<(String, &'a [u8])>,
+}
+
+impl<'a> CheckpointView<'a> {
+    /// An empty checkpoint with the given metadata.
+    pub fn new(meta: serde_json::Value) -> Self {
+        Self {
+            meta,
+            arrays: Vec::new(),
         }
-        Ok(())
     }
+
+    /// Lends `values` under `name` as raw bytes, replacing an earlier array
+    /// of the same name.
+    pub fn push_array<T: Pod>(&mut self, name: impl Into<String>, values: &'a [T]) {
+        let name = name.into();
+        self.arrays.retain(|(existing, _)| *existing != name);
+        self.arrays.push((name, bytemuck::cast_slice(values)));
+    }
+
+    /// Writes the checkpoint to `path`, atomically.
+    pub fn write(&self, path: &Path) -> Result<(), IoError> {
+        let arrays = self
+            .arrays
+            .iter()
+            .map(|(name, bytes)| (name.as_str(), *bytes));
+        write_checkpoint(path, &self.meta, arrays)
+    }
+}
+
+/// Writes a checkpoint of `meta` and `arrays` (name, bytes) to `path`,
+/// atomically, the checksum computed as the bytes pass.
+fn write_checkpoint<'b>(
+    path: &Path,
+    meta: &serde_json::Value,
+    arrays: impl ExactSizeIterator<Item = (&'b str, &'b [u8])>,
+) -> Result<(), IoError> {
+    write_atomically(path, |out| {
+        let mut checksummed = ChecksummedWriter::new(out);
+        write_contents(&mut checksummed, meta, arrays)?;
+        let checksum = checksummed.hasher.finalize();
+        checksummed.inner.write_all(&checksum.to_le_bytes())
+    })
+}
+
+/// Everything but the checksum.
+fn write_contents<'b>(
+    out: &mut dyn Write,
+    meta: &serde_json::Value,
+    arrays: impl ExactSizeIterator<Item = (&'b str, &'b [u8])>,
+) -> io::Result<()> {
+    out.write_all(MAGIC)?;
+    out.write_all(&FORMAT_VERSION.to_le_bytes())?;
+    write_u64_prefixed(out, &serde_json::to_vec(meta)?)?;
+    out.write_all(&length_as_u32(arrays.len())?.to_le_bytes())?;
+    for (name, bytes) in arrays {
+        out.write_all(&length_as_u32(name.len())?.to_le_bytes())?;
+        out.write_all(name.as_bytes())?;
+        write_u64_prefixed(out, bytes)?;
+    }
+    Ok(())
 }
 
 /// Passes writes through while computing their CRC-32.
@@ -461,6 +518,23 @@ mod tests {
                 .unwrap_err()
                 .to_string(),
             "checkpoint array `jp` holds 4 elements, expected 5"
+        );
+    }
+
+    #[test]
+    fn a_view_writes_the_bytes_of_the_owned_checkpoint() {
+        let dir = tempfile::tempdir().unwrap();
+        let owned = sample();
+        let mut view = CheckpointView::new(owned.meta.clone());
+        view.push_array("jp", &[0.0f32]);
+        for (name, bytes) in &owned.arrays {
+            view.push_array(name.as_str(), bytes.as_slice());
+        }
+        let path = dir.path().join("view.ckpt");
+        view.write(&path).unwrap();
+        assert_eq!(
+            fs::read(&path).unwrap(),
+            fs::read(written_sample(dir.path())).unwrap()
         );
     }
 

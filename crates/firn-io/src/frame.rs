@@ -1,7 +1,9 @@
 //! The particle data of one output frame, borrowed from the solver.
 //!
 //! Writers only read the data, so a frame holds slices into the solver's own
-//! arrays; producing a cache costs no copy of the particle state.
+//! arrays, and a quantity the solver does not store (a particle's density)
+//! is computed a particle at a time while it is written; producing a cache
+//! costs no copy of the particle state, only buffers of [`CHUNK_VALUES`].
 
 use glam::Vec3;
 
@@ -32,11 +34,87 @@ pub struct Attribute<'a> {
 #[derive(Debug, Clone, Copy)]
 pub enum AttributeValues<'a> {
     /// One float per particle (e.g. density, plastic volume ratio).
-    Scalar(&'a [f32]),
+    Scalar(Values<'a, f32>),
     /// One 3-vector per particle (e.g. velocity).
-    Vector(&'a [Vec3]),
+    Vector(Values<'a, Vec3>),
     /// One unsigned integer per particle (e.g. material or emitter id).
-    Integer(&'a [u32]),
+    Integer(Values<'a, u32>),
+}
+
+/// Values a writer takes at a time: computed values are made into a buffer
+/// of this many, stored ones lent in slices of this many.
+pub const CHUNK_VALUES: usize = 16 * 1024;
+
+/// One value per particle: an array the caller holds, or values computed
+/// from the caller's arrays one particle at a time as they are written, so
+/// that no array of them is made.
+#[derive(Clone, Copy)]
+pub enum Values<'a, T> {
+    /// The caller's array.
+    Stored(&'a [T]),
+    /// `len` values, particle `p`'s being `value(p)`.
+    Computed {
+        /// Number of values (particles).
+        len: usize,
+        /// The value of a particle, by index.
+        value: &'a (dyn Fn(usize) -> T + Sync),
+    },
+}
+
+impl<T: Copy> Values<'_, T> {
+    /// Number of values (particles).
+    pub fn len(&self) -> usize {
+        match self {
+            Self::Stored(values) => values.len(),
+            Self::Computed { len, .. } => *len,
+        }
+    }
+
+    /// Whether there are no values.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The value of particle `index` (which must be below [`Values::len`]).
+    pub fn get(&self, index: usize) -> T {
+        match self {
+            Self::Stored(values) => values[index],
+            Self::Computed { value, .. } => value(index),
+        }
+    }
+
+    /// Hands every value to `take` in order, at most [`CHUNK_VALUES`] at a
+    /// time: slices of a stored array, or one buffer refilled with the
+    /// computed values of each chunk. Stops at the first error.
+    pub fn try_for_each_chunk<E>(
+        &self,
+        mut take: impl FnMut(&[T]) -> Result<(), E>,
+    ) -> Result<(), E> {
+        match self {
+            Self::Stored(values) => values.chunks(CHUNK_VALUES).try_for_each(take),
+            Self::Computed { len, value } => {
+                let mut buffer = Vec::with_capacity(CHUNK_VALUES.min(*len));
+                for start in (0..*len).step_by(CHUNK_VALUES) {
+                    buffer.clear();
+                    buffer.extend((start..(start + CHUNK_VALUES).min(*len)).map(value));
+                    take(&buffer)?;
+                }
+                Ok(())
+            }
+        }
+    }
+}
+
+impl<T: std::fmt::Debug> std::fmt::Debug for Values<'_, T> {
+    fn fmt(&self, formatter: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Stored(values) => formatter.debug_tuple("Stored").field(values).finish(),
+            Self::Computed { len, .. } => formatter
+                .debug_struct("Computed")
+                .field("len", len)
+                .finish_non_exhaustive(),
+        }
+    }
 }
 
 /// Why a frame cannot be written.
@@ -124,17 +202,43 @@ impl<'a> FrameData<'a> {
 impl<'a> Attribute<'a> {
     /// A scalar attribute.
     pub fn scalar(name: impl Into<String>, values: &'a [f32]) -> Self {
-        Self::new(name, AttributeValues::Scalar(values))
+        Self::new(name, AttributeValues::Scalar(Values::Stored(values)))
     }
 
     /// A 3-vector attribute.
     pub fn vector(name: impl Into<String>, values: &'a [Vec3]) -> Self {
-        Self::new(name, AttributeValues::Vector(values))
+        Self::new(name, AttributeValues::Vector(Values::Stored(values)))
     }
 
     /// An unsigned integer attribute.
     pub fn integer(name: impl Into<String>, values: &'a [u32]) -> Self {
-        Self::new(name, AttributeValues::Integer(values))
+        Self::new(name, AttributeValues::Integer(Values::Stored(values)))
+    }
+
+    /// A scalar attribute of `len` particles, particle `p`'s computed as
+    /// `value(p)` while the frame is written.
+    pub fn computed_scalar(
+        name: impl Into<String>,
+        len: usize,
+        value: &'a (dyn Fn(usize) -> f32 + Sync),
+    ) -> Self {
+        Self::new(
+            name,
+            AttributeValues::Scalar(Values::Computed { len, value }),
+        )
+    }
+
+    /// An unsigned integer attribute of `len` particles, particle `p`'s
+    /// computed as `value(p)` while the frame is written.
+    pub fn computed_integer(
+        name: impl Into<String>,
+        len: usize,
+        value: &'a (dyn Fn(usize) -> u32 + Sync),
+    ) -> Self {
+        Self::new(
+            name,
+            AttributeValues::Integer(Values::Computed { len, value }),
+        )
     }
 
     fn new(name: impl Into<String>, values: AttributeValues<'a>) -> Self {
@@ -217,6 +321,31 @@ mod tests {
                 "{bad:?}"
             );
         }
+    }
+
+    #[test]
+    fn computed_values_come_in_chunks_in_order() {
+        let len = 2 * CHUNK_VALUES + 3;
+        let square = |p: usize| (p * p) as u32;
+        let values = Values::Computed {
+            len,
+            value: &square,
+        };
+        let mut seen = Vec::new();
+        let mut sizes = Vec::new();
+        values
+            .try_for_each_chunk(|chunk| {
+                sizes.push(chunk.len());
+                seen.extend_from_slice(chunk);
+                Ok::<(), ()>(())
+            })
+            .unwrap();
+        assert_eq!(sizes, [CHUNK_VALUES, CHUNK_VALUES, 3]);
+        assert_eq!(seen, (0..len).map(square).collect::<Vec<_>>());
+        assert_eq!(values.get(7), 49);
+        let frame = FrameData::new(0, 0.0, &POSITIONS)
+            .with_attribute(Attribute::computed_integer("square", 2, &square));
+        assert_eq!(frame.validate(), Ok(()));
     }
 
     #[test]

@@ -10,7 +10,8 @@
 //! crash or a full disk never leaves a half-written file under its final name.
 //!
 //! Writers borrow particle data through [`FrameData`] instead of copying it out
-//! of the solver.
+//! of the solver, and stream it into the file a chunk at a time; a checkpoint
+//! is written from borrowed arrays through [`CheckpointView`].
 
 // The writers hand raw slices of `f32`/`u32`/`u64` to formats that are
 // little-endian by definition; refusing big-endian targets keeps that sound.
@@ -30,9 +31,9 @@ pub mod vtk;
 mod xml;
 
 pub use atomic::{ensure_writable_dir, write_atomically};
-pub use checkpoint::Checkpoint;
+pub use checkpoint::{Checkpoint, CheckpointView};
 pub use error::IoError;
-pub use frame::{Attribute, AttributeValues, FrameData, FrameError};
+pub use frame::{Attribute, AttributeValues, CHUNK_VALUES, FrameData, FrameError, Values};
 pub use manifest::{
     FrameRecord, MANIFEST_FILE, Manifest, MassBalance, RunStatus, SolverFrameStats,
 };

@@ -23,7 +23,7 @@ use crate::atomic::write_atomically;
 use crate::frame::{AttributeValues, FrameData, FrameError};
 
 /// Vertices encoded per buffer handed to the writer.
-const CHUNK_VERTICES: usize = 16 * 1024;
+const CHUNK_VERTICES: usize = crate::frame::CHUNK_VALUES;
 
 /// Every supported property type is four bytes wide.
 const PROPERTY_BYTES: usize = 4;
@@ -289,11 +289,11 @@ fn append_vertex(buffer: &mut Vec<u8>, frame: &FrameData, vertex: usize) {
     for attribute in &frame.attributes {
         match attribute.values {
             AttributeValues::Scalar(values) => {
-                buffer.extend_from_slice(&values[vertex].to_le_bytes())
+                buffer.extend_from_slice(&values.get(vertex).to_le_bytes())
             }
-            AttributeValues::Vector(values) => append_vec3(buffer, values[vertex]),
+            AttributeValues::Vector(values) => append_vec3(buffer, values.get(vertex)),
             AttributeValues::Integer(values) => {
-                buffer.extend_from_slice(&values[vertex].to_le_bytes())
+                buffer.extend_from_slice(&values.get(vertex).to_le_bytes())
             }
         }
     }

@@ -19,11 +19,12 @@
 //! files as one never interrupted.
 
 use std::fmt::Write as _;
+use std::io;
 use std::path::Path;
 
 use glam::Vec3;
 
-use crate::{AttributeValues, FrameData, IoError, write_atomically};
+use crate::{AttributeValues, FrameData, IoError, Values, write_atomically};
 
 /// The stage file, relative to the run folder.
 pub const STAGE_FILE: &str = "particles.usda";
@@ -117,8 +118,8 @@ pub fn write_usd_frame(
             problem,
         })?;
     }
+    write_atomically(&path, |out| write_usd_clip(out, stage, frames, colliders))?;
     let files = [
-        (clip_name(index), encode_usd_clip(stage, frames, colliders)),
         (
             MANIFEST_FILE.to_string(),
             encode_usd_manifest(stage, frames),
@@ -298,48 +299,79 @@ pub fn encode_usd_manifest(stage: &UsdStage, frames: &[&FrameData]) -> String {
 /// A frame's clip: the samples of its particle sets `frames` (one per points
 /// prim) and of the colliders at its time code.
 pub fn encode_usd_clip(stage: &UsdStage, frames: &[&FrameData], colliders: &[Vec3]) -> String {
+    text_of(|out| write_usd_clip(out, stage, frames, colliders))
+}
+
+/// Writes the clip of [`encode_usd_clip`] into `out`, a value at a time:
+/// the text of a frame's particles is never held whole.
+fn write_usd_clip(
+    out: &mut dyn io::Write,
+    stage: &UsdStage,
+    frames: &[&FrameData],
+    colliders: &[Vec3],
+) -> io::Result<()> {
     let code = frames.first().map_or(0, |frame| frame.index);
-    let mut text = String::from("#usda 1.0\n\nover \"World\"\n{\n");
+    out.write_all(b"#usda 1.0\n\nover \"World\"\n{\n")?;
     for (points, frame) in stage.points.iter().zip(frames) {
-        push_samples(&mut text, points, frame);
+        write_samples(out, points, frame)?;
     }
     for (index, position) in colliders.iter().enumerate() {
-        let _ = write!(
-            text,
+        write!(
+            out,
             "    over \"Collider{index}\"\n    {{\n        \
              double3 xformOp:translate.timeSamples = {{ {code}: {} }}\n    }}\n",
             tuple(*position)
-        );
+        )?;
     }
-    text.push_str("}\n");
-    text
+    out.write_all(b"}\n")
 }
 
 /// A points prim's samples of `frame` at its time code.
-fn push_samples(text: &mut String, points: &UsdPoints, frame: &FrameData) {
+fn write_samples(out: &mut dyn io::Write, points: &UsdPoints, frame: &FrameData) -> io::Result<()> {
     let code = frame.index;
-    let _ = write!(text, "    over \"{}\"\n    {{\n", points.name);
-    let samples = declarations(frame);
+    write!(out, "    over \"{}\"\n    {{\n", points.name)?;
+    let mut declared = declarations(frame).into_iter();
+    let mut next = || declared.next().expect("one declaration per sample");
     let (low, high) = extent(frame.positions, points.width * 0.5);
-    let mut values = vec![
-        vectors(frame.positions),
-        format!("[{}, {}]", tuple(low), tuple(high)),
-    ];
-    values.extend(frame.attributes.iter().map(|a| match a.values {
-        AttributeValues::Vector(data) => vectors(data),
-        AttributeValues::Scalar(data) => list(data.iter()),
-        AttributeValues::Integer(data) => {
-            list(data.iter().map(|&n| i32::try_from(n).unwrap_or(i32::MAX)))
-        }
-    }));
-    for (declaration, value) in samples.iter().zip(values) {
-        let _ = writeln!(
-            text,
-            "        {} {}.timeSamples = {{ {code}: {value} }}",
-            declaration.type_name, declaration.name
-        );
+    write_sample(out, &next(), code, |out| {
+        write_vectors(out, frame.positions.iter().copied())
+    })?;
+    write_sample(out, &next(), code, |out| {
+        write!(out, "[{}, {}]", tuple(low), tuple(high))
+    })?;
+    for attribute in &frame.attributes {
+        write_sample(out, &next(), code, |out| match attribute.values {
+            AttributeValues::Vector(data) => write_vectors(out, each(data)),
+            AttributeValues::Scalar(data) => write_list(out, each(data)),
+            AttributeValues::Integer(data) => write_list(
+                out,
+                each(data).map(|n| i32::try_from(n).unwrap_or(i32::MAX)),
+            ),
+        })?;
     }
-    text.push_str("    }\n");
+    out.write_all(b"    }\n")
+}
+
+/// One sample line: `declaration` at time code `code`, its value written
+/// by `value`.
+fn write_sample(
+    out: &mut dyn io::Write,
+    declaration: &Declaration,
+    code: u32,
+    value: impl FnOnce(&mut dyn io::Write) -> io::Result<()>,
+) -> io::Result<()> {
+    write!(
+        out,
+        "        {} {}.timeSamples = {{ {code}: ",
+        declaration.type_name, declaration.name
+    )?;
+    value(out)?;
+    out.write_all(b" }\n")
+}
+
+/// The values of `data` in order.
+fn each<T: Copy>(data: Values<'_, T>) -> impl Iterator<Item = T> + '_ {
+    (0..data.len()).map(move |index| data.get(index))
 }
 
 /// The bounds of `positions` grown by `margin` (zero where there are none).
@@ -361,29 +393,47 @@ fn tuple(v: Vec3) -> String {
 
 /// `[(x, y, z), ...]`.
 fn vectors(data: &[Vec3]) -> String {
-    let mut text = String::with_capacity(data.len() * 32 + 2);
-    text.push('[');
-    for (index, v) in data.iter().enumerate() {
-        if index > 0 {
-            text.push_str(", ");
-        }
-        let _ = write!(text, "({}, {}, {})", v.x, v.y, v.z);
-    }
-    text.push(']');
-    text
+    text_of(|out| write_vectors(out, data.iter().copied()))
 }
 
 /// `[a, b, ...]`.
 fn list<T: std::fmt::Display>(data: impl Iterator<Item = T>) -> String {
-    let mut text = String::from("[");
+    text_of(|out| write_list(out, data))
+}
+
+/// Writes `[(x, y, z), ...]`.
+fn write_vectors(out: &mut dyn io::Write, data: impl Iterator<Item = Vec3>) -> io::Result<()> {
+    out.write_all(b"[")?;
+    for (index, v) in data.enumerate() {
+        if index > 0 {
+            out.write_all(b", ")?;
+        }
+        write!(out, "({}, {}, {})", v.x, v.y, v.z)?;
+    }
+    out.write_all(b"]")
+}
+
+/// Writes `[a, b, ...]`.
+fn write_list<T: std::fmt::Display>(
+    out: &mut dyn io::Write,
+    data: impl Iterator<Item = T>,
+) -> io::Result<()> {
+    out.write_all(b"[")?;
     for (index, value) in data.enumerate() {
         if index > 0 {
-            text.push_str(", ");
+            out.write_all(b", ")?;
         }
-        let _ = write!(text, "{value}");
+        write!(out, "{value}")?;
     }
-    text.push(']');
-    text
+    out.write_all(b"]")
+}
+
+/// The text that `write` writes (into memory, where it cannot fail).
+fn text_of(write: impl FnOnce(&mut Vec<u8>) -> io::Result<()>) -> String {
+    let mut bytes = Vec::new();
+    // Writing into a Vec cannot fail, and the writers write text only.
+    let _ = write(&mut bytes);
+    String::from_utf8(bytes).unwrap_or_default()
 }
 
 #[cfg(test)]

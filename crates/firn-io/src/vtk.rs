@@ -12,10 +12,11 @@ use std::path::Path;
 
 use base64::engine::general_purpose::STANDARD;
 use base64::write::EncoderWriter;
+use glam::Vec3;
 
 use crate::IoError;
 use crate::atomic::write_atomically;
-use crate::frame::{AttributeValues, FrameData};
+use crate::frame::{AttributeValues, FrameData, Values};
 use crate::xml;
 
 /// Cell indices generated per buffer when streaming the vertex cells.
@@ -166,6 +167,12 @@ fn parse_entry(data_set: &xml::Element) -> Result<PvdEntry, String> {
 enum Payload<'a> {
     /// Raw little-endian values.
     Bytes(&'a [u8]),
+    /// An attribute's floats, stored or computed while writing.
+    Floats(Values<'a, f32>),
+    /// An attribute's vectors, stored or computed while writing.
+    Vectors(Values<'a, Vec3>),
+    /// An attribute's unsigned integers, stored or computed while writing.
+    Words(Values<'a, u32>),
     /// `len` consecutive `Int64` values starting at `first`, generated while writing.
     Int64Run { first: i64, len: usize },
 }
@@ -174,6 +181,9 @@ impl Payload<'_> {
     fn byte_len(&self) -> usize {
         match self {
             Self::Bytes(bytes) => bytes.len(),
+            Self::Floats(values) => values.len() * size_of::<f32>(),
+            Self::Vectors(values) => values.len() * size_of::<Vec3>(),
+            Self::Words(values) => values.len() * size_of::<u32>(),
             Self::Int64Run { len, .. } => len * size_of::<i64>(),
         }
     }
@@ -181,9 +191,17 @@ impl Payload<'_> {
     fn write_to(&self, out: &mut dyn Write) -> io::Result<()> {
         match self {
             Self::Bytes(bytes) => out.write_all(bytes),
+            Self::Floats(values) => write_values(out, values),
+            Self::Vectors(values) => write_values(out, values),
+            Self::Words(values) => write_values(out, values),
             Self::Int64Run { first, len } => write_int64_run(out, *first, *len),
         }
     }
+}
+
+/// Streams `values` as raw little-endian bytes, a chunk at a time.
+fn write_values<T: bytemuck::Pod>(out: &mut dyn Write, values: &Values<T>) -> io::Result<()> {
+    values.try_for_each_chunk(|chunk| out.write_all(bytemuck::cast_slice(chunk)))
 }
 
 /// An inline `DataArray` element.
@@ -248,17 +266,17 @@ fn write_time_field(out: &mut dyn Write, time: f64) -> io::Result<()> {
 fn write_point_data(out: &mut dyn Write, frame: &FrameData) -> io::Result<()> {
     writeln!(out, "      <PointData>")?;
     for attribute in &frame.attributes {
-        let (vtk_type, components, payload): (_, _, &[u8]) = match attribute.values {
-            AttributeValues::Scalar(values) => ("Float32", 1, bytemuck::cast_slice(values)),
-            AttributeValues::Vector(values) => ("Float32", 3, bytemuck::cast_slice(values)),
-            AttributeValues::Integer(values) => ("UInt32", 1, bytemuck::cast_slice(values)),
+        let (vtk_type, components, payload) = match attribute.values {
+            AttributeValues::Scalar(values) => ("Float32", 1, Payload::Floats(values)),
+            AttributeValues::Vector(values) => ("Float32", 3, Payload::Vectors(values)),
+            AttributeValues::Integer(values) => ("UInt32", 1, Payload::Words(values)),
         };
         DataArray {
             vtk_type,
             name: &attribute.name,
             components,
             tuples: frame.particle_count(),
-            payload: Payload::Bytes(payload),
+            payload,
         }
         .write_to(out, "        ")?;
     }
@@ -322,7 +340,6 @@ mod tests {
     use super::*;
     use crate::frame::Attribute;
     use base64::Engine;
-    use glam::Vec3;
 
     /// Decodes an inline binary block into its header count and data bytes.
     fn decode_block(text: &str) -> (u64, Vec<u8>) {

@@ -1,7 +1,9 @@
 //! Whether a scene fits this machine, known before anything is sampled or
 //! allocated: the scene's [`WorkEstimate`] (particles, lattice points,
-//! frames, the first substep), the memory that follows on the CPU and, for
-//! snow on the GPU, in device buffers, compared with what the machine has.
+//! frames, the first substep), the memory that follows on the CPU (the
+//! solver's, and what the cache writers hold while they write a frame)
+//! and, for snow on the GPU, in device buffers, compared with what the
+//! machine has.
 //!
 //! The documented limits of the scene format are checked when a scene is
 //! loaded; this is the part that depends on the machine. `firn check` and
@@ -20,6 +22,7 @@ use firn_gpu::{AdapterReport, GpuError};
 use firn_mpm::Simulation;
 
 use crate::backend::Placement;
+use crate::caches::writer_bytes;
 use crate::error::RunError;
 
 /// The environment variable that caps the memory firn plans for, in bytes
@@ -35,6 +38,9 @@ pub struct Budget {
     /// Bytes of host memory the CPU solver holds at the start (a GPU run
     /// keeps this host copy too).
     pub cpu_bytes: u64,
+    /// Bytes the cache writers hold beyond the solver's arrays while they
+    /// write a frame ([`crate::caches::writer_bytes`]).
+    pub writer_bytes: u64,
     /// The GPU buffers of a snow scene.
     pub gpu: Option<MemoryEstimate>,
 }
@@ -71,25 +77,33 @@ impl Budget {
             SceneKind::Flow(_) => (FlowSimulation::estimate_memory_bytes(scene), None),
         };
         Budget {
+            writer_bytes: writer_bytes(scene, &work),
             work,
             cpu_bytes,
             gpu,
         }
     }
 
+    /// Bytes of host memory a run takes: the solver's and the writers'.
+    pub fn host_bytes(&self) -> u64 {
+        self.cpu_bytes.saturating_add(self.writer_bytes)
+    }
+
     /// Refuses a scene whose host memory passes `machine`'s, with the
-    /// particles that would fit.
+    /// particles that would fit beside the writers.
     pub fn check_memory(&self, scene: &Scene, machine: MachineMemory) -> Result<(), TooLarge> {
-        if self.cpu_bytes <= machine.bytes {
+        let host_bytes = self.host_bytes();
+        if host_bytes <= machine.bytes {
             return Ok(());
         }
-        let needed = Bytes(self.cpu_bytes);
+        let needed = Bytes(host_bytes);
         let has = format!(
             "this machine allows {} ({})",
             Bytes(machine.bytes),
             machine.source
         );
-        let share = machine.bytes as f64 / self.cpu_bytes as f64;
+        let share =
+            machine.bytes.saturating_sub(self.writer_bytes) as f64 / self.cpu_bytes.max(1) as f64;
         let fit = (self.work.particles as f64 * share).floor() as u64;
         match &scene.kind {
             SceneKind::Snow => {
@@ -264,22 +278,23 @@ mod tests {
         .unwrap();
         let budget = Budget::of(&scene);
         assert_eq!(budget.work.particles, 8000);
+        assert_eq!(budget.writer_bytes, 1536 << 10);
         let machine = MachineMemory {
-            bytes: 1 << 20,
+            bytes: 2 << 20,
             source: "a test",
         };
         let error = budget.check_memory(&scene, machine).unwrap_err();
         assert!(
-            error.message.starts_with("the scene needs about 1.8"),
+            error.message.starts_with("the scene needs about 3.3"),
             "{error}"
         );
         assert!(
             error
                 .message
-                .ends_with("for about 8000 particles; this machine allows 1.00 MiB (a test)"),
+                .ends_with("for about 8000 particles; this machine allows 2.00 MiB (a test)"),
             "{error}"
         );
-        assert!(error.fix.starts_with("about 4"), "{error}");
+        assert!(error.fix.starts_with("about 2"), "{error}");
         let roomy = MachineMemory {
             bytes: 1 << 30,
             source: "a test",

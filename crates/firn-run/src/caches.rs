@@ -9,10 +9,11 @@
 
 use std::path::Path;
 
-use firn_core::scene::{Attribute as SceneAttribute, CacheFormat, Scene};
+use firn_core::scene::{Attribute as SceneAttribute, CacheFormat, Scene, WorkEstimate};
+use firn_io::atomic::WRITE_BUFFER_BYTES;
 use firn_io::{
-    Attribute, FloatGrid, FrameData, IoError, MeshData, PvdCollection, write_mesh_obj,
-    write_mesh_ply, write_ply, write_usd_frame, write_vdb, write_vtp,
+    Attribute, CHUNK_VALUES, FloatGrid, FrameData, IoError, MeshData, PvdCollection,
+    write_mesh_obj, write_mesh_ply, write_ply, write_usd_frame, write_vdb, write_vtp,
 };
 use firn_mesh::TriangleMesh;
 use firn_mpm::{Particles, Simulation};
@@ -23,6 +24,83 @@ use crate::simulation::HostState;
 use crate::surface::scene_surface;
 use crate::usd_stage::{collider_positions, usd_stage};
 use crate::volumes::{density_grid, snow_volumes};
+
+/// Bytes a `vdb` cache holds per voxel of snow while a frame is written:
+/// the `density` grid's leaves (4 bytes a voxel and its mask, with the
+/// leaves at the snow's edge partly empty: about 12) and its file, encoded
+/// whole before it is written (as much again).
+const VDB_BYTES_PER_VOXEL: u64 = 24;
+
+/// What the `surface` level set adds per voxel of snow: its distances on
+/// the narrow band, its grid and its share of the file.
+const LEVEL_SET_BYTES_PER_VOXEL: u64 = 36;
+
+/// Bytes a `mesh` cache holds per voxel of snow: the density grid and its
+/// blurred copy (about 12 each), the surface and its PLY and OBJ files,
+/// each encoded whole before it is written (a snowball of 268,000
+/// particles, a voxel per cell, took about 80 in all).
+const MESH_BYTES_PER_VOXEL: u64 = 80;
+
+/// Bytes the cache writers hold beyond the solver's own arrays while they
+/// write a frame of `scene` (whose bodies `work` estimates): the file's
+/// write buffer and a chunk of particles' values (the particles stream
+/// from the solver's arrays, a chunk at a time, and so does a checkpoint),
+/// and for `vdb` and `mesh` the volumes made of the frame, which follow the
+/// snow's volume.
+pub fn writer_bytes(scene: &Scene, work: &WorkEstimate) -> u64 {
+    // A particle's record: its position and the attributes, or (a flow's
+    // frame, a snow frame's drift) its position, velocity and one scalar.
+    let columns: u64 = 3 + scene
+        .output
+        .attributes
+        .iter()
+        .map(|attribute| match attribute {
+            SceneAttribute::Velocity => 3,
+            _ => 1,
+        })
+        .sum::<u64>();
+    let chunk = CHUNK_VALUES as u64 * size_of::<f32>() as u64 * columns.max(7);
+    let formats = &scene.output.formats;
+    let cell = f64::from(scene.domain.cell_size);
+    let mut volumes = 0;
+    if formats.contains(&CacheFormat::Vdb) {
+        let settings = &scene.output.vdb;
+        let per_voxel = VDB_BYTES_PER_VOXEL
+            + if settings.level_set {
+                LEVEL_SET_BYTES_PER_VOXEL
+            } else {
+                0
+            };
+        let voxel = settings.voxel_size_for(scene.domain.cell_size);
+        let voxels = snow_voxels(scene, work, cell / f64::from(voxel));
+        volumes += voxels.saturating_mul(per_voxel);
+    }
+    if formats.contains(&CacheFormat::Mesh) {
+        let voxel = scene.output.mesh.voxel_size_for(scene.domain.cell_size);
+        let voxels = snow_voxels(scene, work, cell / f64::from(voxel));
+        volumes += voxels.saturating_mul(MESH_BYTES_PER_VOXEL);
+    }
+    (WRITE_BUFFER_BYTES as u64 + chunk).saturating_add(volumes)
+}
+
+/// Voxels the bodies of `scene` fill: their cells, each of
+/// `voxels_per_cell_edge`³ voxels (none for a flow).
+fn snow_voxels(scene: &Scene, work: &WorkEstimate, voxels_per_cell_edge: f64) -> u64 {
+    let cells: f64 = scene
+        .bodies
+        .iter()
+        .zip(&work.bodies)
+        .map(|(body, estimate)| {
+            estimate.particles as f64 / f64::from(body.particles_per_cell.max(1))
+        })
+        .sum();
+    let voxels = cells * voxels_per_cell_edge.powi(3);
+    if voxels.is_finite() {
+        voxels.min(u64::MAX as f64) as u64
+    } else {
+        u64::MAX
+    }
+}
 
 /// A frame's caches once written.
 pub struct WrittenFrame {
@@ -142,11 +220,12 @@ fn remove_other_vtk_files(run: &RunDirectory, whole: &str, pieces: &[(u32, Strin
     }
 }
 
-/// Attribute arrays computed for output (those the solver does not store).
-struct DerivedAttributes {
-    density: Vec<f32>,
-    elastic_j: Vec<f32>,
-    material: Vec<u32>,
+/// How the attributes the solver does not store are computed for output,
+/// a particle at a time as they are written (no array of them is made).
+struct DerivedAttributes<'a> {
+    density: Box<dyn Fn(usize) -> f32 + Sync + 'a>,
+    elastic_j: Box<dyn Fn(usize) -> f32 + Sync + 'a>,
+    material: Box<dyn Fn(usize) -> u32 + Sync + 'a>,
 }
 
 /// Writes a snow frame with the scene's `[output] attributes`.
@@ -204,28 +283,15 @@ pub fn write_snow_vtk_piece(
     write_vtp(path, &snow_frame(simulation, index, &derived, count))
 }
 
-impl DerivedAttributes {
-    /// The attributes of the scene's `[output] attributes` that
-    /// `simulation` does not store (empty where not wanted).
-    fn of(simulation: &Simulation) -> DerivedAttributes {
-        let wanted = &simulation.scene().output.attributes;
+impl<'a> DerivedAttributes<'a> {
+    /// The attributes of `simulation`'s particles that it does not store:
+    /// density, J_E and material as an unsigned integer.
+    fn of(simulation: &'a Simulation) -> DerivedAttributes<'a> {
+        let particles = simulation.particles();
         DerivedAttributes {
-            density: if wanted.contains(&SceneAttribute::Density) {
-                simulation.densities()
-            } else {
-                Vec::new()
-            },
-            elastic_j: if wanted.contains(&SceneAttribute::ElasticJ) {
-                simulation.elastic_j()
-            } else {
-                Vec::new()
-            },
-            material: simulation
-                .particles()
-                .material
-                .iter()
-                .map(|&m| m as u32)
-                .collect(),
+            density: Box::new(|p| particles.density(p)),
+            elastic_j: Box::new(|p| particles.elastic[p].determinant()),
+            material: Box::new(|p| u32::from(particles.material[p])),
         }
     }
 }
@@ -235,7 +301,7 @@ impl DerivedAttributes {
 fn snow_frame<'a>(
     simulation: &'a Simulation,
     index: u32,
-    derived: &'a DerivedAttributes,
+    derived: &'a DerivedAttributes<'a>,
     count: usize,
 ) -> FrameData<'a> {
     let particles = simulation.particles();
@@ -368,15 +434,60 @@ fn write_caches(
 fn attribute_data<'a>(
     attribute: SceneAttribute,
     particles: &'a Particles,
-    derived: &'a DerivedAttributes,
+    derived: &'a DerivedAttributes<'a>,
     count: usize,
 ) -> Attribute<'a> {
     match attribute {
         SceneAttribute::Velocity => Attribute::vector("velocity", &particles.velocity[..count]),
         SceneAttribute::PlasticJ => Attribute::scalar("plastic_j", &particles.plastic_j[..count]),
-        SceneAttribute::ElasticJ => Attribute::scalar("elastic_j", &derived.elastic_j[..count]),
-        SceneAttribute::Density => Attribute::scalar("density", &derived.density[..count]),
+        SceneAttribute::ElasticJ => {
+            Attribute::computed_scalar("elastic_j", count, &*derived.elastic_j)
+        }
+        SceneAttribute::Density => Attribute::computed_scalar("density", count, &*derived.density),
         SceneAttribute::Mass => Attribute::scalar("mass", &particles.mass[..count]),
-        SceneAttribute::Material => Attribute::integer("material", &derived.material[..count]),
+        SceneAttribute::Material => {
+            Attribute::computed_integer("material", count, &*derived.material)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use firn_core::scene::Body;
+    use glam::Vec3;
+
+    /// A ball of 8,000 cells of snow written as `formats`, the `vdb`
+    /// voxels `voxel` metres.
+    fn ball(formats: &[CacheFormat], voxel: Option<f32>) -> (Scene, WorkEstimate) {
+        let mut scene = Scene::builder("ball")
+            .unit_box(0.01)
+            .body(Body::cuboid(Vec3::splat(0.5), Vec3::splat(0.2)))
+            .formats(formats.iter().copied())
+            .build()
+            .unwrap();
+        scene.output.vdb.voxel_size = voxel;
+        let work = scene.estimate();
+        (scene, work)
+    }
+
+    #[test]
+    fn the_writers_hold_a_buffer_and_a_chunk_and_the_volumes_they_make() {
+        let (scene, work) = ball(&[CacheFormat::Ply, CacheFormat::Usd], None);
+        assert_eq!(work.particles, 64_000);
+        let streams = writer_bytes(&scene, &work);
+        assert_eq!(
+            streams,
+            (WRITE_BUFFER_BYTES + CHUNK_VALUES * 4 * 8) as u64,
+            "position, velocity, plastic J and density stream a chunk at a time"
+        );
+        let (scene, work) = ball(&[CacheFormat::Ply, CacheFormat::Vdb], None);
+        let with_vdb = writer_bytes(&scene, &work);
+        assert_eq!(with_vdb - streams, 8000 * VDB_BYTES_PER_VOXEL);
+        let (scene, work) = ball(&[CacheFormat::Ply, CacheFormat::Vdb], Some(0.005));
+        assert_eq!(
+            writer_bytes(&scene, &work) - streams,
+            8 * 8000 * VDB_BYTES_PER_VOXEL
+        );
     }
 }

@@ -497,15 +497,7 @@ impl Recording {
         }
         let path = self.run.checkpoint_path();
         self.solver
-            .state()
-            .and_then(|state| {
-                Ok(checkpoint::write(
-                    &state,
-                    self.frame,
-                    &self.scene_json,
-                    &path,
-                )?)
-            })
+            .write_checkpoint(self.frame, &self.scene_json, &path)
             .map_err(|error| self.fail(error))
     }
 

@@ -15,6 +15,7 @@
 //! clock see the GPU's work finished, and [`Solver::phase_times`] and
 //! [`Solver::memory_bytes`] tell where the time and the memory go.
 
+use std::path::Path;
 use std::sync::Arc;
 
 use firn_core::Scene;
@@ -29,6 +30,7 @@ use glam::Vec3;
 
 use crate::backend::Placement;
 use crate::budget::Budget;
+use crate::checkpoint::{self, FlowView, SnowView, StateView};
 use crate::error::RunError;
 
 /// A running simulation of a scene, snow or flow, on the CPU or the GPU.
@@ -486,6 +488,39 @@ impl Solver {
             Engine::GpuFlow(run) => Some(run.device.particle_arrays()),
             Engine::CpuSnow(_) | Engine::CpuFlow(_) => None,
         }
+    }
+
+    /// Writes the complete state to `path` as the checkpoint taken after
+    /// `frame` of the scene `scene_json`, atomically: the file
+    /// [`checkpoint::write`] writes of [`Solver::state`], streamed from the
+    /// solver's own arrays without a copy of them (on the GPU from a read
+    /// back, unless the host copy is current).
+    pub fn write_checkpoint(
+        &self,
+        frame: u32,
+        scene_json: &serde_json::Value,
+        path: &Path,
+    ) -> Result<(), RunError> {
+        let write = |state: StateView<'_>| checkpoint::write_view(state, frame, scene_json, path);
+        match &self.engine {
+            Engine::CpuSnow(simulation) => {
+                write(StateView::Snow(SnowView::of_simulation(simulation)))
+            }
+            Engine::CpuFlow(flow) => write(StateView::Flow(FlowView::of_simulation(flow))),
+            Engine::GpuSnow(run) => match &run.host {
+                Some(simulation) => write(StateView::Snow(SnowView::of_simulation(simulation))),
+                None => write(StateView::Snow(SnowView::of_snapshot(
+                    &run.device.snapshot()?,
+                ))),
+            },
+            Engine::GpuFlow(run) => match &run.host {
+                Some(flow) => write(StateView::Flow(FlowView::of_simulation(flow))),
+                None => write(StateView::Flow(FlowView::of_snapshot(
+                    &run.device.snapshot()?,
+                ))),
+            },
+        }?;
+        Ok(())
     }
 
     /// The complete state, to continue from later on either backend
