@@ -228,8 +228,8 @@ fn gpu_line(scene: &Scene, budget: &Budget) -> Result<String, String> {
     let memory = match (adapter.is_software, machine, &budget.gpu) {
         (_, _, None) => String::new(),
         (true, Some(machine), Some(_)) => format!(
-            ", held in host memory beside the host's copy ({} in all, of {})",
-            Bytes(budget.cpu_bytes + budget.gpu.map_or(0, |gpu| gpu.total_bytes())),
+            ", held in host memory beside the state's host copy and the cache writers ({} in all, of {})",
+            Bytes(budget.host_bytes() + budget.gpu.map_or(0, |gpu| gpu.total_bytes())),
             Bytes(machine.bytes)
         ),
         (true, None, Some(_)) => String::new(),

@@ -42,14 +42,14 @@ pub enum GpuError {
     /// A software adapter's buffers, which live in host memory, would pass
     /// what the machine allows beside the host's copy of the state.
     #[error(
-        "the scene does not fit the GPU: its buffers need {needed} and the host's copy of \
-         the state {host}, but the software adapter ({adapter}) keeps its buffers in this \
+        "the scene does not fit the GPU: its buffers need {needed} and the host {host} (its \
+         copy of the state and the cache writers), but the software adapter ({adapter}) keeps its buffers in this \
          machine's memory, which allows {available} ({limited_by})\n  fix: {fix}"
     )]
     HostMemory {
         /// The GPU buffers.
         needed: firn_core::scene::Bytes,
-        /// The host's copy of the state.
+        /// The host's copy of the state and the cache writers.
         host: firn_core::scene::Bytes,
         /// What the machine allows.
         available: firn_core::scene::Bytes,

@@ -174,12 +174,12 @@ impl Budget {
         let (Some(gpu), Some(machine), true) = (&self.gpu, machine, adapter.is_software) else {
             return Ok(());
         };
-        if gpu.total_bytes().saturating_add(self.cpu_bytes) <= machine.bytes {
+        if gpu.total_bytes().saturating_add(self.host_bytes()) <= machine.bytes {
             return Ok(());
         }
         Err(GpuError::HostMemory {
             needed: Bytes(gpu.total_bytes()),
-            host: Bytes(self.cpu_bytes),
+            host: Bytes(self.host_bytes()),
             available: Bytes(machine.bytes),
             limited_by: machine.source,
             adapter: adapter.name.clone(),
