@@ -1,5 +1,5 @@
-//! The scatter's block sums, added to the grid colour by colour, and traded
-//! between the parts of a run split between processes (MPI ranks).
+//! The scatter's block sums traded between the parts of a run split
+//! between processes (MPI ranks); one process never comes here.
 //!
 //! Every block sums its particles into a dense copy of the nodes around it
 //! ([`LocalNodes`]); a grid node is the sum, colour by colour, of the
@@ -16,8 +16,7 @@ use glam::IVec3;
 use rayon::prelude::*;
 
 use crate::binning::{Bins, OccupiedBlock};
-use crate::disjoint::NodeWriter;
-use crate::grid::{Grid, GridLayout};
+use crate::grid::GridLayout;
 use crate::local_nodes::{LocalNodes, NodeSum};
 
 /// How one part of a split run trades block sums with the others.
@@ -35,62 +34,22 @@ pub trait SumTrade {
     fn parts(&self) -> usize;
 }
 
-/// Gives the grid storage for the particles' blocks and adds every
-/// occupied block's sums (`sums_of(block, sums)` adds its particles to
-/// zeroed `sums`), colour by colour, so that each node sums its blocks in
-/// the same order whatever the thread count. In a part of a split run
-/// (`trade` given), the sums of the blocks other parts read are made first
-/// and traded, and the other parts' sums are added in their colour's turn.
-pub(crate) fn scatter_sums<T: NodeSum>(
-    grid: &mut Grid,
-    bins: &Bins,
-    trade: Option<&mut dyn SumTrade>,
-    sums_of: impl Fn(&OccupiedBlock, &mut LocalNodes<T>) + Sync,
-) {
-    let traded = trade.map(|trade| Traded::trade(bins, grid.layout, trade, &sums_of));
-    match &traded {
-        Some(traded) => grid.allocate(&traded.blocks_with_storage(bins, grid.layout)),
-        None => grid.allocate(bins.active_blocks()),
-    }
-    let (table, nodes) = grid.parts_mut();
-    let writer = NodeWriter::new(nodes);
-    for (colour, blocks) in bins.colours().iter().enumerate() {
-        blocks.par_iter().for_each(|&block| {
-            let made = traded.as_ref().and_then(|traded| traded.own_sums(block));
-            match made {
-                Some(sums) => sums.add_sums_to(&table, &writer),
-                None => {
-                    let block = &bins.occupied()[block as usize];
-                    let mut sums = LocalNodes::around(block.coord);
-                    sums_of(block, &mut sums);
-                    sums.add_sums_to(&table, &writer);
-                }
-            }
-        });
-        if let Some(traded) = &traded {
-            traded.received[colour]
-                .par_iter()
-                .for_each(|sums| sums.add_sums_to(&table, &writer));
-        }
-    }
-}
-
 /// The block sums of one substep's trade.
-struct Traded<T> {
+pub(crate) struct Traded<T> {
     /// Per occupied block (index into [`Bins::occupied`]), the place of its
     /// sums in `sent`, or `u32::MAX` when no other part reads it.
     sent_place: Vec<u32>,
     /// The sums of this part's blocks that other parts read.
     sent: Vec<Box<LocalNodes<T>>>,
     /// The other parts' sums this part reads, by colour.
-    received: [Vec<Box<LocalNodes<T>>>; 8],
+    pub(crate) received: [Vec<Box<LocalNodes<T>>>; 8],
 }
 
 impl<T: NodeSum> Traded<T> {
     /// Sums the blocks other parts read, sends each part those it reads
     /// (per block: its index, then [`LocalNodes::push_words`]), and
     /// unpacks what the others sent.
-    fn trade(
+    pub(crate) fn trade(
         bins: &Bins,
         layout: GridLayout,
         trade: &mut dyn SumTrade,
@@ -142,14 +101,14 @@ impl<T: NodeSum> Traded<T> {
     }
 
     /// The sums made for the trade of occupied block `block`, if any.
-    fn own_sums(&self, block: u32) -> Option<&LocalNodes<T>> {
+    pub(crate) fn own_sums(&self, block: u32) -> Option<&LocalNodes<T>> {
         let place = self.sent_place[block as usize];
         (place != u32::MAX).then(|| &*self.sent[place as usize])
     }
 
     /// The blocks that need storage: those around this part's particles
     /// and those around every block whose sums it received.
-    fn blocks_with_storage(&self, bins: &Bins, layout: GridLayout) -> Vec<u32> {
+    pub(crate) fn blocks_with_storage(&self, bins: &Bins, layout: GridLayout) -> Vec<u32> {
         let mut blocks = bins.active_blocks().to_vec();
         let last = layout.blocks.as_ivec3() - IVec3::ONE;
         for sums in self.received.iter().flatten() {

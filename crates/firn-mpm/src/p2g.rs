@@ -12,7 +12,7 @@
 //!
 //! Each block's particles are summed into a dense local copy of the nodes
 //! around the block ([`LocalNodes`]), then added to the grid colour by
-//! colour ([`scatter_sums`]), so every node sums its contributions in the
+//! colour ([`add_block_sums`]), so every node sums its contributions in the
 //! same order whatever the thread count; in a part of a split run, the
 //! sums of blocks next to other parts are traded ([`SumTrade`]).
 //! [`crate::reference::particles_to_grid`] is the plain form of this stage.
@@ -24,17 +24,17 @@ use firn_core::math::bspline::{QuadraticLanes, StencilWeights, cubic_weights};
 use firn_core::math::isa::{Avx2, Isa, Kernel, PairLanes, PortablePairs};
 use firn_core::math::lanes::{F32s, Mat3s, Simd, Vec3s, lanes_to_rows};
 
-use crate::binning::Bins;
-use crate::block_sums::{SumTrade, scatter_sums};
-use crate::disjoint::scatter_by_colour;
+use crate::binning::{Bins, OccupiedBlock};
+use crate::block_sums::{SumTrade, Traded};
+use crate::disjoint::{NodeWriter, scatter_by_colour};
 use crate::grid::{Grid, GridLayout, Node};
-use crate::local_nodes::{CUBIC_SPAN, LocalNodes, QUADRATIC_SPAN, at};
+use crate::local_nodes::{CUBIC_SPAN, LocalNodes, NodeSum, QUADRATIC_SPAN, at};
 use crate::particles::Particles;
 
 /// Steps 1 and 3 for PIC/FLIP: gives the grid storage for the particles'
 /// blocks, then mass, momentum and elastic force on the grid, summed per
 /// block in [`LocalNodes`] (in a part of a split run, `trade` swaps the
-/// sums of the blocks next to other parts, [`scatter_sums`]). Each block
+/// sums of the blocks next to other parts, [`add_block_sums`]). Each block
 /// runs compiled for the instruction set ([`Isa::run`]); every instruction
 /// set gives the same bits ([`PicFlipStencil`]).
 pub fn scatter_pic_flip(
@@ -46,7 +46,7 @@ pub fn scatter_pic_flip(
 ) {
     let layout = grid.layout;
     let isa = Isa::of(simd);
-    scatter_sums(grid, bins, trade, |block, sums| {
+    add_block_sums(grid, bins, trade, |block, sums| {
         isa.run(PicFlipBlock {
             layout,
             particles,
@@ -168,7 +168,7 @@ pub fn scatter_apic(
         particles,
     };
     let isa = Isa::of(simd);
-    scatter_sums(grid, bins, trade, |block, sums| {
+    add_block_sums(grid, bins, trade, |block, sums| {
         isa.run(ScatterBlock {
             scatter: &scatter,
             local: sums,
@@ -390,6 +390,46 @@ impl StencilRow {
             * (avx2.pair(Vec4::splat(wxy), Vec4::splat(wxy)) * weights);
         [sums[0], sums[1]] = (avx2.pair(sums[0], sums[1]) + terms).halves();
         sums[2] += (at_ij + self.steps[2]) * (wxy * self.weights[2]);
+    }
+}
+
+/// Gives the grid storage for the particles' blocks and adds every
+/// occupied block's sums (`sums_of(block, sums)` adds its particles to
+/// zeroed `sums`), colour by colour, so that each node sums its blocks in
+/// the same order whatever the thread count. In a part of a split run
+/// (`trade` given), the sums of the blocks other parts read are made first
+/// and traded, and the other parts' sums are added in their colour's turn.
+fn add_block_sums<T: NodeSum>(
+    grid: &mut Grid,
+    bins: &Bins,
+    trade: Option<&mut dyn SumTrade>,
+    sums_of: impl Fn(&OccupiedBlock, &mut LocalNodes<T>) + Sync,
+) {
+    let traded = trade.map(|trade| Traded::trade(bins, grid.layout, trade, &sums_of));
+    match &traded {
+        Some(traded) => grid.allocate(&traded.blocks_with_storage(bins, grid.layout)),
+        None => grid.allocate(bins.active_blocks()),
+    }
+    let (table, nodes) = grid.parts_mut();
+    let writer = NodeWriter::new(nodes);
+    for (colour, blocks) in bins.colours().iter().enumerate() {
+        blocks.par_iter().for_each(|&block| {
+            let made = traded.as_ref().and_then(|traded| traded.own_sums(block));
+            match made {
+                Some(sums) => sums.add_sums_to(&table, &writer),
+                None => {
+                    let block = &bins.occupied()[block as usize];
+                    let mut sums = LocalNodes::around(block.coord);
+                    sums_of(block, &mut sums);
+                    sums.add_sums_to(&table, &writer);
+                }
+            }
+        });
+        if let Some(traded) = &traded {
+            traded.received[colour]
+                .par_iter()
+                .for_each(|sums| sums.add_sums_to(&table, &writer));
+        }
     }
 }
 

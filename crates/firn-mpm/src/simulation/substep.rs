@@ -1,0 +1,275 @@
+//! One substep, as the list of the thesis' stages (§3.4, Figure 5), each a
+//! named call into the file of the same name:
+//!
+//! 1. bin the particles by grid block (binning.rs), sorting them every
+//!    [`REORDER_INTERVAL`] substeps;
+//! 2. scatter mass, momentum and force to the grid, which first gets
+//!    storage for the blocks the particles reach (p2g.rs);
+//! 3. update the grid velocities: forces, gravity, wind and the grid
+//!    collisions (grid_update.rs, contact.rs, wind.rs);
+//! 4. the semi-implicit solve, with that integrator (implicit.rs);
+//! 5. gather velocities back to the particles, with plasticity and stress
+//!    (snow_model.rs), particle collisions and advection (g2p.rs);
+//! 6. spindrift, with a wind that lifts snow (spindrift.rs);
+//! 7. clear the grid for the next substep (grid_update.rs).
+//!
+//! A part of a run split between processes (MPI ranks, firn-mpi) takes the
+//! same stages, trading block sums in the scatter ([`SumTrade`]).
+
+use firn_core::scene::{Integrator, TimeStep, Transfer};
+use glam::{DVec3, Vec3};
+
+use super::{LEAVE_TOLERANCE_CELLS, REORDER_INTERVAL, Simulation, SimulationError};
+use crate::block_sums::SumTrade;
+use crate::contact::{Colliders, PlacedCollider};
+use crate::g2p::{self, GatherStats, UpdateContext};
+use crate::grid_update::{self, GridForces, WindStep};
+use crate::implicit::ImplicitStep;
+use crate::p2g;
+use crate::particles::Particles;
+use crate::profile::PhaseClock;
+use crate::spindrift::{self, SpindriftStep};
+
+impl Simulation {
+    /// Advances one substep, never past time `until`; returns the Δt taken.
+    /// Refuses, with nothing changed, when the Δt would be so short that a
+    /// frame took more than `time.max_substeps_per_frame` substeps. Every
+    /// [`REORDER_INTERVAL`] substeps it first sorts the particles by block.
+    pub fn step(&mut self, until: f64) -> Result<f32, SimulationError> {
+        let dt = self.clipped_dt(until)?;
+        let mut clock = PhaseClock::start();
+        self.bin_particles();
+        clock.lap(&mut self.profile.binning);
+        self.substep(dt, clock, None, None)
+    }
+
+    /// [`Simulation::step`] for one part of a run split between processes
+    /// (MPI ranks), which holds the particles of its blocks in any order
+    /// and never reorders them (see the MPI section of
+    /// docs/architecture.md). `keys` gives each particle's place in the
+    /// whole run's order: every block adds its particles in key order, and
+    /// a failure names the particle with the lowest key. The block sums
+    /// that other parts read, and those this part reads, go through `trade`
+    /// ([`crate::block_sums`]). Every part must take the same Δt: the
+    /// caller reduces [`Simulation::motion_bounds`] over the parts and
+    /// hands the result back with [`Simulation::set_motion_bounds`].
+    pub fn step_part(
+        &mut self,
+        until: f64,
+        keys: &[u64],
+        trade: &mut dyn SumTrade,
+    ) -> Result<f32, SimulationError> {
+        assert_eq!(keys.len(), self.particles.len(), "one key per particle");
+        let dt = self.clipped_dt(until)?;
+        let mut clock = PhaseClock::start();
+        self.bins
+            .rebuild(&self.grid.layout, &self.particles.position);
+        self.bins.order_blocks_by(keys);
+        clock.lap(&mut self.profile.binning);
+        self.substep(dt, clock, Some(trade), Some(keys))
+    }
+
+    /// The stages of a substep of length `dt` after the binning, `clock`
+    /// timing each; in a part of a split run `trade` swaps block sums and
+    /// `keys` name a failed particle. On a failure nothing of the substep
+    /// is kept but the particles' state, and the error explains it.
+    fn substep(
+        &mut self,
+        dt: f32,
+        mut clock: PhaseClock,
+        trade: Option<&mut dyn SumTrade>,
+        keys: Option<&[u64]>,
+    ) -> Result<f32, SimulationError> {
+        self.scatter(dt, trade);
+        clock.lap(&mut self.profile.scatter);
+        let colliders = self.colliders.placed_at(self.time + f64::from(dt));
+        let wind_impulse = self.update_grid(dt, &colliders);
+        clock.lap(&mut self.profile.grid_update);
+        self.solve_implicit(dt, &colliders);
+        clock.lap(&mut self.profile.implicit_solve);
+        let stats = self.gather(dt, &colliders, keys);
+        clock.lap(&mut self.profile.gather);
+        if stats.problem.is_none() {
+            self.blow_spindrift(&colliders, dt);
+        }
+        grid_update::clear_grid(&mut self.grid);
+        clock.lap(&mut self.profile.clear);
+        if let Some(problem) = stats.problem {
+            return Err(self.instability(problem, dt));
+        }
+        self.time += f64::from(dt);
+        self.steps += 1;
+        self.stats = stats;
+        self.wind_impulse += wind_impulse;
+        Ok(dt)
+    }
+
+    /// Stage 1: the particles binned by block, sorted by block in memory
+    /// every [`REORDER_INTERVAL`] substeps.
+    fn bin_particles(&mut self) {
+        let layout = self.grid.layout;
+        if self.steps.is_multiple_of(REORDER_INTERVAL) {
+            self.bins.rebuild(&layout, &self.particles.position);
+            self.particles
+                .permute(self.bins.order(), &mut self.permute_buffers);
+        }
+        self.bins.rebuild(&layout, &self.particles.position);
+    }
+
+    /// Stage 2 (steps 1 and 3): the grid's storage for this substep, then
+    /// mass, momentum and force (PIC/FLIP) or affine momentum with the
+    /// force impulse (APIC) on it.
+    fn scatter(&mut self, dt: f32, trade: Option<&mut dyn SumTrade>) {
+        let (grid, bins, particles) = (&mut self.grid, &self.bins, &self.particles);
+        match self.scene.solver.transfer {
+            Transfer::PicFlip => p2g::scatter_pic_flip(grid, bins, particles, self.simd, trade),
+            Transfer::Apic => p2g::scatter_apic(grid, bins, particles, dt, self.simd, trade),
+        }
+    }
+
+    /// Stage 3 (steps 4 and 5): grid velocities with forces, gravity and
+    /// the wind's drag, then the grid collisions against `colliders`
+    /// (placed at the end of the substep), except with the semi-implicit
+    /// integrator, whose solve applies them itself to learn which velocity
+    /// components they fix. Returns the wind's impulse on the snow.
+    fn update_grid(&mut self, dt: f32, colliders: &[PlacedCollider]) -> DVec3 {
+        let forces = match self.scene.solver.transfer {
+            Transfer::PicFlip => GridForces::Separate,
+            Transfer::Apic => GridForces::InMomentum,
+        };
+        let grid_colliders = match self.implicit {
+            Some(_) => Colliders::new(&[]),
+            None => Colliders::new(colliders),
+        };
+        let wind = self.wind.as_ref().map(|drag| WindStep {
+            drag,
+            time: self.time + f64::from(dt),
+        });
+        grid_update::update_grid(
+            &mut self.grid,
+            forces,
+            dt,
+            self.scene.solver.gravity,
+            &grid_colliders,
+            wind,
+        )
+    }
+
+    /// Stage 4 (step 6): the semi-implicit velocity update, with that
+    /// integrator only.
+    fn solve_implicit(&mut self, dt: f32, colliders: &[PlacedCollider]) {
+        let (Integrator::SemiImplicit(settings), Some(solver)) =
+            (self.scene.solver.integrator, self.implicit.as_mut())
+        else {
+            return;
+        };
+        let step = ImplicitStep {
+            dt,
+            settings,
+            transfer: self.scene.solver.transfer,
+            materials: &self.materials,
+            colliders,
+        };
+        solver.solve(&mut self.grid, &self.bins, &self.particles, &step);
+    }
+
+    /// Stage 5 (steps 7 to 10): velocities and ∇v_p from the grid, the
+    /// deformation update with plasticity and stress, the particle
+    /// collisions and the advection; the statistics the next Δt and the
+    /// checks read.
+    fn gather(
+        &mut self,
+        dt: f32,
+        colliders: &[PlacedCollider],
+        keys: Option<&[u64]>,
+    ) -> GatherStats {
+        let tolerance = Vec3::splat(LEAVE_TOLERANCE_CELLS * self.grid.layout.cell_size);
+        let colliders = Colliders::new(colliders);
+        let context = UpdateContext {
+            dt,
+            materials: &self.materials,
+            colliders: &colliders,
+            lower: self.scene.domain.min - tolerance,
+            upper: self.scene.domain.max + tolerance,
+            keys,
+        };
+        let (grid, bins, particles) = (&self.grid, &self.bins, &mut self.particles);
+        match self.scene.solver.transfer {
+            Transfer::PicFlip => {
+                let flip = self.scene.solver.flip_blend;
+                g2p::gather_pic_flip(grid, bins, particles, flip, &context, self.simd)
+            }
+            Transfer::Apic => g2p::gather_apic(grid, bins, particles, &context, self.simd),
+        }
+    }
+
+    /// Stage 6: spindrift at the end of a substep of length `dt`, while the
+    /// grid still holds its node masses ([`crate::spindrift`]): the drift
+    /// moves and lands, then loose surface snow lifts. `placed` are the
+    /// colliders at the end of the substep, the scene's first.
+    fn blow_spindrift(&mut self, placed: &[PlacedCollider], dt: f32) {
+        let (Some(drag), Some(wind)) = (self.wind.as_ref(), self.scene.wind.as_ref()) else {
+            return;
+        };
+        let Some(settings) = wind.spindrift.as_ref() else {
+            return;
+        };
+        let step = SpindriftStep {
+            settings,
+            drag,
+            colliders: &placed[..self.scene.colliders.len()],
+            domain: &self.scene.domain,
+            gravity: self.scene.solver.gravity,
+            interval: (self.time, self.time + f64::from(dt)),
+            substep: self.steps,
+            seed: wind.field.seed,
+            integrator: wind.field.integrator,
+            material_densities: &self.material_densities,
+        };
+        let mut landed = Particles::default();
+        spindrift::carry(&step, &mut self.drift, &mut self.escaped, &mut landed);
+        spindrift::detach(&step, &self.grid, &mut self.particles, &mut self.drift);
+        self.particles.append(landed);
+    }
+
+    /// The Δt the next substep will take (before clipping to a frame end):
+    /// fixed, or Δt = CFL · h / (max |v_p| + max c_p) capped at the maximum,
+    /// with c_p the elastic wave speed including hardening. The semi-implicit
+    /// update is stable beyond the elastic wave limit, so with it only the
+    /// particle speed bounds Δt: Δt = CFL · h / max |v_p|.
+    pub fn next_dt(&self) -> f32 {
+        match self.scene.time.step {
+            TimeStep::Fixed { dt } => dt,
+            TimeStep::Adaptive { cfl, max_dt } => {
+                let wave_speed = match self.scene.solver.integrator {
+                    Integrator::Explicit => self.stats.max_wave_speed_squared.sqrt(),
+                    Integrator::SemiImplicit(_) => 0.0,
+                };
+                let speed = self.stats.max_speed_squared.sqrt() + wave_speed;
+                if speed > 0.0 {
+                    (cfl * self.scene.domain.cell_size / speed).min(max_dt)
+                } else {
+                    max_dt
+                }
+            }
+        }
+    }
+
+    /// The Δt of the next substep, never past time `until`, or the error
+    /// of [`Simulation::check_step_length`].
+    fn clipped_dt(&self, until: f64) -> Result<f32, SimulationError> {
+        let next = self.next_dt();
+        self.check_step_length(next)?;
+        Ok((next as f64).min(until - self.time).max(0.0) as f32)
+    }
+
+    /// Substeps until time `until` is reached; returns the number of substeps.
+    pub fn advance_to(&mut self, until: f64) -> Result<u32, SimulationError> {
+        let mut substeps = 0;
+        while until - self.time > 1e-9 {
+            self.step(until)?;
+            substeps += 1;
+        }
+        Ok(substeps)
+    }
+}
