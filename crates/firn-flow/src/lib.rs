@@ -37,6 +37,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+mod batch;
 pub mod emitters;
 pub mod field;
 pub mod integrate;
@@ -45,6 +46,7 @@ pub mod lanes;
 mod lanes_avx2;
 #[cfg(target_arch = "x86_64")]
 mod lanes_avx512;
+mod lanes_f64;
 pub mod noise;
 pub mod obstacles;
 pub mod particles;
