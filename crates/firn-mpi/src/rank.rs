@@ -28,14 +28,18 @@ use firn_io::IoError;
 use firn_mpm::binning::block_key;
 use firn_mpm::grid::GridLayout;
 use firn_mpm::simulation::REORDER_INTERVAL;
-use firn_mpm::{Particles, PermuteBuffers, Simulation, SimulationError, Snapshot, SumTrade};
+use firn_mpm::{Particles, PermuteBuffers, Simulation, Snapshot};
 use firn_run::{RunDirectory, RunError, caches, checkpoint};
 
 use crate::exchange::{Exchange, join_u64, split_u64};
 use crate::packing::{KeyedParticles, WORDS_PER_PARTICLE};
 use crate::part::SnowPart;
 use crate::slabs::{Slabs, neighbour_reach};
-use glam::IVec3;
+
+mod agreement;
+mod slab_trade;
+
+use slab_trade::SlabTrade;
 
 /// The slabs move when the busiest rank holds this much more than its
 /// share of the particles (1.02: 2 % more). A slab may end at any block,
@@ -367,7 +371,7 @@ impl<E: Exchange> RankSnow<E> {
         if total == 0 || (busiest * ranks as u64) as f64 <= REBALANCE_ABOVE * total as f64 {
             return;
         }
-        let histogram = block_histogram(blocks, &self.layout);
+        let histogram = Slabs::block_histogram(blocks, &self.layout);
         let histogram = self.timed(Phase::Balance, |exchange| exchange.sum_u64(&histogram));
         let now = self.slabs.imbalance(&histogram);
         if now <= REBALANCE_ABOVE {
@@ -455,132 +459,6 @@ impl<E: Exchange> RankSnow<E> {
         let words: usize = outgoing.iter().map(Vec::len).sum();
         self.traffic.bytes_sent += (words * std::mem::size_of::<u32>()) as u64;
     }
-
-    /// Every rank learns whether the substep failed anywhere; the failure
-    /// of the lowest key (then the lowest rank) is everyone's.
-    fn agree(&mut self, result: Result<f32, SimulationError>) -> Result<f32, RunError> {
-        let own_failure = result.as_ref().err().map(|error| self.keyed(error));
-        let failure = own_failure
-            .as_ref()
-            .map(|(key, error)| (*key, error.to_string()));
-        match (self.first_failure(failure), own_failure, result) {
-            (None, _, result) => Ok(result.expect("no rank failed")),
-            (Some((rank, _)), Some((_, error)), _) if rank == self.exchange.rank() => {
-                Err(RunError::Snow(error))
-            }
-            (Some((rank, message)), _, _) => Err(RunError::Rank {
-                rank,
-                ranks: self.exchange.size(),
-                message,
-            }),
-        }
-    }
-
-    /// Every rank's failure, if any (a key that orders failures, and a
-    /// message): the rank and message of the failure with the lowest key,
-    /// then the lowest rank, on every rank; `None` when no rank failed.
-    /// One minimum over the ranks finds it (key · ranks + rank), and only
-    /// when a rank failed does it broadcast its message.
-    fn first_failure(&mut self, failure: Option<(u64, String)>) -> Option<(usize, String)> {
-        let (me, ranks) = (self.rank(), self.exchange.size() as u64);
-        let mine = failure
-            .as_ref()
-            .map_or(u64::MAX, |(key, _)| key * ranks + me as u64);
-        let first = self.timed(Phase::Agreement, |exchange| exchange.min_u64(&[mine]))[0];
-        if first == u64::MAX {
-            return None;
-        }
-        let rank = (first % ranks) as usize;
-        let message = match failure {
-            Some((_, message)) if rank == me => text_to_words(&message),
-            _ => Vec::new(),
-        };
-        let words = self.timed(Phase::Agreement, |exchange| {
-            exchange.broadcast_from(rank, message)
-        });
-        Some((rank, words_to_text(&words)))
-    }
-
-    /// `error` with its particle named by key (its one-process index), and
-    /// that key (0 for a failure of the whole substep).
-    fn keyed(&self, error: &SimulationError) -> (u64, SimulationError) {
-        match error {
-            SimulationError::Unstable {
-                time,
-                step,
-                dt,
-                particle,
-                what,
-                position,
-                hint,
-            } => {
-                let key = self.own_keys()[*particle];
-                let keyed = SimulationError::Unstable {
-                    time: *time,
-                    step: *step,
-                    dt: *dt,
-                    particle: key as usize,
-                    what,
-                    position: *position,
-                    hint: hint.clone(),
-                };
-                (key, keyed)
-            }
-            other => (0, SimulationError::SnapshotMismatch(other.to_string())),
-        }
-    }
-}
-
-/// A rank's side of the scatter's trade of block sums
-/// ([`firn_mpm::block_sums`]): a block's sums go to the owners of the
-/// blocks around it, which are among the neighbours; the trade goes to and
-/// from the neighbours only, timed as [`Phase::Sums`].
-struct SlabTrade<'a, E: Exchange> {
-    exchange: &'a E,
-    slabs: &'a Slabs,
-    layout: GridLayout,
-    /// The ranks within [`neighbour_reach`] ([`Slabs::neighbours`]).
-    neighbours: Vec<usize>,
-    traffic: &'a mut RankTraffic,
-}
-
-impl<E: Exchange> SumTrade for SlabTrade<'_, E> {
-    fn readers(&self, block: u32, readers: &mut Vec<usize>) {
-        let me = self.exchange.rank();
-        let own = self.slabs.blocks(me);
-        let reach = neighbour_reach(self.layout.blocks);
-        if own.start + reach <= block && block + reach < own.end {
-            return;
-        }
-        let centre = self.layout.block_coord(block as usize);
-        let last = self.layout.blocks.as_ivec3() - IVec3::ONE;
-        let low = (centre - IVec3::ONE).max(IVec3::ZERO);
-        let high = (centre + IVec3::ONE).min(last);
-        for x in low.x..=high.x {
-            for y in low.y..=high.y {
-                for z in low.z..=high.z {
-                    let index = self.layout.block_index(IVec3::new(x, y, z)) as u32;
-                    let owner = self.slabs.owner(index);
-                    if owner != me && !readers.contains(&owner) {
-                        readers.push(owner);
-                    }
-                }
-            }
-        }
-    }
-
-    fn trade(&mut self, outgoing: Vec<Vec<u32>>) -> Vec<Vec<u32>> {
-        let words: usize = outgoing.iter().map(Vec::len).sum();
-        self.traffic.bytes_sent += (words * std::mem::size_of::<u32>()) as u64;
-        let started = std::time::Instant::now();
-        let incoming = self.exchange.exchange_with(outgoing, &self.neighbours);
-        self.traffic.exchange_seconds[Phase::Sums as usize] += started.elapsed().as_secs_f64();
-        incoming
-    }
-
-    fn parts(&self) -> usize {
-        self.exchange.size()
-    }
 }
 
 /// The block index of every particle (as the binning sorts them).
@@ -592,21 +470,12 @@ fn block_indices(particles: &Particles, layout: &GridLayout) -> Vec<u32> {
         .collect()
 }
 
-/// Particles per block index, of the particles in `blocks`.
-fn block_histogram(blocks: &[u32], layout: &GridLayout) -> Vec<u64> {
-    let mut histogram = vec![0u64; layout.blocks.element_product() as usize];
-    for &block in blocks {
-        histogram[block as usize] += 1;
-    }
-    histogram
-}
-
 /// What rank 0 sends each rank to start: the time, the substeps, the speed
 /// bounds and the slabs, then the rank's particles keyed by their place.
 fn parts_of(snapshot: &Snapshot, layout: &GridLayout, ranks: usize) -> Vec<Vec<u32>> {
     let particles = &snapshot.particles;
     let blocks = block_indices(particles, layout);
-    let histogram = block_histogram(&blocks, layout);
+    let histogram = Slabs::block_histogram(&blocks, layout);
     let slabs = Slabs::balanced(&histogram, ranks);
     let mut header = Vec::new();
     header.extend(split_u64(snapshot.time.to_bits()));
@@ -619,23 +488,4 @@ fn parts_of(snapshot: &Snapshot, layout: &GridLayout, ranks: usize) -> Vec<Vec<u
         crate::packing::pack(particles, p as u64, p, &mut parts[slabs.owner(block)]);
     }
     parts
-}
-
-/// A text as words: its length in bytes, then the bytes four to a word.
-fn text_to_words(text: &str) -> Vec<u32> {
-    let bytes = text.as_bytes();
-    let mut words = vec![bytes.len() as u32];
-    words.extend(bytes.chunks(4).map(|chunk| {
-        let mut word = [0u8; 4];
-        word[..chunk.len()].copy_from_slice(chunk);
-        u32::from_le_bytes(word)
-    }));
-    words
-}
-
-/// The text of [`text_to_words`].
-fn words_to_text(words: &[u32]) -> String {
-    let length = words[0] as usize;
-    let bytes: Vec<u8> = words[1..].iter().flat_map(|w| w.to_le_bytes()).collect();
-    String::from_utf8_lossy(&bytes[..length.min(bytes.len())]).into_owned()
 }

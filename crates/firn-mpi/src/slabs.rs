@@ -10,6 +10,7 @@
 //! it). Recursive bisection would give smaller faces at the price of more
 //! neighbours.
 
+use firn_mpm::grid::GridLayout;
 use std::ops::Range;
 
 use glam::UVec3;
@@ -30,6 +31,15 @@ pub struct Slabs {
 }
 
 impl Slabs {
+    /// Particles per block index, of the particles in `blocks`.
+    pub fn block_histogram(blocks: &[u32], layout: &GridLayout) -> Vec<u64> {
+        let mut histogram = vec![0u64; layout.blocks.element_product() as usize];
+        for &block in blocks {
+            histogram[block as usize] += 1;
+        }
+        histogram
+    }
+
     /// Slabs for `ranks` ranks over the blocks whose particle counts are
     /// `histogram` (one entry per block index): each slab ends at the block
     /// boundary nearest to its equal share of the particles.
