@@ -19,7 +19,6 @@
 
 pub mod binning;
 pub mod block_sums;
-mod coloring;
 pub mod contact;
 mod disjoint;
 pub mod g2p;
@@ -33,8 +32,10 @@ pub mod particles;
 pub mod profile;
 pub mod reference;
 pub mod simulation;
+mod snapshot_check;
 pub mod snow_model;
 pub mod spindrift;
+pub mod view;
 pub mod wind;
 
 pub use block_sums::SumTrade;
@@ -43,3 +44,4 @@ pub use particles::{Particles, PermuteBuffers};
 pub use profile::PhaseTimes;
 pub use simulation::{Diagnostics, Simulation, SimulationError, Snapshot};
 pub use spindrift::{Drift, Escaped};
+pub use view::SnowView;

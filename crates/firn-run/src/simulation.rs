@@ -158,7 +158,7 @@ impl Solver {
             (HostSimulation::Snow(simulation), Placement::Gpu(context)) => {
                 let scene = simulation.scene().clone();
                 let device =
-                    GpuSnow::from_snapshot(Arc::clone(context), scene, simulation.snapshot())?;
+                    GpuSnow::from_snapshot(Arc::clone(context), scene, &simulation.snapshot())?;
                 Engine::GpuSnow(Box::new(OnGpu {
                     device,
                     steps: simulation.steps(),
@@ -167,7 +167,7 @@ impl Solver {
             }
             (HostSimulation::Flow(flow), Placement::Gpu(context)) => {
                 let scene = flow.scene().clone();
-                let device = GpuFlow::from_snapshot(Arc::clone(context), scene, flow.snapshot())?;
+                let device = GpuFlow::from_snapshot(Arc::clone(context), scene, &flow.snapshot())?;
                 Engine::GpuFlow(Box::new(OnGpu {
                     device,
                     steps: flow.substeps(),
@@ -615,7 +615,7 @@ impl<'a> HostState<'a> {
                 HostParticles {
                     positions: &particles.position,
                     masses: Some(&particles.mass),
-                    values: simulation.color_values(color_by),
+                    values: simulation.view().color_values(color_by),
                     trails: None,
                     drift: simulation
                         .scene()
