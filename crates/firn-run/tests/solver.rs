@@ -69,6 +69,12 @@ fn a_flow_checkpoint_resumes_to_the_same_bits_as_an_uninterrupted_run() {
 }
 
 #[test]
+fn a_solver_moves_between_threads_and_is_shared() {
+    fn send_and_sync<T: Send + Sync>() {}
+    send_and_sync::<Solver>();
+}
+
+#[test]
 fn counters_follow_the_frames() {
     let mut solver = Solver::new(common::flow(), &Placement::Cpu).unwrap();
     assert_eq!((solver.frame(), solver.steps(), solver.time()), (0, 0, 0.0));

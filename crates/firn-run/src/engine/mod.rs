@@ -22,8 +22,10 @@ use crate::error::RunError;
 use crate::simulation::{HostState, SolverOptions, SolverState};
 
 /// A simulation on one backend, behind the [`Solver`](crate::Solver)'s
-/// methods of the same names (whose comments say what each does).
-pub(crate) trait Engine: Send {
+/// methods of the same names (whose comments say what each does). `Send`
+/// and `Sync`, as the solver is: front doors step it on other threads, and
+/// Python shares it.
+pub(crate) trait Engine: Send + Sync {
     /// The scene as it runs now.
     fn scene(&self) -> &Scene;
 
