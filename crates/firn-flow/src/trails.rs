@@ -168,7 +168,7 @@ impl Trails {
     }
 
     /// Trails from the raw state of [`Trails::raw`]; `None` if the arrays do
-    /// not fit together ([`raw_fits`]).
+    /// not fit together.
     pub fn from_raw(
         capacity: usize,
         head: usize,
