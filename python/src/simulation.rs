@@ -8,7 +8,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use firn_core::scene::{Backend, SceneKind};
-use firn_flow::FlowSimulation as FlowHost;
+use firn_flow::FlowView;
 use firn_mpm::particles::Particles;
 use firn_render::scene_view::{scene_camera, scene_picture};
 use firn_run::pictures::frame_particles;
@@ -458,7 +458,7 @@ impl Simulation {
 /// The snow particles in host memory.
 fn snow(solver: &mut Solver) -> PyResult<&Particles> {
     match solver.host()? {
-        HostState::Snow(simulation) => Ok(simulation.particles()),
+        HostState::Snow(snow) => Ok(snow.particles()),
         HostState::Flow(_) => Err(simulation_error("not a snow simulation")),
     }
 }
@@ -552,9 +552,10 @@ impl FlowSimulation {
         let points = points_from_numpy(&points)?;
         let flow = flow(this.as_super())?;
         let t = time.unwrap_or(flow.time());
+        let field = flow.field();
         let values: Vec<f64> = points
             .iter()
-            .flat_map(|&x| flow.field().velocity_f64(x, t).to_array())
+            .flat_map(|&x| field.velocity_f64(x, t).to_array())
             .collect();
         PyArray1::from_vec(py, values).reshape([points.len(), 3])
     }
@@ -608,7 +609,7 @@ impl FlowSimulation {
 }
 
 /// The flow in host memory.
-fn flow(solver: &mut Solver) -> PyResult<&FlowHost> {
+fn flow(solver: &mut Solver) -> PyResult<FlowView<'_>> {
     match solver.host()? {
         HostState::Flow(flow) => Ok(flow),
         HostState::Snow(_) => Err(simulation_error("not a flow simulation")),

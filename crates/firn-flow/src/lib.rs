@@ -12,6 +12,9 @@
 //!   v = s · curl ψ' (seed eq. 4), exact or by central differences;
 //! - [`emitters`], [`particles`], [`trails`]: where particles are born, their
 //!   state (structure of arrays) and their recent positions;
+//! - [`snapshot`] and [`view`]: a flow's state as plain arrays (where
+//!   every backend starts, [`FlowSnapshot::initial`]) and borrowed from a
+//!   simulation or a snapshot alike ([`FlowView`]);
 //! - [`integrate`] and [`simulation`]: RK2/RK4 steps, 16 (AVX-512), 16
 //!   (AVX2, two registers) or 8 portable lanes per SIMD batch, chosen at run time ([`Simd`]), in
 //!   parallel with rayon, bit-identical for any thread count and code path;
@@ -53,13 +56,15 @@ pub mod particles;
 pub mod parts;
 pub mod random;
 pub mod simulation;
+pub mod snapshot;
 pub mod trails;
+pub mod view;
 
 pub use field::FlowField;
 pub use integrate::Simd;
 pub use particles::FlowParticles;
 pub use parts::{FlowPart, FlowPartState};
-pub use simulation::{
-    FlowError, FlowSimulation, FlowSnapshot, position_color, scene_with_settings,
-};
-pub use trails::Trails;
+pub use simulation::{FlowError, FlowSimulation, position_color, scene_with_settings};
+pub use snapshot::FlowSnapshot;
+pub use trails::{Trails, TrailsView};
+pub use view::FlowView;

@@ -37,6 +37,16 @@ impl FlowParticles {
         self.positions.is_empty()
     }
 
+    /// Makes room for `additional` more particles in every array.
+    pub fn reserve(&mut self, additional: usize) {
+        self.positions.reserve(additional);
+        self.velocities.reserve(additional);
+        self.ages.reserve(additional);
+        self.lifetimes.reserve(additional);
+        self.generations.reserve(additional);
+        self.emitters.reserve(additional);
+    }
+
     /// Appends the first life of particle `id` of emitter `index` (scene
     /// seed `seed`), `age` seconds old: at its birth point, at rest (the
     /// caller sets its velocity), with its drawn lifetime.

@@ -33,6 +33,7 @@ use crate::integrate::{self, Chunk, Limits, MAX_LANES, Simd, Stages};
 use crate::lanes::F32s;
 use crate::particles::FlowParticles;
 use crate::parts::{FlowPart, FlowPartState};
+use crate::snapshot::{FlowSnapshot, run_slots};
 use crate::trails::Trails;
 
 /// Particles per parallel task (a multiple of the SIMD batch), and the unit
@@ -71,38 +72,6 @@ impl fmt::Display for FlowError {
 
 impl std::error::Error for FlowError {}
 
-/// The full state needed to continue a flow bit for bit: plain arrays, so a
-/// caller can store them (e.g. in a `firn_io::Checkpoint`, one array each).
-#[derive(Clone, Debug, PartialEq)]
-pub struct FlowSnapshot {
-    /// Substeps taken since time 0.
-    pub substeps: u64,
-    /// Particles born so far by each emitter.
-    pub births: Vec<u64>,
-    /// Particle positions.
-    pub positions: Vec<Vec3>,
-    /// Particle velocities.
-    pub velocities: Vec<Vec3>,
-    /// Ages in the current life.
-    pub ages: Vec<f32>,
-    /// Lengths of the current lives.
-    pub lifetimes: Vec<f32>,
-    /// Generations.
-    pub generations: Vec<u32>,
-    /// Emitter of each particle.
-    pub emitters: Vec<u32>,
-    /// Positions kept per trail (0: trails off).
-    pub trail_capacity: u32,
-    /// Ring slot of the newest trail position.
-    pub trail_head: u32,
-    /// Trail rings, particle-major, `trail_capacity` each.
-    pub trail_points: Vec<Vec3>,
-    /// Valid positions per trail.
-    pub trail_lengths: Vec<u32>,
-    /// Generation of each particle when its trail last recorded.
-    pub trail_generations: Vec<u32>,
-}
-
 /// A running curl-noise particle flow on the CPU (seed 002).
 #[derive(Clone, Debug)]
 pub struct FlowSimulation {
@@ -122,46 +91,26 @@ pub struct FlowSimulation {
 impl FlowSimulation {
     /// Checks the scene, makes the particles of time 0 (every `count`
     /// emitter's, and the first of each `rate` emitter) and, if the scene
-    /// renders trails, their first trail point.
+    /// renders trails, their first trail point ([`FlowSnapshot::initial`]).
     pub fn new(scene: Scene) -> Result<FlowSimulation, FlowError> {
-        let mut simulation = FlowSimulation::empty(scene)?;
-        let settings = simulation.settings.clone();
-        for (index, emitter) in settings.emitters.iter().enumerate() {
-            let count = emitters::births_by(emitter, simulation.slots[index], 0.0);
-            simulation.births[index] = count;
-            simulation.reserve(count as usize);
-            for k in 0..count {
-                simulation.push_newborn(index, 0.0 - emitters::birth_time(emitter, k) as f32);
-            }
-        }
-        simulation.push_out_of_obstacles_all();
-        simulation.refresh_velocities();
-        if simulation
-            .scene
-            .render
-            .styles
-            .contains(&firn_core::scene::RenderStyle::Trails)
-        {
-            simulation.enable_trails(simulation.scene.render.trail_length as usize);
-        }
-        Ok(simulation)
+        let initial = FlowSnapshot::initial(&scene)?;
+        Ok(FlowSimulation::from_checked(scene, initial))
     }
 
     /// Continues from a snapshot taken by [`FlowSimulation::snapshot`] of the
-    /// same scene.
+    /// same scene, once [`FlowSnapshot::check`] accepts it.
     pub fn from_snapshot(
         scene: Scene,
         snapshot: FlowSnapshot,
     ) -> Result<FlowSimulation, FlowError> {
-        let mut simulation = FlowSimulation::empty(scene)?;
-        let mismatch = |what: String| Err(FlowError::SnapshotMismatch(what));
-        if snapshot.births.len() != simulation.slots.len() {
-            return mismatch(format!(
-                "it has {} emitters, the scene {}",
-                snapshot.births.len(),
-                simulation.slots.len()
-            ));
-        }
+        snapshot.check(&scene)?;
+        Ok(FlowSimulation::from_checked(scene, snapshot))
+    }
+
+    /// The flow of `scene` from `snapshot`, which fits it (checked by
+    /// [`FlowSnapshot::check`], or made by [`FlowSnapshot::initial`]).
+    fn from_checked(scene: Scene, snapshot: FlowSnapshot) -> FlowSimulation {
+        let settings = scene.kind.flow().expect("checked: a flow scene").clone();
         let particles = FlowParticles {
             positions: snapshot.positions,
             velocities: snapshot.velocities,
@@ -170,65 +119,30 @@ impl FlowSimulation {
             generations: snapshot.generations,
             emitters: snapshot.emitters,
         };
-        if !particles.is_consistent() {
-            return mismatch("its particle arrays differ in length".into());
-        }
-        let expected: u64 = snapshot.births.iter().sum();
-        if expected != particles.len() as u64 {
-            return mismatch(format!(
-                "it has {} particles but its emitters made {expected}",
-                particles.len()
-            ));
-        }
-        let emitter_count = simulation.slots.len() as u32;
-        if particles.emitters.iter().any(|e| *e >= emitter_count) {
-            return mismatch("a particle names an emitter the scene lacks".into());
-        }
-        simulation.particles = particles;
-        simulation.births = snapshot.births;
-        simulation.substeps = snapshot.substeps;
-        if snapshot.trail_capacity > 0 {
-            let trails = Trails::from_raw(
+        let trails = (snapshot.trail_capacity > 0).then(|| {
+            let mut trails = Trails::from_raw(
                 snapshot.trail_capacity as usize,
                 snapshot.trail_head as usize,
                 snapshot.trail_points,
                 snapshot.trail_lengths,
                 snapshot.trail_generations,
-            );
-            match trails {
-                Some(mut trails) => {
-                    // As after every substep: a ring for every particle.
-                    trails.cover(simulation.particles.len());
-                    simulation.trails = Some(trails);
-                }
-                None => return mismatch("its trail arrays do not fit together".into()),
-            }
-        }
-        Ok(simulation)
-    }
-
-    /// A simulation of the scene with no particles yet.
-    fn empty(scene: Scene) -> Result<FlowSimulation, FlowError> {
-        let settings = scene.kind.flow().ok_or(FlowError::NotAFlowScene)?.clone();
-        scene
-            .validate()
-            .map_err(|error| FlowError::Scene(Box::new(error)))?;
-        let slots = settings
-            .emitters
-            .iter()
-            .map(|emitter| emitter.slots(scene.time.duration))
-            .collect();
-        Ok(FlowSimulation {
+            )
+            .expect("checked: the trail arrays fit together");
+            // As after every substep: a ring for every particle.
+            trails.cover(particles.len());
+            trails
+        });
+        FlowSimulation {
             field: FlowField::new(&settings),
-            births: vec![0; settings.emitters.len()],
-            slots,
+            slots: run_slots(&scene, &settings),
+            births: snapshot.births,
+            substeps: snapshot.substeps,
             settings,
             scene,
-            particles: FlowParticles::default(),
-            trails: None,
-            substeps: 0,
+            particles,
+            trails,
             simd: Simd::detect(),
-        })
+        }
     }
 
     /// Replaces the field's parameters while the flow runs (an interactive
@@ -245,8 +159,15 @@ impl FlowSimulation {
         self.field = FlowField::new(settings);
         self.settings = settings.clone();
         self.scene = scene;
-        self.push_out_of_obstacles_all();
-        self.refresh_velocities();
+        push_out_all(&self.settings, &mut self.particles.positions);
+        let time = self.time();
+        refresh_velocities(
+            self.simd,
+            &self.field,
+            &self.settings,
+            time,
+            &mut self.particles,
+        );
         Ok(())
     }
 
@@ -501,7 +422,7 @@ impl FlowSimulation {
             if target <= first {
                 continue;
             }
-            self.reserve((target - first) as usize);
+            self.particles.reserve((target - first) as usize);
             for k in first..target {
                 let age = (t - emitters::birth_time(&emitter, k)).max(0.0) as f32;
                 self.push_newborn(index, age);
@@ -520,16 +441,6 @@ impl FlowSimulation {
         }
     }
 
-    fn reserve(&mut self, additional: usize) {
-        let particles = &mut self.particles;
-        particles.positions.reserve(additional);
-        particles.velocities.reserve(additional);
-        particles.ages.reserve(additional);
-        particles.lifetimes.reserve(additional);
-        particles.generations.reserve(additional);
-        particles.emitters.reserve(additional);
-    }
-
     /// Append the first life of a new particle of emitter `index`.
     fn push_newborn(&mut self, index: usize, age: f32) {
         let id = self.particles.len() as u64;
@@ -542,67 +453,9 @@ impl FlowSimulation {
         );
     }
 
-    fn push_out_of_obstacles_all(&mut self) {
-        let settings = &self.settings;
-        self.particles.positions.par_iter_mut().for_each(|x| {
-            *x = push_out(settings, *x);
-        });
-    }
-
-    /// Velocities of all particles at the current time.
-    fn refresh_velocities(&mut self) {
-        let time = self.time();
-        let simd = self.simd;
-        let field = &self.field;
-        let settings = &self.settings;
-        let particles = &mut self.particles;
-        particles
-            .positions
-            .par_chunks(CHUNK)
-            .zip(particles.velocities.par_chunks_mut(CHUNK))
-            .zip(particles.ages.par_chunks(CHUNK))
-            .zip(particles.emitters.par_chunks(CHUNK))
-            .for_each(|(((positions, velocities), ages), owners)| {
-                integrate::evaluate(simd, field, time, positions, velocities);
-                for ((velocity, age), owner) in velocities.iter_mut().zip(ages).zip(owners) {
-                    let emitter = &settings.emitters[*owner as usize];
-                    *velocity += emitters::kick_velocity(emitter, *age);
-                }
-            });
-    }
-
     /// Everything needed to continue this run bit for bit.
     pub fn snapshot(&self) -> FlowSnapshot {
-        let particles = self.particles.clone();
-        let (trail_capacity, trail_head, trail_points, trail_lengths, trail_generations) =
-            match &self.trails {
-                Some(trails) => {
-                    let (capacity, head, points, lengths, generations) = trails.raw();
-                    (
-                        capacity as u32,
-                        head as u32,
-                        points.to_vec(),
-                        lengths.to_vec(),
-                        generations.to_vec(),
-                    )
-                }
-                None => (0, 0, Vec::new(), Vec::new(), Vec::new()),
-            };
-        FlowSnapshot {
-            substeps: self.substeps,
-            births: self.births.clone(),
-            positions: particles.positions,
-            velocities: particles.velocities,
-            ages: particles.ages,
-            lifetimes: particles.lifetimes,
-            generations: particles.generations,
-            emitters: particles.emitters,
-            trail_capacity,
-            trail_head,
-            trail_points,
-            trail_lengths,
-            trail_generations,
-        }
+        self.view().snapshot()
     }
 
     /// The scene being simulated.
@@ -779,6 +632,38 @@ pub fn position_color(min: Vec3, max: Vec3, x: Vec3) -> [f32; 3] {
     ((x - center).abs() / half)
         .clamp(Vec3::ZERO, Vec3::ONE)
         .to_array()
+}
+
+/// Moves every point of `positions` inside an obstacle of `settings` out
+/// of it.
+pub(crate) fn push_out_all(settings: &FlowSettings, positions: &mut [Vec3]) {
+    positions.par_iter_mut().for_each(|x| {
+        *x = push_out(settings, *x);
+    });
+}
+
+/// Sets the velocities of all `particles` to the field's at `time`, plus
+/// what is left of their emitters' birth velocities.
+pub(crate) fn refresh_velocities(
+    simd: Simd,
+    field: &FlowField,
+    settings: &FlowSettings,
+    time: f64,
+    particles: &mut FlowParticles,
+) {
+    particles
+        .positions
+        .par_chunks(CHUNK)
+        .zip(particles.velocities.par_chunks_mut(CHUNK))
+        .zip(particles.ages.par_chunks(CHUNK))
+        .zip(particles.emitters.par_chunks(CHUNK))
+        .for_each(|(((positions, velocities), ages), owners)| {
+            integrate::evaluate(simd, field, time, positions, velocities);
+            for ((velocity, age), owner) in velocities.iter_mut().zip(ages).zip(owners) {
+                let emitter = &settings.emitters[*owner as usize];
+                *velocity += emitters::kick_velocity(emitter, *age);
+            }
+        });
 }
 
 /// The velocity at one point from the scalar prepared field.

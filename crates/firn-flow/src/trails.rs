@@ -64,36 +64,36 @@ impl Trails {
     /// Particle `p`'s positions from the oldest to the newest (the current
     /// position, at the last recorded frame); `.rev()` gives newest first.
     pub fn iter(&self, p: usize) -> impl DoubleEndedIterator<Item = Vec3> + ExactSizeIterator + '_ {
-        let length = self.lengths[p] as usize;
-        let capacity = self.capacity;
-        // The oldest kept position sits length − 1 slots behind the head.
-        let oldest = self.head + capacity - (length.max(1) - 1);
-        let ring = &self.points[p * capacity..(p + 1) * capacity];
-        (0..length).map(move |i| ring[(oldest + i) % capacity])
+        self.view().iter(p)
     }
 
     /// Every ring unrolled oldest first, as renderers read trails: particle
     /// p's positions are `points[p * capacity..][..lengths[p]]`.
     pub fn oldest_first(&self) -> (Vec<Vec3>, Vec<u32>) {
-        let count = self.particle_count();
-        let mut points = vec![Vec3::ZERO; self.capacity * count];
-        for particle in 0..count {
-            let row = &mut points[particle * self.capacity..][..self.capacity];
-            for (slot, point) in row.iter_mut().zip(self.iter(particle)) {
-                *slot = point;
-            }
+        self.view().oldest_first()
+    }
+
+    /// The trails, borrowed.
+    pub fn view(&self) -> TrailsView<'_> {
+        TrailsView {
+            capacity: self.capacity,
+            head: self.head,
+            points: &self.points,
+            lengths: &self.lengths,
+            generations: &self.generations,
         }
-        (points, self.lengths.clone())
     }
 
     /// Gives particles up to `count` an empty ring (as recording their
     /// first position would, before it records).
     pub(crate) fn cover(&mut self, count: usize) {
-        if self.lengths.len() < count {
-            self.points.resize(count * self.capacity, Vec3::ZERO);
-            self.lengths.resize(count, 0);
-            self.generations.resize(count, u32::MAX);
-        }
+        cover_rings(
+            self.capacity,
+            count,
+            &mut self.points,
+            &mut self.lengths,
+            &mut self.generations,
+        );
     }
 
     /// Record the current positions as the newest trail points.
@@ -153,12 +153,17 @@ impl Trails {
     /// The raw state, for checkpoints: capacity, head slot, rings, lengths and
     /// recorded generations.
     pub fn raw(&self) -> (usize, usize, &[Vec3], &[u32], &[u32]) {
+        self.view().raw()
+    }
+
+    /// The raw state of [`Trails::raw`], taken out.
+    pub fn into_raw(self) -> (usize, usize, Vec<Vec3>, Vec<u32>, Vec<u32>) {
         (
             self.capacity,
             self.head,
-            &self.points,
-            &self.lengths,
-            &self.generations,
+            self.points,
+            self.lengths,
+            self.generations,
         )
     }
 
@@ -171,18 +176,125 @@ impl Trails {
         lengths: Vec<u32>,
         generations: Vec<u32>,
     ) -> Option<Trails> {
-        let fits = capacity >= 1
-            && head < capacity
-            && points.len() == lengths.len() * capacity
-            && generations.len() == lengths.len()
-            && lengths.iter().all(|length| *length as usize <= capacity);
-        fits.then_some(Trails {
+        let trails = Trails {
             capacity,
             head,
             points,
             lengths,
             generations,
-        })
+        };
+        raw_fits(trails.view()).then_some(trails)
+    }
+}
+
+/// Whether the raw arrays of `trails` fit together: a ring of `capacity`
+/// points and a generation per length, no length above the capacity, and
+/// the head inside the ring.
+pub(crate) fn raw_fits(trails: TrailsView<'_>) -> bool {
+    let TrailsView {
+        capacity,
+        head,
+        points,
+        lengths,
+        generations,
+    } = trails;
+    capacity >= 1
+        && head < capacity
+        && points.len() == lengths.len() * capacity
+        && generations.len() == lengths.len()
+        && lengths.iter().all(|length| *length as usize <= capacity)
+}
+
+/// Gives particles up to `count` an empty ring of `capacity` points in the
+/// raw arrays (length 0, never recorded).
+pub(crate) fn cover_rings(
+    capacity: usize,
+    count: usize,
+    points: &mut Vec<Vec3>,
+    lengths: &mut Vec<u32>,
+    generations: &mut Vec<u32>,
+) {
+    if lengths.len() < count {
+        points.resize(count * capacity, Vec3::ZERO);
+        lengths.resize(count, 0);
+        generations.resize(count, u32::MAX);
+    }
+}
+
+/// The recent positions of every particle, borrowed from [`Trails`] or
+/// from a snapshot's raw arrays.
+#[derive(Clone, Copy, Debug)]
+pub struct TrailsView<'a> {
+    capacity: usize,
+    head: usize,
+    points: &'a [Vec3],
+    lengths: &'a [u32],
+    generations: &'a [u32],
+}
+
+impl<'a> TrailsView<'a> {
+    /// The raw state of [`Trails::raw`], borrowed; `None` if the arrays do
+    /// not fit together (or the capacity is 0: no trails).
+    pub(crate) fn from_raw(
+        capacity: usize,
+        head: usize,
+        points: &'a [Vec3],
+        lengths: &'a [u32],
+        generations: &'a [u32],
+    ) -> Option<TrailsView<'a>> {
+        let trails = TrailsView {
+            capacity,
+            head,
+            points,
+            lengths,
+            generations,
+        };
+        raw_fits(trails).then_some(trails)
+    }
+
+    /// Positions kept per particle.
+    pub fn capacity(self) -> usize {
+        self.capacity
+    }
+
+    /// Particles with a ring.
+    pub fn particle_count(self) -> usize {
+        self.lengths.len()
+    }
+
+    /// Particle `p`'s positions from the oldest to the newest, as
+    /// [`Trails::iter`].
+    pub fn iter(self, p: usize) -> impl DoubleEndedIterator<Item = Vec3> + ExactSizeIterator + 'a {
+        let length = self.lengths[p] as usize;
+        let capacity = self.capacity;
+        // The oldest kept position sits length − 1 slots behind the head.
+        let oldest = self.head + capacity - (length.max(1) - 1);
+        let ring = &self.points[p * capacity..(p + 1) * capacity];
+        (0..length).map(move |i| ring[(oldest + i) % capacity])
+    }
+
+    /// Every ring unrolled oldest first, as [`Trails::oldest_first`].
+    pub fn oldest_first(self) -> (Vec<Vec3>, Vec<u32>) {
+        let count = self.particle_count();
+        let mut points = vec![Vec3::ZERO; self.capacity * count];
+        for particle in 0..count {
+            let row = &mut points[particle * self.capacity..][..self.capacity];
+            for (slot, point) in row.iter_mut().zip(self.iter(particle)) {
+                *slot = point;
+            }
+        }
+        (points, self.lengths.to_vec())
+    }
+
+    /// The raw state, as [`Trails::raw`].
+    pub fn raw(self) -> (usize, usize, &'a [Vec3], &'a [u32], &'a [u32]) {
+        (
+            self.capacity,
+            self.head,
+            self.points,
+            self.lengths,
+            self.generations,
+        )
     }
 }
 

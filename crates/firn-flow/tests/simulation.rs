@@ -216,6 +216,24 @@ fn parts_stepped_apart_and_collected_give_the_whole_flows_bits() {
 }
 
 #[test]
+fn the_initial_snapshot_is_where_a_flow_starts_and_reads_as_one() {
+    let scene = busy();
+    let initial = FlowSnapshot::initial(&scene).unwrap();
+    let flow = FlowSimulation::new(scene.clone()).unwrap();
+    assert!(initial == flow.snapshot(), "the flow starts elsewhere");
+    assert_eq!(initial.trail_capacity, 8);
+    assert!(initial.velocities.iter().all(|v| *v != Vec3::ZERO));
+    let (of_snapshot, of_flow) = (initial.view(&scene).unwrap(), flow.view());
+    assert_eq!(of_snapshot.time(), of_flow.time());
+    assert_eq!(of_snapshot.positions(), flow.positions());
+    assert_eq!(of_snapshot.field(), *flow.field());
+    let rings = |view: firn_flow::FlowView<'_>| view.trails().map(|t| t.oldest_first());
+    assert_eq!(rings(of_snapshot), flow.trails().map(|t| t.oldest_first()));
+    assert_eq!(rings(of_snapshot), rings(of_flow));
+    assert!(of_snapshot.snapshot() == initial);
+}
+
+#[test]
 fn a_snapshot_of_another_scene_is_refused() {
     let flow = FlowSimulation::new(busy()).unwrap();
     let mut snapshot = flow.snapshot();

@@ -410,7 +410,7 @@ fn snapshots_continue_bit_for_bit() {
     let middle = first.snapshot().unwrap();
     // The CPU takes the GPU's state as its own.
     FlowSimulation::from_snapshot(scene.clone(), middle.clone()).unwrap();
-    let mut second = GpuFlow::from_snapshot(context, scene.clone(), middle.clone()).unwrap();
+    let mut second = GpuFlow::from_snapshot(context, scene.clone(), &middle).unwrap();
     assert_eq!(second.time(), first.time());
     assert_eq!(second.snapshot().unwrap(), middle);
     assert_eq!(first.advance_to(0.6).unwrap(), 18);
@@ -437,6 +437,6 @@ fn snow_scenes_and_mismatched_snapshots_are_refused() {
     };
     let mut snapshot = FlowSimulation::new(small_demo()).unwrap().snapshot();
     snapshot.births.push(0);
-    let refused = GpuFlow::from_snapshot(context, small_demo(), snapshot);
+    let refused = GpuFlow::from_snapshot(context, small_demo(), &snapshot);
     assert!(matches!(refused, Err(GpuError::Flow(_))));
 }

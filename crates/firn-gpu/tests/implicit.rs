@@ -101,8 +101,8 @@ fn one_substep(scene: &Scene, state: Snapshot) -> Option<OneSubstep> {
     let context = context_for_tests()?;
     let until = state.time + fixed_dt(scene);
     let before = state.particles.clone();
-    let mut cpu = Simulation::from_snapshot(scene.clone(), state.clone()).unwrap();
-    let mut gpu = GpuSnow::from_snapshot(context, scene.clone(), state).unwrap();
+    let mut gpu = GpuSnow::from_snapshot(context, scene.clone(), &state).unwrap();
+    let mut cpu = Simulation::from_snapshot(scene.clone(), state).unwrap();
     cpu.step(until).unwrap();
     assert_eq!(gpu.advance_to(until).unwrap(), 1);
     let after = gpu.snapshot().unwrap().particles;

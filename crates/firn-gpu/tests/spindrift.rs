@@ -306,7 +306,7 @@ fn a_run_resumed_with_drift_in_the_air_continues_as_the_straight_run() {
     }
     let middle = first.snapshot().unwrap();
     assert!(!middle.drift.is_empty(), "no drift to resume with");
-    let mut resumed = GpuSnow::from_snapshot(context, scene, middle).unwrap();
+    let mut resumed = GpuSnow::from_snapshot(context, scene, &middle).unwrap();
     resumed.advance_to(0.06).unwrap();
     let (a, b) = (straight.snapshot().unwrap(), resumed.snapshot().unwrap());
     assert_eq!(

@@ -260,7 +260,7 @@ impl<E: Exchange> RankSnow<E> {
     pub fn write_vtk_piece(&mut self, index: u32, run: &RunDirectory) -> Result<String, RunError> {
         let name = RunDirectory::vtk_piece_name(index, self.rank());
         let written = caches::write_snow_vtk_piece(
-            self.simulation(),
+            self.simulation().view(),
             self.owned(),
             index,
             &run.path().join(&name),
@@ -285,7 +285,7 @@ impl<E: Exchange> RankSnow<E> {
         let written =
             firn_io::ensure_writable_dir(path.parent().unwrap_or(run.path())).and_then(|()| {
                 checkpoint::write_piece(
-                    &self.own_snapshot(),
+                    self.own_snapshot().view(self.simulation().scene()),
                     self.own_keys(),
                     frame,
                     scene_json,

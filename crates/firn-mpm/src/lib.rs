@@ -19,7 +19,6 @@
 
 pub mod binning;
 pub mod block_sums;
-mod coloring;
 pub mod contact;
 pub mod diagnostics;
 mod disjoint;
@@ -37,6 +36,7 @@ pub mod simulation;
 pub mod snapshot;
 pub mod snow_model;
 pub mod spindrift;
+pub mod view;
 pub mod wind;
 
 pub use block_sums::SumTrade;
@@ -45,3 +45,4 @@ pub use particles::{Particles, PermuteBuffers};
 pub use profile::PhaseTimes;
 pub use simulation::{Diagnostics, Simulation, SimulationError, Snapshot};
 pub use spindrift::{Drift, Escaped};
+pub use view::SnowView;

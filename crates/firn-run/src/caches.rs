@@ -16,7 +16,7 @@ use firn_io::{
     write_mesh_obj, write_mesh_ply, write_ply, write_usd_frame, write_vdb, write_vtp,
 };
 use firn_mesh::TriangleMesh;
-use firn_mpm::{Particles, Simulation};
+use firn_mpm::{Particles, SnowView};
 use glam::Vec3;
 
 use crate::run_dir::RunDirectory;
@@ -133,7 +133,7 @@ pub fn write_frame_with_pieces(
 ) -> Result<WrittenFrame, IoError> {
     let mut collection = Collection { pvd, vtk_pieces };
     match state {
-        HostState::Snow(simulation) => write_snow_frame(simulation, index, run, &mut collection),
+        HostState::Snow(snow) => write_snow_frame(snow, index, run, &mut collection),
         HostState::Flow(flow) => {
             let frame = FrameData::new(index, flow.time(), flow.positions())
                 .with_attribute(Attribute::vector("velocity", flow.velocities()))
@@ -230,18 +230,18 @@ struct DerivedAttributes<'a> {
 
 /// Writes a snow frame with the scene's `[output] attributes`.
 fn write_snow_frame(
-    simulation: &Simulation,
+    snow: SnowView<'_>,
     index: u32,
     run: &RunDirectory,
     collection: &mut Collection<'_>,
 ) -> Result<WrittenFrame, IoError> {
-    let scene = simulation.scene();
-    let particles = simulation.particles();
-    let derived = DerivedAttributes::of(simulation);
-    let frame = snow_frame(simulation, index, &derived, particles.len());
+    let scene = snow.scene();
+    let particles = snow.particles();
+    let derived = DerivedAttributes::of(snow);
+    let frame = snow_frame(snow, index, &derived, particles.len());
     let drift = scene.spindrift().map(|_| {
-        let drift = simulation.drift();
-        FrameData::new(index, simulation.time(), &drift.position)
+        let drift = snow.drift();
+        FrameData::new(index, snow.time(), &drift.position)
             .with_attribute(Attribute::vector("velocity", &drift.velocity))
             .with_attribute(Attribute::scalar("mass", &drift.mass))
     });
@@ -250,7 +250,7 @@ fn write_snow_frame(
     if formats.contains(&CacheFormat::Vdb) {
         grids = scene_volumes(scene, particles);
         if scene.spindrift().is_some() {
-            let drift = simulation.drift();
+            let drift = snow.drift();
             grids.push(drift_volume(scene, &drift.position, &drift.mass));
         }
     }
@@ -270,24 +270,24 @@ fn write_snow_frame(
     })
 }
 
-/// Writes the first `count` particles of `simulation` (a rank's own, in a
-/// run split between MPI ranks) at `path` as frame `index`'s VTK PolyData
+/// Writes the first `count` particles of `snow` (a rank's own, in a run
+/// split between MPI ranks) at `path` as frame `index`'s VTK PolyData
 /// piece, with the scene's `[output] attributes`, atomically.
 pub fn write_snow_vtk_piece(
-    simulation: &Simulation,
+    snow: SnowView<'_>,
     count: usize,
     index: u32,
     path: &Path,
 ) -> Result<(), IoError> {
-    let derived = DerivedAttributes::of(simulation);
-    write_vtp(path, &snow_frame(simulation, index, &derived, count))
+    let derived = DerivedAttributes::of(snow);
+    write_vtp(path, &snow_frame(snow, index, &derived, count))
 }
 
 impl<'a> DerivedAttributes<'a> {
-    /// The attributes of `simulation`'s particles that it does not store:
+    /// The attributes of `snow`'s particles that it does not store:
     /// density, J_E and material as an unsigned integer.
-    fn of(simulation: &'a Simulation) -> DerivedAttributes<'a> {
-        let particles = simulation.particles();
+    fn of(snow: SnowView<'a>) -> DerivedAttributes<'a> {
+        let particles = snow.particles();
         DerivedAttributes {
             density: Box::new(|p| particles.density(p)),
             elastic_j: Box::new(|p| particles.elastic[p].determinant()),
@@ -296,17 +296,17 @@ impl<'a> DerivedAttributes<'a> {
     }
 }
 
-/// Frame `index` of the first `count` particles of `simulation`, with the
+/// Frame `index` of the first `count` particles of `snow`, with the
 /// scene's `[output] attributes`.
 fn snow_frame<'a>(
-    simulation: &'a Simulation,
+    snow: SnowView<'a>,
     index: u32,
     derived: &'a DerivedAttributes<'a>,
     count: usize,
 ) -> FrameData<'a> {
-    let particles = simulation.particles();
-    let mut frame = FrameData::new(index, simulation.time(), &particles.position[..count]);
-    for attribute in &simulation.scene().output.attributes {
+    let particles = snow.particles();
+    let mut frame = FrameData::new(index, snow.time(), &particles.position[..count]);
+    for attribute in &snow.scene().output.attributes {
         frame = frame.with_attribute(attribute_data(*attribute, particles, derived, count));
     }
     frame

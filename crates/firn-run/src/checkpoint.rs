@@ -10,14 +10,13 @@ use std::path::{Path, PathBuf};
 
 use firn_core::Scene;
 use firn_core::scene::SceneKind;
-use firn_flow::{FlowSimulation, FlowSnapshot};
+use firn_flow::{FlowSnapshot, FlowView};
 use firn_io::{Checkpoint, CheckpointView, IoError};
-use firn_mpm::{Drift, Escaped, Particles, Simulation, Snapshot};
-use glam::Vec3;
+use firn_mpm::{Drift, Escaped, Particles, Snapshot, SnowView};
 
 use crate::error::{CheckpointError, ResumeError, RunError};
 use crate::run_dir::RunDirectory;
-use crate::simulation::SolverState;
+use crate::simulation::{HostState, SolverState};
 
 /// A checkpoint read back.
 pub struct SavedCheckpoint {
@@ -30,150 +29,20 @@ pub struct SavedCheckpoint {
 }
 
 /// Writes `state`, taken after frame `frame` of the scene `scene_json`, to
-/// `path` (atomically).
+/// `path` (atomically). The arrays stream into the file from where they
+/// are (a solver's own, or a snapshot's: [`SolverState::view`]), so writing
+/// costs no copy of them.
 pub fn write(
-    state: &SolverState,
-    frame: u32,
-    scene_json: &serde_json::Value,
-    path: &Path,
-) -> Result<(), IoError> {
-    let state = match state {
-        SolverState::Snow(snapshot) => StateView::Snow(SnowView::of_snapshot(snapshot)),
-        SolverState::Flow(snapshot) => StateView::Flow(FlowView::of_snapshot(snapshot)),
-    };
-    write_view(state, frame, scene_json, path)
-}
-
-/// [`write()`] from a state that stays where it is (a solver's own arrays):
-/// the arrays stream into the file, so writing costs no copy of them.
-pub fn write_view(
-    state: StateView<'_>,
+    state: HostState<'_>,
     frame: u32,
     scene_json: &serde_json::Value,
     path: &Path,
 ) -> Result<(), IoError> {
     let checkpoint = match state {
-        StateView::Snow(snow) => snow_checkpoint(snow, frame, scene_json),
-        StateView::Flow(flow) => flow_checkpoint(flow, frame, scene_json),
+        HostState::Snow(snow) => snow_checkpoint(snow, frame, scene_json),
+        HostState::Flow(flow) => flow_checkpoint(flow, frame, scene_json),
     };
     checkpoint.write(path)
-}
-
-/// A solver's complete state, borrowed: what [`write_view`] writes.
-#[derive(Clone, Copy)]
-pub enum StateView<'a> {
-    /// A snow simulation's state.
-    Snow(SnowView<'a>),
-    /// A flow's state.
-    Flow(FlowView<'a>),
-}
-
-/// A snow simulation's state, borrowed from it or from a [`Snapshot`].
-#[derive(Clone, Copy)]
-pub struct SnowView<'a> {
-    time: f64,
-    steps: u64,
-    max_speed_squared: f32,
-    max_wave_speed_squared: f32,
-    particles: &'a Particles,
-    drift: &'a Drift,
-    escaped: Escaped,
-}
-
-impl<'a> SnowView<'a> {
-    /// The state `simulation` holds.
-    pub fn of_simulation(simulation: &'a Simulation) -> SnowView<'a> {
-        let (max_speed_squared, max_wave_speed_squared) = simulation.motion_bounds();
-        SnowView {
-            time: simulation.time(),
-            steps: simulation.steps(),
-            max_speed_squared,
-            max_wave_speed_squared,
-            particles: simulation.particles(),
-            drift: simulation.drift(),
-            escaped: simulation.escaped(),
-        }
-    }
-
-    /// The state `snapshot` holds.
-    pub fn of_snapshot(snapshot: &'a Snapshot) -> SnowView<'a> {
-        SnowView {
-            time: snapshot.time,
-            steps: snapshot.steps,
-            max_speed_squared: snapshot.max_speed_squared,
-            max_wave_speed_squared: snapshot.max_wave_speed_squared,
-            particles: &snapshot.particles,
-            drift: &snapshot.drift,
-            escaped: snapshot.escaped,
-        }
-    }
-}
-
-/// A flow's state, borrowed from it or from a [`FlowSnapshot`].
-#[derive(Clone, Copy)]
-pub struct FlowView<'a> {
-    substeps: u64,
-    births: &'a [u64],
-    positions: &'a [Vec3],
-    velocities: &'a [Vec3],
-    ages: &'a [f32],
-    lifetimes: &'a [f32],
-    generations: &'a [u32],
-    emitters: &'a [u32],
-    trail_capacity: u32,
-    trail_head: u32,
-    trail_points: &'a [Vec3],
-    trail_lengths: &'a [u32],
-    trail_generations: &'a [u32],
-}
-
-impl<'a> FlowView<'a> {
-    /// The state `flow` holds, as [`FlowSimulation::snapshot`] would copy it.
-    pub fn of_simulation(flow: &'a FlowSimulation) -> FlowView<'a> {
-        let particles = flow.particles();
-        let (trail_capacity, trail_head, trail_points, trail_lengths, trail_generations) =
-            match flow.trails() {
-                Some(trails) => {
-                    let (capacity, head, points, lengths, generations) = trails.raw();
-                    (capacity as u32, head as u32, points, lengths, generations)
-                }
-                None => (0, 0, &[][..], &[][..], &[][..]),
-            };
-        FlowView {
-            substeps: flow.substeps(),
-            births: flow.births(),
-            positions: &particles.positions,
-            velocities: &particles.velocities,
-            ages: &particles.ages,
-            lifetimes: &particles.lifetimes,
-            generations: &particles.generations,
-            emitters: &particles.emitters,
-            trail_capacity,
-            trail_head,
-            trail_points,
-            trail_lengths,
-            trail_generations,
-        }
-    }
-
-    /// The state `snapshot` holds.
-    pub fn of_snapshot(snapshot: &'a FlowSnapshot) -> FlowView<'a> {
-        FlowView {
-            substeps: snapshot.substeps,
-            births: &snapshot.births,
-            positions: &snapshot.positions,
-            velocities: &snapshot.velocities,
-            ages: &snapshot.ages,
-            lifetimes: &snapshot.lifetimes,
-            generations: &snapshot.generations,
-            emitters: &snapshot.emitters,
-            trail_capacity: snapshot.trail_capacity,
-            trail_head: snapshot.trail_head,
-            trail_points: &snapshot.trail_points,
-            trail_lengths: &snapshot.trail_lengths,
-            trail_generations: &snapshot.trail_generations,
-        }
-    }
 }
 
 /// Reads the checkpoint at `path` of a simulation of `scene`, and refuses
@@ -302,21 +171,23 @@ fn without_compute(scene: &serde_json::Value) -> serde_json::Value {
 
 /// A snow checkpoint: the counters (floats as their bits) and the particles.
 fn snow_checkpoint<'a>(
-    snapshot: SnowView<'a>,
+    snow: SnowView<'a>,
     frame: u32,
     scene_json: &serde_json::Value,
 ) -> CheckpointView<'a> {
+    let (max_speed_squared, max_wave_speed_squared) = snow.motion_bounds();
+    let escaped = snow.escaped();
     let mut checkpoint = CheckpointView::new(serde_json::json!({
         "frame": frame,
-        "time_bits": snapshot.time.to_bits(),
-        "steps": snapshot.steps,
-        "max_speed_squared_bits": snapshot.max_speed_squared.to_bits(),
-        "max_wave_speed_squared_bits": snapshot.max_wave_speed_squared.to_bits(),
-        "escaped_count": snapshot.escaped.count,
-        "escaped_mass_bits": snapshot.escaped.mass.to_bits(),
+        "time_bits": snow.time().to_bits(),
+        "steps": snow.steps(),
+        "max_speed_squared_bits": max_speed_squared.to_bits(),
+        "max_wave_speed_squared_bits": max_wave_speed_squared.to_bits(),
+        "escaped_count": escaped.count,
+        "escaped_mass_bits": escaped.mass.to_bits(),
         "scene": scene_json,
     }));
-    let p = snapshot.particles;
+    let p = snow.particles();
     checkpoint.push_array("position", &p.position);
     checkpoint.push_array("velocity", &p.velocity);
     checkpoint.push_array("mass", &p.mass);
@@ -326,7 +197,7 @@ fn snow_checkpoint<'a>(
     checkpoint.push_array("stress", &p.stress);
     checkpoint.push_array("velocity_gradient", &p.velocity_gradient);
     checkpoint.push_array("material", &p.material);
-    let drift = snapshot.drift;
+    let drift = snow.drift();
     checkpoint.push_array("drift_position", &drift.position);
     checkpoint.push_array("drift_velocity", &drift.velocity);
     checkpoint.push_array("drift_mass", &drift.mass);
@@ -337,28 +208,33 @@ fn snow_checkpoint<'a>(
 
 /// A flow checkpoint: the snapshot's arrays and its counters.
 fn flow_checkpoint<'a>(
-    snapshot: FlowView<'a>,
+    flow: FlowView<'a>,
     frame: u32,
     scene_json: &serde_json::Value,
 ) -> CheckpointView<'a> {
+    let (trail_capacity, trail_head, trail_points, trail_lengths, trail_generations) =
+        match flow.trails() {
+            Some(trails) => trails.raw(),
+            None => (0, 0, &[][..], &[][..], &[][..]),
+        };
     let mut checkpoint = CheckpointView::new(serde_json::json!({
         "kind": "flow",
         "frame": frame,
-        "substeps": snapshot.substeps,
-        "trail_capacity": snapshot.trail_capacity,
-        "trail_head": snapshot.trail_head,
+        "substeps": flow.substeps(),
+        "trail_capacity": trail_capacity,
+        "trail_head": trail_head,
         "scene": scene_json,
     }));
-    checkpoint.push_array("births", snapshot.births);
-    checkpoint.push_array("positions", snapshot.positions);
-    checkpoint.push_array("velocities", snapshot.velocities);
-    checkpoint.push_array("ages", snapshot.ages);
-    checkpoint.push_array("lifetimes", snapshot.lifetimes);
-    checkpoint.push_array("generations", snapshot.generations);
-    checkpoint.push_array("emitters", snapshot.emitters);
-    checkpoint.push_array("trail_points", snapshot.trail_points);
-    checkpoint.push_array("trail_lengths", snapshot.trail_lengths);
-    checkpoint.push_array("trail_generations", snapshot.trail_generations);
+    checkpoint.push_array("births", flow.births());
+    checkpoint.push_array("positions", flow.positions());
+    checkpoint.push_array("velocities", flow.velocities());
+    checkpoint.push_array("ages", flow.ages());
+    checkpoint.push_array("lifetimes", flow.lifetimes());
+    checkpoint.push_array("generations", flow.generations());
+    checkpoint.push_array("emitters", flow.emitters());
+    checkpoint.push_array("trail_points", trail_points);
+    checkpoint.push_array("trail_lengths", trail_lengths);
+    checkpoint.push_array("trail_generations", trail_generations);
     checkpoint
 }
 
@@ -508,16 +384,16 @@ pub struct PieceManifest {
 }
 
 /// Writes one rank's piece of a split run's checkpoint at `path`,
-/// atomically: a snow checkpoint of its own particles (`snapshot`) and
-/// their keys, each particle's place in the one-process array.
+/// atomically: a snow checkpoint of its own particles (`snow`) and their
+/// keys, each particle's place in the one-process array.
 pub fn write_piece(
-    snapshot: &Snapshot,
+    snow: SnowView<'_>,
     keys: &[u64],
     frame: u32,
     scene_json: &serde_json::Value,
     path: &Path,
 ) -> Result<(), IoError> {
-    let mut checkpoint = snow_checkpoint(SnowView::of_snapshot(snapshot), frame, scene_json);
+    let mut checkpoint = snow_checkpoint(snow, frame, scene_json);
     checkpoint.push_array("key", keys);
     checkpoint.write(path)
 }

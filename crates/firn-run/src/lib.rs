@@ -9,9 +9,10 @@
 //!   `[compute] backend` and the adapters present;
 //! - [`budget`]: whether a scene fits this machine, known before anything
 //!   is sampled or allocated;
-//! - [`simulation`]: [`Solver`], one type for a simulation on any backend:
-//!   step it, read its particles, change its parameters, take its state,
-//!   and measure it ([`SolverOptions`], phase times, memory);
+//! - [`simulation`]: [`Solver`], one type for a simulation on any backend
+//!   (each an engine behind one trait, `engine/`): step it, read its
+//!   particles, change its parameters, take its state, and measure it
+//!   ([`SolverOptions`], phase times, memory);
 //! - [`checkpoint`]: the snow and flow checkpoint files;
 //! - [`caches`]: a frame's PLY, VTK, VDB, mesh and USD caches and the PVD
 //!   collection;
@@ -28,6 +29,7 @@ pub mod backend;
 pub mod budget;
 pub mod caches;
 pub mod checkpoint;
+mod engine;
 pub mod error;
 pub mod pictures;
 pub mod recording;

@@ -453,7 +453,8 @@ mod checkpoint_pieces {
                 ..all.clone()
             };
             let keys: Vec<u64> = places.iter().map(|&p| p as u64).collect();
-            checkpoint::write_piece(&piece, &keys, 0, &scene_json(&scene), &path).unwrap();
+            checkpoint::write_piece(piece.view(&scene), &keys, 0, &scene_json(&scene), &path)
+                .unwrap();
             pieces.push(name);
         }
         let manifest = PieceManifest {

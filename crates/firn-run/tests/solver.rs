@@ -19,7 +19,8 @@ use firn_run::{Placement, Solver, SolverOptions};
 fn checkpoint_bytes(solver: &Solver, path: &Path) -> Vec<u8> {
     let state = solver.state().expect("a CPU state");
     let scene = scene_json(solver.scene());
-    checkpoint::write(&state, solver.frame(), &scene, path).expect("the checkpoint is written");
+    let view = state.view(solver.scene()).expect("a view of the state");
+    checkpoint::write(view, solver.frame(), &scene, path).expect("the checkpoint is written");
     std::fs::read(path).expect("the checkpoint is read")
 }
 
@@ -65,6 +66,12 @@ fn a_snow_checkpoint_resumes_to_the_same_bits_as_an_uninterrupted_run() {
 fn a_flow_checkpoint_resumes_to_the_same_bits_as_an_uninterrupted_run() {
     let (whole, resumed) = uninterrupted_and_resumed(common::flow(), 3, 6);
     assert!(whole == resumed, "the resumed flow's state differs");
+}
+
+#[test]
+fn a_solver_moves_between_threads_and_is_shared() {
+    fn send_and_sync<T: Send + Sync>() {}
+    send_and_sync::<Solver>();
 }
 
 #[test]
@@ -226,4 +233,80 @@ fn both_backends_count_the_snow_and_not_the_drift() {
         assert_eq!(snow + drift, at_start, "{}", placement.name());
         assert_eq!(solver.particle_count(), snow, "{}", placement.name());
     }
+}
+
+/// The host states of two solvers of one scene, on the CPU and the GPU, at
+/// time 0 and after a frame, through `compare`.
+fn on_both(scene: Scene, mut compare: impl FnMut(HostState<'_>, HostState<'_>, &str)) {
+    let Some(context) = firn_gpu::context_for_tests() else {
+        return;
+    };
+    let mut cpu = Solver::new(scene.clone(), &Placement::Cpu).unwrap();
+    let mut gpu = Solver::new(scene, &Placement::Gpu(context)).unwrap();
+    assert!(
+        gpu.host_particles(ColorBy::Speed).is_some(),
+        "the start is on the host"
+    );
+    assert!(
+        gpu.state().unwrap() == cpu.state().unwrap(),
+        "both start alike"
+    );
+    compare(cpu.host().unwrap(), gpu.host().unwrap(), "at the start");
+    cpu.advance_frame().unwrap();
+    gpu.advance_frame().unwrap();
+    assert!(
+        gpu.host_particles(ColorBy::Speed).is_none(),
+        "not read back yet"
+    );
+    compare(cpu.host().unwrap(), gpu.host().unwrap(), "after a frame");
+    let read_back = gpu.host_particles(ColorBy::Speed).expect("read back");
+    assert_eq!(read_back.positions.len(), gpu.particle_count());
+}
+
+#[test]
+fn the_gpu_reads_back_into_a_state_the_cpus_views_read_alike() {
+    on_both(common::slab(), |cpu, gpu, when| {
+        let (HostState::Snow(cpu), HostState::Snow(gpu)) = (cpu, gpu) else {
+            panic!("the slab is snow");
+        };
+        assert!((gpu.time() - cpu.time()).abs() < 1e-9, "{when}");
+        assert_eq!(gpu.particles().len(), cpu.particles().len(), "{when}");
+        let (on_cpu, on_gpu) = (cpu.diagnostics(), gpu.diagnostics());
+        assert_eq!(on_gpu.mass, on_cpu.mass, "{when}");
+        let h = f64::from(cpu.scene().domain.cell_size);
+        for axis in 0..3 {
+            let shift = (on_gpu.center_of_mass[axis] - on_cpu.center_of_mass[axis]).abs();
+            assert!(
+                shift <= 1e-3 * h,
+                "{when}: the centre of mass moved {shift} m"
+            );
+        }
+        let (cpu_j, gpu_j) = (
+            cpu.color_values(ColorBy::PlasticJ),
+            gpu.color_values(ColorBy::PlasticJ),
+        );
+        assert_eq!(gpu_j.map(|j| j.len()), cpu_j.map(|j| j.len()), "{when}");
+        if when == "at the start" {
+            assert_eq!(gpu.particles(), cpu.particles());
+            assert_eq!(gpu.densities(), cpu.densities());
+        }
+    });
+}
+
+#[test]
+fn a_flow_on_the_gpu_reads_back_into_a_state_the_cpus_views_read_alike() {
+    on_both(common::flow(), |cpu, gpu, when| {
+        let (HostState::Flow(cpu), HostState::Flow(gpu)) = (cpu, gpu) else {
+            panic!("a flow");
+        };
+        assert_eq!(gpu.time(), cpu.time(), "{when}");
+        assert_eq!(gpu.births(), cpu.births(), "{when}");
+        assert_eq!(gpu.generations(), cpu.generations(), "{when}");
+        let worst = (gpu.positions().iter().zip(cpu.positions()))
+            .map(|(a, b)| a.distance(*b))
+            .fold(0.0, f32::max);
+        assert!(worst < 1e-4, "{when}: positions differ by {worst} m");
+        let rings = |view: firn_flow::FlowView<'_>| view.trails().map(|t| t.oldest_first().1);
+        assert_eq!(rings(gpu), rings(cpu), "{when}");
+    });
 }

@@ -38,7 +38,7 @@ use std::sync::Arc;
 
 use firn_core::Scene;
 use firn_core::scene::{FlowEmission, FlowSettings};
-use firn_flow::{FlowParticles, FlowSimulation, FlowSnapshot, emitters};
+use firn_flow::{FlowParticles, FlowSnapshot, emitters};
 
 use self::bindings::{FieldBindings, ParticleBindings, TrailBindings};
 use self::buffers::{FieldBuffers, ParticleBuffers, TrailBuffers, TrailState};
@@ -71,22 +71,23 @@ pub struct GpuFlow {
 
 impl GpuFlow {
     /// Makes the particles of time 0 exactly as the CPU does
-    /// (`FlowSimulation::new`, trails included), then moves them to the GPU.
+    /// ([`FlowSnapshot::initial`], trails included), then moves them to the
+    /// GPU.
     pub fn new(context: Arc<GpuContext>, scene: Scene) -> Result<GpuFlow, GpuError> {
         GpuFlow::check_supported(&scene)?;
-        let cpu = FlowSimulation::new(scene.clone())?;
-        GpuFlow::from_snapshot(context, scene, cpu.snapshot())
+        let initial = FlowSnapshot::initial(&scene)?;
+        GpuFlow::from_snapshot(context, scene, &initial)
     }
 
     /// Continues a run from a snapshot of either backend, checked against
-    /// the scene as `FlowSimulation::from_snapshot` checks it.
+    /// the scene as the CPU checks it ([`FlowSnapshot::check`]).
     pub fn from_snapshot(
         context: Arc<GpuContext>,
         scene: Scene,
-        snapshot: FlowSnapshot,
+        snapshot: &FlowSnapshot,
     ) -> Result<GpuFlow, GpuError> {
         GpuFlow::check_supported(&scene)?;
-        FlowSimulation::from_snapshot(scene.clone(), snapshot.clone())?;
+        snapshot.check(&scene)?;
         let settings = flow_settings(&scene)?.clone();
         let slots = run_slots(&scene, &settings);
         let capacity = particle_capacity(&slots, snapshot.positions.len())?;
@@ -215,7 +216,9 @@ impl GpuFlow {
     }
 
     /// Reads the state back: to write a frame from (through
-    /// `FlowSimulation::from_snapshot`) or to continue from, on either backend.
+    /// [`FlowSnapshot::view`]) or to continue from, on either backend. Every
+    /// particle has a trail ring, as on the CPU
+    /// ([`FlowSnapshot::cover_trails`]).
     pub fn snapshot(&self) -> Result<FlowSnapshot, GpuError> {
         let particles = self.particles.read(&self.context, self.count as usize)?;
         let trails = match &self.trails {
@@ -228,7 +231,7 @@ impl GpuFlow {
                 generations: Vec::new(),
             },
         };
-        Ok(FlowSnapshot {
+        let mut snapshot = FlowSnapshot {
             substeps: self.substeps,
             births: self.births.clone(),
             positions: particles.positions,
@@ -242,7 +245,9 @@ impl GpuFlow {
             trail_points: trails.points,
             trail_lengths: trails.lengths,
             trail_generations: trails.generations,
-        })
+        };
+        snapshot.cover_trails();
+        Ok(snapshot)
     }
 
     /// Simulated time in seconds.
@@ -374,22 +379,23 @@ fn particle_capacity(slots: &[u64], snapshot: usize) -> Result<u32, GpuError> {
     })
 }
 
-/// A snapshot's particles and, if it keeps trails, their raw state.
-fn split_snapshot(snapshot: FlowSnapshot) -> (FlowParticles, Option<TrailState>) {
-    let trails = (snapshot.trail_capacity > 0).then_some(TrailState {
+/// A copy of a snapshot's particles and, if it keeps trails, their raw
+/// state.
+fn split_snapshot(snapshot: &FlowSnapshot) -> (FlowParticles, Option<TrailState>) {
+    let trails = (snapshot.trail_capacity > 0).then(|| TrailState {
         capacity: snapshot.trail_capacity,
         head: snapshot.trail_head,
-        points: snapshot.trail_points,
-        lengths: snapshot.trail_lengths,
-        generations: snapshot.trail_generations,
+        points: snapshot.trail_points.clone(),
+        lengths: snapshot.trail_lengths.clone(),
+        generations: snapshot.trail_generations.clone(),
     });
     let particles = FlowParticles {
-        positions: snapshot.positions,
-        velocities: snapshot.velocities,
-        ages: snapshot.ages,
-        lifetimes: snapshot.lifetimes,
-        generations: snapshot.generations,
-        emitters: snapshot.emitters,
+        positions: snapshot.positions.clone(),
+        velocities: snapshot.velocities.clone(),
+        ages: snapshot.ages.clone(),
+        lifetimes: snapshot.lifetimes.clone(),
+        generations: snapshot.generations.clone(),
+        emitters: snapshot.emitters.clone(),
     };
     (particles, trails)
 }

@@ -116,16 +116,18 @@ impl GpuSnow {
     pub fn new(context: Arc<GpuContext>, scene: Scene) -> Result<GpuSnow, GpuError> {
         GpuSnow::check_supported(&scene)?;
         let initial = Snapshot::initial(&scene)?;
-        GpuSnow::from_snapshot(context, scene, initial)
+        GpuSnow::from_snapshot(context, scene, &initial)
     }
 
-    /// Continues a run from a snapshot (of the CPU or the GPU backend).
+    /// Continues a run from a snapshot (of the CPU or the GPU backend),
+    /// checked against the scene as the CPU checks it ([`Snapshot::check`]).
     pub fn from_snapshot(
         context: Arc<GpuContext>,
         scene: Scene,
-        snapshot: Snapshot,
+        snapshot: &Snapshot,
     ) -> Result<GpuSnow, GpuError> {
         GpuSnow::check_supported(&scene)?;
+        snapshot.check(&scene)?;
         let (particles, material_words) = joined(&snapshot.particles, &snapshot.drift);
         let estimate = MemoryEstimate::of(&scene, particles.len() as u64);
         estimate.check_fits(&context)?;

@@ -9,7 +9,7 @@ mod substep;
 
 use firn_core::math::lanes::Simd;
 use firn_core::scene::{Integrator, Material, Scene, Wind};
-use glam::{DVec3, Mat3};
+use glam::DVec3;
 
 use crate::binning::Bins;
 use crate::contact::ColliderSet;
@@ -76,45 +76,8 @@ impl Simulation {
 
     /// Continues from a snapshot taken by [`Simulation::snapshot`] of the same scene.
     pub fn from_snapshot(scene: Scene, snapshot: Snapshot) -> Result<Simulation, SimulationError> {
+        snapshot.check(&scene)?;
         let particles = snapshot.particles;
-        let count = particles.len();
-        let lengths_match = [
-            particles.velocity.len(),
-            particles.mass.len(),
-            particles.volume0.len(),
-            particles.elastic.len(),
-            particles.plastic_j.len(),
-            particles.stress.len(),
-            particles.velocity_gradient.len(),
-            particles.material.len(),
-        ]
-        .iter()
-        .all(|&len| len == count);
-        if count == 0 || !lengths_match {
-            return Err(SimulationError::SnapshotMismatch(
-                "particle arrays are empty or of different lengths".into(),
-            ));
-        }
-        if particles
-            .material
-            .iter()
-            .any(|&m| m as usize >= scene.materials.len())
-        {
-            return Err(SimulationError::SnapshotMismatch(
-                "a particle refers to an unknown material".into(),
-            ));
-        }
-        if !snapshot.drift.is_consistent()
-            || snapshot
-                .drift
-                .material
-                .iter()
-                .any(|&m| m as usize >= scene.materials.len())
-        {
-            return Err(SimulationError::SnapshotMismatch(
-                "the drift arrays differ in length or refer to an unknown material".into(),
-            ));
-        }
         let mut simulation =
             Simulation::with_particles(scene, particles, snapshot.time, snapshot.steps);
         simulation.drift = snapshot.drift;
@@ -311,26 +274,16 @@ impl Simulation {
 
     /// Current density of every particle (kg/m³).
     pub fn densities(&self) -> Vec<f32> {
-        (0..self.particles.len())
-            .map(|p| self.particles.density(p))
-            .collect()
+        self.view().densities()
     }
 
     /// J_E = det F_E of every particle.
     pub fn elastic_j(&self) -> Vec<f32> {
-        self.particles
-            .elastic
-            .iter()
-            .map(Mat3::determinant)
-            .collect()
+        self.view().elastic_j()
     }
 
     /// Mass, momentum, angular momentum, centre of mass and kinetic energy.
     pub fn diagnostics(&self) -> Diagnostics {
-        diagnostics(
-            &self.particles,
-            self.grid.layout.cell_size,
-            self.scene.solver.transfer,
-        )
+        self.view().diagnostics()
     }
 }
