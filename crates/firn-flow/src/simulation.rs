@@ -21,9 +21,15 @@
 //! All random numbers are keyed by (seed, particle id, generation) and chunks
 //! are fixed, so the same scene gives the same bits on any thread count.
 
-use std::fmt;
+mod error;
+mod live;
+mod parts;
+mod state;
 
-use firn_core::scene::{FlowEmission, FlowSettings, Scene, SceneError, SceneKind};
+pub use error::FlowError;
+pub use live::scene_with_settings;
+
+use firn_core::scene::{FlowEmission, FlowSettings, Scene};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -32,7 +38,7 @@ use crate::field::{FlowField, Prepared};
 use crate::integrate::{self, Chunk, Limits, MAX_LANES, Simd, Stages};
 use crate::lanes::F32s;
 use crate::particles::FlowParticles;
-use crate::parts::{FlowPart, FlowPartState};
+use crate::parts::FlowPart;
 use crate::snapshot::{FlowSnapshot, run_slots};
 use crate::trails::Trails;
 
@@ -43,34 +49,6 @@ pub(crate) const CHUNK: usize = 64 * MAX_LANES;
 /// How far outside a sphere a particle is put when pushed out, relative to
 /// the radius (so that `f32` rounding cannot leave it inside).
 const PUSH_OUT_MARGIN: f32 = 1e-5;
-
-/// Why a flow could not start or be restored.
-#[derive(Debug, Clone, PartialEq)]
-pub enum FlowError {
-    /// The scene is a snow scene.
-    NotAFlowScene,
-    /// The scene breaks a rule of the format.
-    Scene(Box<SceneError>),
-    /// A snapshot does not fit the scene it is restored into.
-    SnapshotMismatch(String),
-}
-
-impl fmt::Display for FlowError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            FlowError::NotAFlowScene => f.write_str(
-                "the scene is a snow scene; a curl-noise flow needs kind = \"flow\" and a [flow] \
-                 table",
-            ),
-            FlowError::Scene(error) => write!(f, "{error}"),
-            FlowError::SnapshotMismatch(what) => {
-                write!(f, "the checkpoint does not match the scene: {what}")
-            }
-        }
-    }
-}
-
-impl std::error::Error for FlowError {}
 
 /// A running curl-noise particle flow on the CPU (seed 002).
 #[derive(Clone, Debug)]
@@ -143,32 +121,6 @@ impl FlowSimulation {
             trails,
             simd: Simd::detect(),
         }
-    }
-
-    /// Replaces the field's parameters while the flow runs (an interactive
-    /// viewer's parameter panel), from the next substep on: γ, M, L, the
-    /// background flow, the speed scale, the evolution rate, the curl, the
-    /// integrator, the seed and the obstacles. Checked as a scene is
-    /// ([`scene_with_settings`]); the emitters and substeps cannot change.
-    /// The particles keep their state, except that those inside a (new or
-    /// grown) sphere are pushed out of it and every velocity is taken from
-    /// the new field, as at the start of a run.
-    pub fn set_settings(&mut self, settings: FlowSettings) -> Result<(), FlowError> {
-        let scene = scene_with_settings(&self.scene, settings)?;
-        let settings = scene.kind.flow().ok_or(FlowError::NotAFlowScene)?;
-        self.field = FlowField::new(settings);
-        self.settings = settings.clone();
-        self.scene = scene;
-        push_out_all(&self.settings, &mut self.particles.positions);
-        let time = self.time();
-        refresh_velocities(
-            self.simd,
-            &self.field,
-            &self.settings,
-            time,
-            &mut self.particles,
-        );
-        Ok(())
     }
 
     /// Keep the last `length` positions of every particle from now on (the
@@ -328,87 +280,6 @@ impl FlowSimulation {
         self.advance_part_to(FlowPart::WHOLE, until)
     }
 
-    /// [`FlowSimulation::advance_to`], moving only `part`'s particles
-    /// ([`FlowSimulation::step_part`]).
-    pub fn advance_part_to(&mut self, part: FlowPart, until: f64) -> u32 {
-        let mut taken = 0;
-        let tolerance = 1e-6 * self.dt();
-        while (self.substeps + 1) as f64 / self.steps_per_second() <= until + tolerance {
-            self.step_part(part);
-            taken += 1;
-        }
-        taken
-    }
-
-    /// The state of `part`'s particles, borrowed, one run of consecutive
-    /// particles at a time, in index order.
-    pub fn part_rows(&self, part: FlowPart) -> impl Iterator<Item = FlowPartState<'_>> {
-        let particles = &self.particles;
-        part.ranges(particles.len()).map(move |range| {
-            let (trail_points, trail_lengths, trail_generations) = match &self.trails {
-                Some(trails) => trails.rows(range.clone()),
-                None => (&[][..], &[][..], &[][..]),
-            };
-            FlowPartState {
-                positions: &particles.positions[range.clone()],
-                velocities: &particles.velocities[range.clone()],
-                ages: &particles.ages[range.clone()],
-                lifetimes: &particles.lifetimes[range.clone()],
-                generations: &particles.generations[range],
-                trail_points,
-                trail_lengths,
-                trail_generations,
-            }
-        })
-    }
-
-    /// Puts `state`, all of `part`'s particles (its
-    /// [`FlowSimulation::part_rows`] one after the other) taken from a copy
-    /// of this flow at the same substep, in place of `part`'s particles.
-    pub fn set_part_state(
-        &mut self,
-        part: FlowPart,
-        state: &FlowPartState<'_>,
-    ) -> Result<(), FlowError> {
-        let count = part.count(self.particles.len());
-        let trail_capacity = self.trails.as_ref().map_or(0, Trails::capacity);
-        let trail_rows = if self.trails.is_some() { count } else { 0 };
-        let fits = state.positions.len() == count
-            && state.velocities.len() == count
-            && state.ages.len() == count
-            && state.lifetimes.len() == count
-            && state.generations.len() == count
-            && state.trail_points.len() == trail_rows * trail_capacity
-            && state.trail_lengths.len() == trail_rows
-            && state.trail_generations.len() == trail_rows;
-        if !fits {
-            return Err(FlowError::SnapshotMismatch(format!(
-                "a part of {} particles where this flow's part holds {count}",
-                state.positions.len()
-            )));
-        }
-        let mut start = 0;
-        let particles = &mut self.particles;
-        for range in part.ranges(particles.len()) {
-            let from = start..start + range.len();
-            particles.positions[range.clone()].copy_from_slice(&state.positions[from.clone()]);
-            particles.velocities[range.clone()].copy_from_slice(&state.velocities[from.clone()]);
-            particles.ages[range.clone()].copy_from_slice(&state.ages[from.clone()]);
-            particles.lifetimes[range.clone()].copy_from_slice(&state.lifetimes[from.clone()]);
-            particles.generations[range.clone()].copy_from_slice(&state.generations[from.clone()]);
-            if let Some(trails) = &mut self.trails {
-                trails.set_rows(
-                    range.start,
-                    &state.trail_points[from.start * trail_capacity..from.end * trail_capacity],
-                    &state.trail_lengths[from.clone()],
-                    &state.trail_generations[from.clone()],
-                );
-            }
-            start = from.end;
-        }
-        Ok(())
-    }
-
     /// Make the particles that `rate` emitters have born by time `t`.
     fn emit(&mut self, t: f64, end: &Prepared<F32s<1>>) {
         let start = self.particles.len();
@@ -452,176 +323,6 @@ impl FlowSimulation {
             age,
         );
     }
-
-    /// Everything needed to continue this run bit for bit.
-    pub fn snapshot(&self) -> FlowSnapshot {
-        self.view().snapshot()
-    }
-
-    /// The scene being simulated.
-    pub fn scene(&self) -> &Scene {
-        &self.scene
-    }
-
-    /// The flow settings of the scene.
-    pub fn settings(&self) -> &FlowSettings {
-        &self.settings
-    }
-
-    /// The velocity field (for probing, tests and a future GPU port).
-    pub fn field(&self) -> &FlowField {
-        &self.field
-    }
-
-    /// All particle arrays.
-    pub fn particles(&self) -> &FlowParticles {
-        &self.particles
-    }
-
-    /// Number of particles born so far (all alive: a particle whose life ends
-    /// is born again at once).
-    pub fn len(&self) -> usize {
-        self.particles.len()
-    }
-
-    /// Whether no particle is born yet.
-    pub fn is_empty(&self) -> bool {
-        self.particles.is_empty()
-    }
-
-    /// Particle positions, m.
-    pub fn positions(&self) -> &[Vec3] {
-        &self.particles.positions
-    }
-
-    /// Particle velocities of the last substep, m/s.
-    pub fn velocities(&self) -> &[Vec3] {
-        &self.particles.velocities
-    }
-
-    /// Seconds since each particle's current life began.
-    pub fn ages(&self) -> &[f32] {
-        &self.particles.ages
-    }
-
-    /// Length of each particle's current life, s (infinite: forever).
-    pub fn lifetimes(&self) -> &[f32] {
-        &self.particles.lifetimes
-    }
-
-    /// Lives each particle lived before its current one.
-    pub fn generations(&self) -> &[u32] {
-        &self.particles.generations
-    }
-
-    /// Particle ids: a particle's id is its index, stable for the whole run
-    /// (particles are appended as they are born and never reordered).
-    pub fn ids(&self) -> std::ops::Range<u32> {
-        0..self.particles.len() as u32
-    }
-
-    /// Particles born so far by each emitter (a checkpoint keeps them).
-    pub fn births(&self) -> &[u64] {
-        &self.births
-    }
-
-    /// The trails, if kept.
-    pub fn trails(&self) -> Option<&Trails> {
-        self.trails.as_ref()
-    }
-
-    /// The seed's colouring (§2.3): |x|, |y|, |z| about the centre of the
-    /// domain, each divided by the half extent, as red, green, blue in [0, 1].
-    pub fn colors_by_position(&self) -> Vec<[f32; 3]> {
-        let domain = &self.scene.domain;
-        self.particles
-            .positions
-            .iter()
-            .map(|x| position_color(domain.min, domain.max, *x))
-            .collect()
-    }
-
-    /// The bytes [`FlowSimulation::memory_bytes`] reports once every
-    /// particle slot of `scene`'s emitters is alive, known before anything
-    /// is allocated: the particles and, when the scene draws trails, their
-    /// rings of `trail_length` positions.
-    pub fn estimate_memory_bytes(scene: &Scene) -> u64 {
-        let slots = scene.estimate().particles;
-        let trails = &firn_core::scene::RenderStyle::Trails;
-        let trail_bytes = if scene.render.styles.contains(trails) {
-            u64::from(scene.render.trail_length) * size_of::<Vec3>() as u64 + 8
-        } else {
-            0
-        };
-        slots.saturating_mul(FlowParticles::bytes_per_particle() as u64 + trail_bytes)
-    }
-
-    /// Bytes held by the particles and trails.
-    pub fn memory_bytes(&self) -> usize {
-        let trails = self.trails.as_ref().map_or(0, |trails| {
-            trails.particle_count() * (trails.capacity() * size_of::<Vec3>() + 8)
-        });
-        self.particles.len() * FlowParticles::bytes_per_particle() + trails
-    }
-}
-
-/// `scene` with its flow settings replaced by `settings`, for a change while
-/// the flow runs (both backends check it so). The background direction is
-/// normalised, as the scene loader does; then every rule of the scene format
-/// applies ([`Scene::validate`]). The emitters cannot change (the particle
-/// slots and births are planned from them), nor can the substeps per frame
-/// (the clock counts them); the error's key names the field.
-pub fn scene_with_settings(scene: &Scene, mut settings: FlowSettings) -> Result<Scene, FlowError> {
-    let running = scene.kind.flow().ok_or(FlowError::NotAFlowScene)?;
-    check_fixed_settings(running, &settings)?;
-    let direction = settings.background_direction;
-    let length = direction.length();
-    if length > 0.0 && length.is_finite() {
-        settings.background_direction = direction / length;
-    }
-    let mut changed = scene.clone();
-    changed.kind = SceneKind::Flow(Box::new(settings));
-    changed
-        .validate()
-        .map_err(|error| FlowError::Scene(Box::new(error)))?;
-    Ok(changed)
-}
-
-/// The settings a running flow cannot change: its emitters and substeps.
-fn check_fixed_settings(running: &FlowSettings, new: &FlowSettings) -> Result<(), FlowError> {
-    if new.emitters != running.emitters {
-        return Err(refusal(
-            "flow.emitters",
-            "flow.emitters cannot change while the flow runs: the particles' slots and births \
-             are planned from them"
-                .into(),
-            "keep settings().emitters; to try other emitters, restart from a scene with them",
-        ));
-    }
-    if new.substeps != running.substeps {
-        return Err(refusal(
-            "flow.substeps",
-            format!(
-                "flow.substeps cannot change while the flow runs (it is {}, {} was given): the \
-                 clock counts substeps",
-                running.substeps, new.substeps
-            ),
-            "keep settings().substeps; to try another, restart from a scene with it",
-        ));
-    }
-    Ok(())
-}
-
-/// A refused change, keyed like a scene error so a panel can point at the field.
-fn refusal(key: &str, message: String, hint: &str) -> FlowError {
-    FlowError::Scene(Box::new(SceneError {
-        file: String::new(),
-        line: None,
-        column: None,
-        key: Some(key.to_string()),
-        message,
-        hint: hint.to_string(),
-    }))
 }
 
 /// The seed's colour of a point (§2.3): |x − c| / (half extent) per axis,
