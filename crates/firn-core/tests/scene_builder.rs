@@ -210,7 +210,7 @@ checkpoint_every = 0
     );
     assert!(matches!(
         built.colliders[1].motion,
-        Motion::Linear { velocity } if velocity == Vec3::new(0.3, 0.0, 0.0)
+        Motion::Linear { velocity, .. } if velocity == Vec3::new(0.3, 0.0, 0.0)
     ));
     assert!(matches!(
         built.colliders[0].geometry,

@@ -245,12 +245,13 @@ vdb = { voxel_size = 0.02, level_set = true }
     assert_eq!(
         scene.colliders[1].motion,
         Motion::Linear {
-            velocity: Vec3::new(0.0, -1.0, 0.0)
+            velocity: Vec3::new(0.0, -1.0, 0.0),
+            angular_velocity: Vec3::ZERO,
         }
     );
     assert_eq!(scene.colliders[1].contact.mode, ContactMode::Separate);
     assert_eq!(scene.colliders[1].contact.friction, 0.2);
-    let Motion::Keyframed { keys } = &scene.colliders[2].motion else {
+    let Motion::Keyframed { keys, .. } = &scene.colliders[2].motion else {
         panic!("keyframed motion expected");
     };
     assert_eq!(keys.len(), 2);

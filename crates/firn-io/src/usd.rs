@@ -84,6 +84,13 @@ pub enum UsdShape {
         /// Edge lengths in metres.
         size: Vec3,
     },
+    /// A cylinder about the y axis.
+    Cylinder {
+        /// Radius in metres.
+        radius: f32,
+        /// Length along the axis in metres.
+        height: f32,
+    },
     /// A triangle mesh (a mesh collider's file, placed).
     Mesh {
         /// Vertex positions in metres, about the reference point.
@@ -234,6 +241,14 @@ fn push_collider(text: &mut String, index: usize, shape: &UsdShape) {
             false,
         ),
         UsdShape::Box { .. } => ("Cube", "        double size = 1\n".to_string(), true),
+        UsdShape::Cylinder { radius, height } => (
+            "Cylinder",
+            format!(
+                "        uniform token axis = \"Y\"\n        double radius = {radius}\n        \
+                 double height = {height}\n"
+            ),
+            false,
+        ),
     };
     let _ = write!(text, "    def {kind} \"Collider{index}\"\n    {{\n{body}");
     text.push_str("        double3 xformOp:translate\n");

@@ -2,8 +2,8 @@
 //! and 9, Quellcode 12), always relative to the collider's own velocity.
 
 use firn_core::math::lanes::{F32s, Vec3s};
-use firn_core::scene::{Collider, ColliderGeometry, Contact, ContactMode, Domain, Motion};
-use glam::{Vec3, Vec3A};
+use firn_core::scene::{Collider, ColliderGeometry, Contact, ContactMode, Domain};
+use glam::{Quat, Vec3, Vec3A};
 
 /// New velocity of snow moving with `velocity` against a collider surface with
 /// outward `normal` that itself moves with `collider_velocity`.
@@ -122,12 +122,31 @@ impl Constraint {
 /// A collider at one instant: where it is and how fast it moves.
 #[derive(Clone, Debug)]
 pub struct PlacedCollider {
-    /// Geometry at this instant.
+    /// Geometry at this instant, in the collider's own orientation (at its
+    /// current reference point).
     pub geometry: ColliderGeometry,
-    /// Velocity of the collider.
+    /// Velocity of the collider's reference point.
     pub velocity: Vec3,
     /// Contact behaviour.
     pub contact: Contact,
+    /// How it is turned and turns, for a collider that does; `None` keeps
+    /// the unturned arithmetic (and its bits) for every other.
+    pub spin: Option<Spin>,
+}
+
+/// The turn of a placed collider: a world point x is the geometry's point
+/// c + R⁻¹ (x − c) (c the current reference point), and the collider moves
+/// there at v + ω × (x − c).
+#[derive(Clone, Copy, Debug)]
+pub struct Spin {
+    /// The reference point c.
+    pub center: Vec3,
+    /// R, from the collider's frame to the world's.
+    pub rotation: Quat,
+    /// R⁻¹.
+    pub inverse: Quat,
+    /// ω, rad/s.
+    pub angular_velocity: Vec3,
 }
 
 impl PlacedCollider {
@@ -140,6 +159,9 @@ impl PlacedCollider {
     /// [`PlacedCollider::collide`], plus the components the contact fixed.
     #[inline(always)]
     pub fn collide_constrained(&self, point: Vec3, velocity: Vec3) -> (Vec3, Constraint) {
+        if let Some(spin) = &self.spin {
+            return self.collide_turned(spin, point, velocity);
+        }
         let (distance, normal) = match self.geometry {
             // The domain walls, which every particle and node meets six
             // times a substep: the same sum as `signed_distance`, inline.
@@ -151,6 +173,27 @@ impl PlacedCollider {
         };
         if distance <= 0.0 {
             contact_response(velocity, self.velocity, normal, self.contact)
+        } else {
+            (velocity, Constraint::Free)
+        }
+    }
+
+    /// [`PlacedCollider::collide_constrained`] for a turned or turning
+    /// collider: the distance read in its own frame, the normal turned back,
+    /// and the contact relative to its velocity at `point`, v + ω × r.
+    fn collide_turned(&self, spin: &Spin, point: Vec3, velocity: Vec3) -> (Vec3, Constraint) {
+        let arm = point - spin.center;
+        let (distance, normal) = self
+            .geometry
+            .signed_distance(spin.center + spin.inverse * arm);
+        if distance <= 0.0 {
+            let surface_velocity = self.velocity + spin.angular_velocity.cross(arm);
+            contact_response(
+                velocity,
+                surface_velocity,
+                spin.rotation * normal,
+                self.contact,
+            )
         } else {
             (velocity, Constraint::Free)
         }
@@ -172,9 +215,8 @@ impl ColliderSet {
             normal[axis] = 1.0;
             for (point, normal) in [(domain.min, normal), (domain.max, -normal)] {
                 all.push(Collider {
-                    geometry: ColliderGeometry::HalfPlane { point, normal },
-                    motion: Motion::Static,
                     contact: domain.walls,
+                    ..Collider::new(ColliderGeometry::HalfPlane { point, normal })
                 });
             }
         }
@@ -191,13 +233,17 @@ impl ColliderSet {
         self.colliders
             .iter()
             .map(|collider| {
-                let (position, velocity) = collider
-                    .motion
-                    .state_at(collider.geometry.reference_point(), time);
+                let pose = collider.pose_at(time);
                 PlacedCollider {
-                    geometry: collider.geometry.moved_to(position),
-                    velocity,
+                    geometry: collider.geometry.moved_to(pose.position),
+                    velocity: pose.velocity,
                     contact: collider.contact,
+                    spin: pose.turns().then(|| Spin {
+                        center: pose.position,
+                        rotation: pose.rotation,
+                        inverse: pose.rotation.inverse(),
+                        angular_velocity: pose.angular_velocity,
+                    }),
                 }
             })
             .collect()
@@ -243,7 +289,7 @@ impl<'a> Colliders<'a> {
         let mut clear_below = Vec3A::INFINITY;
         let mut others = Vec::new();
         for collider in all {
-            match axis_plane(&collider.geometry) {
+            match axis_plane(collider) {
                 Some((axis, true, offset)) => {
                     clear_above[axis] = clear_above[axis].max(offset);
                 }
@@ -307,10 +353,13 @@ impl<'a> Colliders<'a> {
 
 /// `(axis, faces_up, offset)` of a half-plane whose normal is exactly +e_axis
 /// (`faces_up`) or −e_axis through a point with coordinate `offset` there.
-fn axis_plane(geometry: &ColliderGeometry) -> Option<(usize, bool, f32)> {
-    let ColliderGeometry::HalfPlane { point, normal } = geometry else {
+fn axis_plane(collider: &PlacedCollider) -> Option<(usize, bool, f32)> {
+    let ColliderGeometry::HalfPlane { point, normal } = &collider.geometry else {
         return None;
     };
+    if collider.spin.is_some() {
+        return None;
+    }
     (0..3).find_map(|axis| {
         let mut unit = Vec3::ZERO;
         unit[axis] = 1.0;

@@ -4,8 +4,7 @@
 mod common;
 
 use firn_core::scene::{
-    Collider, ColliderGeometry, Contact, ContactMode, MeshCollider, MeshPlacement, Motion, Shape,
-    Transfer,
+    Collider, ColliderGeometry, Contact, ContactMode, MeshCollider, MeshPlacement, Shape, Transfer,
 };
 use firn_mpm::Simulation;
 use glam::Vec3;
@@ -27,14 +26,12 @@ fn resting_bottom(geometry: ColliderGeometry) -> f32 {
         size: Vec3::new(0.2, 0.1, 0.2),
     };
     let mut scene = common::scene_with(block, Vec3::ZERO, Transfer::Apic, CELL_SIZE);
-    scene.colliders.push(Collider {
-        geometry,
-        motion: Motion::Static,
-        contact: Contact {
+    scene
+        .colliders
+        .push(Collider::new(geometry).contact(Contact {
             mode: ContactMode::Separate,
             friction: 0.5,
-        },
-    });
+        }));
     let mut simulation = Simulation::new(scene).unwrap();
     simulation.advance_to(0.5).unwrap();
     simulation

@@ -11,7 +11,7 @@ use glam::Vec3;
 use crate::camera::{CameraView, automatic_framing};
 use crate::legend::Legend;
 use crate::ramp::{Coloring, ValueRange, ramp};
-use crate::stage::Stage;
+use crate::stage::{Stage, StageCollider};
 use crate::trails::Trails;
 use crate::volume::SnowLook;
 use crate::{DriftLayer, ParticleLayer, Picture};
@@ -118,25 +118,25 @@ pub fn scene_camera(scene: &Scene, t: f64, width: u32, height: u32) -> CameraVie
 /// The container, the ground at the domain floor, and the colliders (and a
 /// flow's obstacles) where they are at time `t`.
 pub fn scene_stage(scene: &Scene, t: f64) -> Stage {
-    let mut colliders: Vec<ColliderGeometry> = scene
+    let mut colliders: Vec<StageCollider> = scene
         .colliders
         .iter()
         .map(|collider| {
-            let start = collider.geometry.reference_point();
-            let (position, _) = collider.motion.state_at(start, t);
-            collider.geometry.moved_to(position)
+            let pose = collider.pose_at(t);
+            StageCollider {
+                geometry: collider.geometry.moved_to(pose.position),
+                rotation: pose.rotation,
+            }
         })
         .collect();
     // A flow's obstacles are drawn like sphere colliders.
     if let Some(flow) = scene.kind.flow() {
-        colliders.extend(
-            flow.obstacles
-                .iter()
-                .map(|obstacle| ColliderGeometry::Sphere {
-                    center: obstacle.center,
-                    radius: obstacle.radius,
-                }),
-        );
+        colliders.extend(flow.obstacles.iter().map(|obstacle| {
+            StageCollider::from(ColliderGeometry::Sphere {
+                center: obstacle.center,
+                radius: obstacle.radius,
+            })
+        }));
     }
     Stage {
         ground: Some(scene.domain.min.y),

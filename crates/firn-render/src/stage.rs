@@ -4,7 +4,7 @@
 //! depth test.
 
 use firn_core::scene::{ColliderGeometry, MeshCollider};
-use glam::{Vec2, Vec3};
+use glam::{Quat, Vec2, Vec3};
 
 use crate::camera::CameraView;
 use crate::film::Film;
@@ -42,10 +42,30 @@ pub struct Stage {
     /// The container (domain box) as (min, max), drawn as a wireframe; it
     /// also bounds plane colliders.
     pub container: Option<(Vec3, Vec3)>,
-    /// Colliders, placed where they are at the picture's time.
-    pub colliders: Vec<ColliderGeometry>,
+    /// Colliders, placed and turned as they are at the picture's time.
+    pub colliders: Vec<StageCollider>,
     /// The lighting.
     pub light: Light,
+}
+
+/// A collider as a picture shows it: its geometry at its current
+/// reference point, turned by `rotation` about that point.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StageCollider {
+    /// The geometry, unturned, at the collider's current reference point.
+    pub geometry: ColliderGeometry,
+    /// The collider's orientation about its reference point.
+    pub rotation: Quat,
+}
+
+impl From<ColliderGeometry> for StageCollider {
+    /// An unturned collider.
+    fn from(geometry: ColliderGeometry) -> StageCollider {
+        StageCollider {
+            geometry,
+            rotation: Quat::IDENTITY,
+        }
+    }
 }
 
 impl Default for Stage {
@@ -148,7 +168,26 @@ impl Stage {
         })
     }
 
+    /// Where a ray meets `collider`: traced in the collider's own frame
+    /// when it is turned, the normal turned back.
     fn hit_collider(
+        &self,
+        collider: &StageCollider,
+        origin: Vec3,
+        direction: Vec3,
+    ) -> Option<SurfaceHit> {
+        if collider.rotation == Quat::IDENTITY {
+            return self.hit_geometry(&collider.geometry, origin, direction);
+        }
+        let center = collider.geometry.reference_point();
+        let inverse = collider.rotation.inverse();
+        let local_origin = center + inverse * (origin - center);
+        let mut hit = self.hit_geometry(&collider.geometry, local_origin, inverse * direction)?;
+        hit.normal = collider.rotation * hit.normal;
+        Some(hit)
+    }
+
+    fn hit_geometry(
         &self,
         collider: &ColliderGeometry,
         origin: Vec3,
@@ -173,6 +212,9 @@ impl Stage {
                     .map(solid)
             }
             ColliderGeometry::Mesh(ref mesh) => march_mesh(mesh, origin, direction).map(solid),
+            ColliderGeometry::Cylinder { .. } => {
+                march_solid(collider, origin, direction).map(solid)
+            }
             ColliderGeometry::HalfPlane { point, normal } => {
                 let distance = intersect_plane(origin, direction, point, normal)?;
                 let hit = origin + direction * distance;
@@ -314,6 +356,28 @@ fn march_mesh(mesh: &MeshCollider, origin: Vec3, direction: Vec3) -> Option<(f32
     None
 }
 
+/// The first point where a ray meets a convex analytic solid, by sphere
+/// tracing its signed distance within its reach of the reference point.
+fn march_solid(solid: &ColliderGeometry, origin: Vec3, direction: Vec3) -> Option<(f32, Vec3)> {
+    const MAX_STEPS: u32 = 256;
+    let reach = Vec3::splat(solid.reach());
+    let center = solid.reference_point();
+    let (near, far) = slab_interval(origin, direction, center - reach, center + reach)?;
+    let surface = 1e-4 * reach.x;
+    let mut distance = near.max(0.0);
+    for _ in 0..MAX_STEPS {
+        if distance > far {
+            return None;
+        }
+        let (gap, normal) = solid.signed_distance(origin + direction * distance);
+        if gap < surface {
+            return Some((distance, normal));
+        }
+        distance += gap;
+    }
+    None
+}
+
 /// The parameter interval [near, far] in which a ray is inside a box, if any.
 pub fn slab_interval(origin: Vec3, direction: Vec3, min: Vec3, max: Vec3) -> Option<(f32, f32)> {
     let inverse = direction.recip();
@@ -358,11 +422,13 @@ mod tests {
                 ColliderGeometry::Sphere {
                     center: Vec3::new(0.0, 0.0, -3.0),
                     radius: 1.0,
-                },
+                }
+                .into(),
                 ColliderGeometry::Sphere {
                     center: Vec3::new(0.0, 0.0, -1.0),
                     radius: 0.5,
-                },
+                }
+                .into(),
             ],
             ..Stage::default()
         };

@@ -259,10 +259,13 @@ fn billboards_add_up_and_hide_behind_solid_colliders() {
     let centre = |image: &RgbImage| brightness(image.get_pixel(WIDTH / 2, HEIGHT / 2).0);
     assert!(centre(&double) > centre(&single) + 20, "additive blending");
     let mut hidden = picture(&one, white, RenderStyle::Billboards);
-    hidden.stage.colliders = vec![firn_core::scene::ColliderGeometry::Sphere {
-        center: Vec3::new(0.0, 0.0, 1.0),
-        radius: 0.3,
-    }];
+    hidden.stage.colliders = vec![
+        firn_core::scene::ColliderGeometry::Sphere {
+            center: Vec3::new(0.0, 0.0, 1.0),
+            radius: 0.3,
+        }
+        .into(),
+    ];
     let mut bare = hidden.clone();
     bare.particles.positions = &[];
     assert_eq!(render(&hidden).as_raw(), render(&bare).as_raw());
@@ -328,7 +331,7 @@ fn a_cube_mesh_collider_looks_like_the_box_it_is_shaped_as() {
     let mesh = firn_core::scene::MeshCollider::load(placement, 0.01).unwrap();
     let with = |geometry: firn_core::scene::ColliderGeometry| {
         let mut scene = picture(&[], Coloring::Uniform(Vec3::ONE), RenderStyle::Points);
-        scene.stage.colliders = vec![geometry];
+        scene.stage.colliders = vec![geometry.into()];
         render(&scene)
     };
     let meshed = with(firn_core::scene::ColliderGeometry::Mesh(Box::new(mesh)));

@@ -86,6 +86,7 @@ fn usd_shape(geometry: &ColliderGeometry, half_size: f32) -> UsdShape {
         ColliderGeometry::HalfPlane { normal, .. } => UsdShape::Plane { normal, half_size },
         ColliderGeometry::Sphere { radius, .. } => UsdShape::Sphere { radius },
         ColliderGeometry::Box { size, .. } => UsdShape::Box { size },
+        ColliderGeometry::Cylinder { radius, height, .. } => UsdShape::Cylinder { radius, height },
         ColliderGeometry::Mesh(ref mesh) => {
             let placed = mesh.placement.load().map(|placed| placed.mesh);
             let placed = placed.unwrap_or_default();

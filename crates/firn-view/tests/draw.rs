@@ -84,7 +84,7 @@ impl Camera {
 fn stage(colliders: Vec<ColliderGeometry>) -> Stage {
     Stage {
         container: Some((Vec3::ZERO, Vec3::ONE)),
-        colliders,
+        colliders: colliders.into_iter().map(Into::into).collect(),
         ..Stage::default()
     }
 }

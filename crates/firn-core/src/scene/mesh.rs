@@ -58,10 +58,7 @@ impl MeshPlacement {
 
     /// The rotation: x first, then y, then z, about the fixed axes.
     pub fn rotation(&self) -> Quat {
-        let radians = self.rotation_degrees * (std::f32::consts::PI / 180.0);
-        Quat::from_rotation_z(radians.z)
-            * Quat::from_rotation_y(radians.y)
-            * Quat::from_rotation_x(radians.x)
+        crate::scene::motion::rotation_from_degrees(self.rotation_degrees)
     }
 }
 

@@ -11,7 +11,7 @@
 
 use std::path::PathBuf;
 
-use glam::Vec3;
+use glam::{Quat, Vec3};
 use serde::{Deserialize, Serialize};
 
 use super::clumps::Clumps;
@@ -19,6 +19,7 @@ use super::compute::ComputeSettings;
 use super::flow::SceneKind;
 use super::material::Material;
 use super::mesh::{MeshBody, MeshCollider};
+use super::motion::{Keyframe, Motion, PathShape, Pose};
 use super::render::{Camera, RenderSettings};
 use super::wind::{Spindrift, Wind};
 
@@ -592,12 +593,16 @@ pub enum ContactMode {
 /// A rigid obstacle.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Collider {
-    /// Geometry at time zero.
+    /// Geometry in the collider's own frame, placed at time zero.
     pub geometry: ColliderGeometry,
-    /// How the geometry moves.
+    /// How the geometry moves and turns ([`crate::scene::motion`]).
     pub motion: Motion,
     /// Contact behaviour.
     pub contact: Contact,
+    /// Orientation about the reference point while the motion gives none
+    /// (keyframes carry their own): a mesh's is in its placement instead.
+    #[serde(default)]
+    pub rotation: Quat,
 }
 
 impl Collider {
@@ -608,6 +613,7 @@ impl Collider {
             geometry,
             motion: Motion::Static,
             contact: Contact::default(),
+            rotation: Quat::IDENTITY,
         }
     }
 
@@ -636,19 +642,59 @@ impl Collider {
         Collider::new(ColliderGeometry::Mesh(Box::new(mesh)))
     }
 
-    /// The same collider moving at a constant `velocity` (m/s).
-    pub fn moving(mut self, velocity: Vec3) -> Collider {
-        self.motion = Motion::Linear { velocity };
+    /// A solid cylinder (`shape = "cylinder"`) of `radius` and `height`,
+    /// its axis along y in its own frame (turn it with
+    /// [`Collider::rotated`]).
+    pub fn cylinder(center: Vec3, radius: f32, height: f32) -> Collider {
+        Collider::new(ColliderGeometry::Cylinder {
+            center,
+            radius,
+            height,
+        })
+    }
+
+    /// The same collider moving at a constant `velocity` (m/s), not
+    /// turning.
+    pub fn moving(self, velocity: Vec3) -> Collider {
+        self.moving_and_spinning(velocity, Vec3::ZERO)
+    }
+
+    /// The same collider moving at a constant `velocity` (m/s) and turning
+    /// at a constant `angular_velocity` (rad/s) about its reference point.
+    pub fn moving_and_spinning(mut self, velocity: Vec3, angular_velocity: Vec3) -> Collider {
+        self.motion = Motion::Linear {
+            velocity,
+            angular_velocity,
+        };
         self
     }
 
-    /// The same collider moving through keyframed positions of its
-    /// reference point (at least two, in strictly increasing time).
+    /// The same collider turned to `rotation` about its reference point.
+    pub fn rotated(mut self, rotation: Quat) -> Collider {
+        self.rotation = rotation;
+        self
+    }
+
+    /// The same collider moving through keyframed poses of its reference
+    /// point (at least two, in strictly increasing time), straight from key
+    /// to key.
     pub fn keyframed(mut self, keys: impl IntoIterator<Item = Keyframe>) -> Collider {
         self.motion = Motion::Keyframed {
             keys: keys.into_iter().collect(),
+            path: PathShape::Linear,
         };
         self
+    }
+
+    /// Where the collider is at time `t` and how it moves there.
+    pub fn pose_at(&self, t: f64) -> Pose {
+        self.motion
+            .pose_at(self.geometry.reference_point(), self.rotation, t)
+    }
+
+    /// Whether the collider is ever turned or turning.
+    pub fn turns(&self) -> bool {
+        self.motion.turns(self.rotation)
     }
 
     /// The same collider with `contact`.
@@ -695,43 +741,17 @@ pub enum ColliderGeometry {
         /// Edge lengths along x, y, z.
         size: Vec3,
     },
+    /// A solid cylinder whose axis is y in the collider's own frame.
+    Cylinder {
+        /// Centre (the middle of the axis).
+        center: Vec3,
+        /// Radius.
+        radius: f32,
+        /// Length along the axis.
+        height: f32,
+    },
     /// A solid triangle mesh, through its signed distance field.
     Mesh(Box<MeshCollider>),
-}
-
-/// How a collider moves; its reference point is the plane point or centre.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "kebab-case")]
-pub enum Motion {
-    /// Does not move.
-    Static,
-    /// Moves with a constant velocity.
-    Linear {
-        /// Velocity in m/s.
-        velocity: Vec3,
-    },
-    /// Moves through keyframed positions of its reference point, linearly
-    /// interpolated; it rests at the first and last key outside their times.
-    Keyframed {
-        /// Keys sorted by strictly increasing time.
-        keys: Vec<Keyframe>,
-    },
-}
-
-/// A keyframe of a moving collider.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Keyframe {
-    /// Time in seconds.
-    pub time: f64,
-    /// Position of the collider's reference point at that time.
-    pub position: Vec3,
-}
-
-impl Keyframe {
-    /// The collider's reference point is at `position` at `time` seconds.
-    pub fn new(time: f64, position: Vec3) -> Keyframe {
-        Keyframe { time, position }
-    }
 }
 
 /// Per-particle attributes that caches can carry besides position.
@@ -889,45 +909,33 @@ impl Default for OutputSettings {
     }
 }
 
-impl Motion {
-    /// Position and velocity of a reference point that starts at `start`, at time `t`.
-    pub fn state_at(&self, start: Vec3, t: f64) -> (Vec3, Vec3) {
-        match self {
-            Motion::Static => (start, Vec3::ZERO),
-            Motion::Linear { velocity } => (start + *velocity * t as f32, *velocity),
-            Motion::Keyframed { keys } => keyframe_state(keys, t),
-        }
-    }
-}
-
-/// Piecewise-linear position through the keys and the velocity of the current segment.
-fn keyframe_state(keys: &[Keyframe], t: f64) -> (Vec3, Vec3) {
-    let (Some(first), Some(last)) = (keys.first(), keys.last()) else {
-        return (Vec3::ZERO, Vec3::ZERO);
-    };
-    if t <= first.time {
-        return (first.position, Vec3::ZERO);
-    }
-    if t >= last.time {
-        return (last.position, Vec3::ZERO);
-    }
-    let next = keys.partition_point(|key| key.time <= t);
-    let (a, b) = (keys[next - 1], keys[next]);
-    let span = (b.time - a.time) as f32;
-    let s = ((t - a.time) / (b.time - a.time)) as f32;
-    let velocity = (b.position - a.position) / span;
-    (a.position.lerp(b.position, s), velocity)
-}
-
 impl ColliderGeometry {
     /// The point that moves with the collider: the plane point or the centre.
     pub fn reference_point(&self) -> Vec3 {
         match *self {
             ColliderGeometry::HalfPlane { point, .. } => point,
-            ColliderGeometry::Sphere { center, .. } | ColliderGeometry::Box { center, .. } => {
-                center
-            }
+            ColliderGeometry::Sphere { center, .. }
+            | ColliderGeometry::Box { center, .. }
+            | ColliderGeometry::Cylinder { center, .. } => center,
             ColliderGeometry::Mesh(ref mesh) => mesh.center,
+        }
+    }
+
+    /// How far the solid reaches from its reference point (infinite for a
+    /// plane): the radius of its rim when it turns.
+    pub fn reach(&self) -> f32 {
+        match *self {
+            ColliderGeometry::HalfPlane { .. } => f32::INFINITY,
+            ColliderGeometry::Sphere { radius, .. } => radius,
+            ColliderGeometry::Box { size, .. } => 0.5 * size.length(),
+            ColliderGeometry::Cylinder { radius, height, .. } => radius.hypot(0.5 * height),
+            ColliderGeometry::Mesh(ref mesh) => {
+                let (low, high) = mesh.bounds();
+                (low - mesh.center)
+                    .abs()
+                    .max((high - mesh.center).abs())
+                    .length()
+            }
         }
     }
 
@@ -936,9 +944,9 @@ impl ColliderGeometry {
         let mut moved = self.clone();
         match &mut moved {
             ColliderGeometry::HalfPlane { point, .. } => *point = position,
-            ColliderGeometry::Sphere { center, .. } | ColliderGeometry::Box { center, .. } => {
-                *center = position
-            }
+            ColliderGeometry::Sphere { center, .. }
+            | ColliderGeometry::Box { center, .. }
+            | ColliderGeometry::Cylinder { center, .. } => *center = position,
             ColliderGeometry::Mesh(mesh) => mesh.center = position,
         }
         moved
@@ -965,6 +973,11 @@ impl ColliderGeometry {
             ColliderGeometry::Box { center, size } => {
                 box_signed_distance(point - center, 0.5 * size)
             }
+            ColliderGeometry::Cylinder {
+                center,
+                radius,
+                height,
+            } => cylinder_signed_distance(point - center, radius, 0.5 * height),
             ColliderGeometry::Mesh(ref mesh) => mesh.signed_distance(point),
         }
     }
@@ -990,5 +1003,28 @@ fn box_signed_distance(p: Vec3, half: Vec3) -> (f32, Vec3) {
         let mut normal = Vec3::ZERO;
         normal[axis] = p[axis].signum();
         (q[axis], normal)
+    }
+}
+
+/// Signed distance and outward normal of a cylinder centred at the origin,
+/// its axis along y, of `radius` and half length `half_height`.
+#[inline]
+fn cylinder_signed_distance(p: Vec3, radius: f32, half_height: f32) -> (f32, Vec3) {
+    let across = (p.x * p.x + p.z * p.z).sqrt();
+    let outward = if across > 0.0 {
+        Vec3::new(p.x / across, 0.0, p.z / across)
+    } else {
+        Vec3::X
+    };
+    let along = if p.y >= 0.0 { Vec3::Y } else { Vec3::NEG_Y };
+    let (side, cap) = (across - radius, p.y.abs() - half_height);
+    if side > 0.0 || cap > 0.0 {
+        let (side, cap) = (side.max(0.0), cap.max(0.0));
+        let length = (side * side + cap * cap).sqrt();
+        (length, (outward * side + along * cap) / length)
+    } else if side >= cap {
+        (side, outward)
+    } else {
+        (cap, along)
     }
 }

@@ -181,6 +181,12 @@ pub fn pack_colliders(colliders: &[firn_core::scene::Collider]) -> PackedCollide
                 gpu.reference = center.extend(0.0).into();
                 gpu.extent = size.extend(0.0).into();
             }
+            // Refused before packing (`GpuSnow::check_supported`): the
+            // kernels have no cylinder yet.
+            ColliderGeometry::Cylinder { center, .. } => {
+                gpu.shape = 4;
+                gpu.reference = center.extend(0.0).into();
+            }
             ColliderGeometry::Mesh(ref mesh) => {
                 // The field is sampled around the time-zero placement; the
                 // collider's motion moves its reference point (the centre).
@@ -195,11 +201,11 @@ pub fn pack_colliders(colliders: &[firn_core::scene::Collider]) -> PackedCollide
         }
         match &collider.motion {
             Motion::Static => gpu.motion = 0,
-            Motion::Linear { velocity } => {
+            Motion::Linear { velocity, .. } => {
                 gpu.motion = 1;
                 gpu.velocity = velocity.extend(0.0).into();
             }
-            Motion::Keyframed { keys: frames } => {
+            Motion::Keyframed { keys: frames, .. } => {
                 gpu.motion = 2;
                 gpu.first_key = keys.len() as u32;
                 gpu.key_count = frames.len() as u32;

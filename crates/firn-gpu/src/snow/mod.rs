@@ -62,7 +62,10 @@ mod wind;
 use std::sync::Arc;
 
 use firn_core::Scene;
-use firn_core::scene::{Integrator, Material, SceneKind, TimeStep, Transfer, Wind};
+use firn_core::scene::{
+    Collider, ColliderGeometry, Integrator, Material, Motion, PathShape, SceneKind, TimeStep,
+    Transfer, Wind,
+};
 use firn_mpm::grid::GridLayout;
 use firn_mpm::implicit::SolverStats;
 use firn_mpm::snow_model::{MaterialConstants, max_wave_speed_squared};
@@ -198,6 +201,15 @@ impl GpuSnow {
             return Err(GpuError::Unsupported {
                 what: "this is a flow scene, not a snow scene".into(),
                 fix: "run it through firn_gpu::GpuFlow".into(),
+            });
+        }
+        if let Some(index) = scene.colliders.iter().position(needs_the_cpu) {
+            return Err(GpuError::Unsupported {
+                what: format!(
+                    "colliders[{index}] turns, is a cylinder or follows a Catmull-Rom path, which \
+                     the GPU backend does not run yet"
+                ),
+                fix: "run it with --backend cpu (--backend auto does)".into(),
             });
         }
         if let Some(wind) = &scene.wind
@@ -430,6 +442,20 @@ fn gpu_materials(constants: &[MaterialConstants], materials: &[Material]) -> Vec
 }
 
 /// Whether `scene` runs the semi-implicit integrator.
+/// Whether a collider needs what only the CPU backend runs so far: a
+/// rotation, a cylinder or a curved keyframe path.
+fn needs_the_cpu(collider: &Collider) -> bool {
+    collider.turns()
+        || matches!(collider.geometry, ColliderGeometry::Cylinder { .. })
+        || matches!(
+            collider.motion,
+            Motion::Keyframed {
+                path: PathShape::CatmullRom,
+                ..
+            }
+        )
+}
+
 fn is_implicit(scene: &Scene) -> bool {
     matches!(scene.solver.integrator, Integrator::SemiImplicit(_))
 }

@@ -96,6 +96,7 @@ fn only_points_inside_a_collider_are_affected() {
         },
         velocity: Vec3::ZERO,
         contact: contact(ContactMode::Separate, 0.0),
+        spin: None,
     };
     let towards_centre = Vec3::new(-1.0, 0.0, 0.0);
     assert_eq!(
@@ -166,34 +167,18 @@ fn skipping_clear_walls_gives_the_bits_of_applying_every_collider() {
         walls: contact(ContactMode::Separate, 0.3),
     };
     let scene = [
-        Collider {
-            geometry: ColliderGeometry::Sphere {
-                center: Vec3::splat(0.5),
-                radius: 0.2,
-            },
-            motion: Motion::Linear {
-                velocity: Vec3::new(0.0, -1.0, 0.0),
-            },
-            contact: contact(ContactMode::Sticky, 0.0),
-        },
+        Collider::sphere(Vec3::splat(0.5), 0.2)
+            .moving(Vec3::new(0.0, -1.0, 0.0))
+            .contact(contact(ContactMode::Sticky, 0.0)),
         // A scene floor above the domain's own, and a tilted plane that
         // is never skipped.
-        Collider {
-            geometry: ColliderGeometry::HalfPlane {
-                point: Vec3::new(0.0, 0.25, 0.0),
-                normal: Vec3::Y,
-            },
-            motion: Motion::Static,
-            contact: contact(ContactMode::Slip, 0.5),
-        },
-        Collider {
-            geometry: ColliderGeometry::HalfPlane {
-                point: Vec3::new(0.9, 0.0, 0.0),
-                normal: Vec3::new(-1.0, -1.0, 0.0).normalize(),
-            },
-            motion: Motion::Static,
-            contact: contact(ContactMode::Separate, 0.4),
-        },
+        Collider::plane(Vec3::new(0.0, 0.25, 0.0), Vec3::Y)
+            .contact(contact(ContactMode::Slip, 0.5)),
+        Collider::new(ColliderGeometry::HalfPlane {
+            point: Vec3::new(0.9, 0.0, 0.0),
+            normal: Vec3::new(-1.0, -1.0, 0.0).normalize(),
+        })
+        .contact(contact(ContactMode::Separate, 0.4)),
     ];
     let placed = ColliderSet::new(&domain, &scene).placed_at(0.5);
     let colliders = Colliders::new(&placed);

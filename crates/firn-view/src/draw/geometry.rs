@@ -52,6 +52,35 @@ pub(super) fn unit_sphere() -> Vec<SurfaceVertex> {
     vertices
 }
 
+/// Triangles of the cylinder of radius 1 and height 1 about the y axis
+/// (from y = -0.5 to 0.5): a smooth side and flat caps.
+pub(super) fn unit_cylinder() -> Vec<SurfaceVertex> {
+    let around = |segment: u32| {
+        let azimuth = std::f32::consts::TAU * segment as f32 / SPHERE_SEGMENTS as f32;
+        Vec3::new(azimuth.cos(), 0.0, azimuth.sin())
+    };
+    let mut vertices = Vec::with_capacity((SPHERE_SEGMENTS * 12) as usize);
+    for segment in 0..SPHERE_SEGMENTS {
+        let (a, b) = (around(segment), around(segment + 1));
+        let (low, high) = (Vec3::new(0.0, -0.5, 0.0), Vec3::new(0.0, 0.5, 0.0));
+        let side = |p: Vec3, y: Vec3| SurfaceVertex::new(p + y, p);
+        vertices.extend([side(a, low), side(a, high), side(b, high)]);
+        vertices.extend([side(a, low), side(b, high), side(b, low)]);
+        let cap = |p: Vec3, normal: Vec3| SurfaceVertex::new(p, normal);
+        vertices.extend([
+            cap(high, Vec3::Y),
+            cap(b + high, Vec3::Y),
+            cap(a + high, Vec3::Y),
+        ]);
+        vertices.extend([
+            cap(low, Vec3::NEG_Y),
+            cap(a + low, Vec3::NEG_Y),
+            cap(b + low, Vec3::NEG_Y),
+        ]);
+    }
+    vertices
+}
+
 /// Triangles of the box from -0.5 to 0.5 on every axis, with face normals.
 pub(super) fn unit_cube() -> Vec<SurfaceVertex> {
     let mut vertices = Vec::with_capacity(36);
@@ -185,6 +214,12 @@ mod tests {
                 .iter()
                 .all(|v| (Vec3::from(v.position).length() - 1.0).abs() < 1e-5)
         );
+        let cylinder = unit_cylinder();
+        assert_eq!(cylinder.len() % 3, 0);
+        assert!(cylinder.iter().all(|v| {
+            let p = Vec3::from(v.position);
+            p.y.abs() == 0.5 && (p.x * p.x + p.z * p.z).sqrt() <= 1.0 + 1e-6
+        }));
         let cube = unit_cube();
         assert_eq!(cube.len(), 36);
         assert!(

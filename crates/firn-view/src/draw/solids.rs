@@ -8,10 +8,12 @@ use std::ops::Range;
 use bytemuck::{Pod, Zeroable};
 use firn_core::Scene;
 use firn_core::scene::{ColliderGeometry, MeshCollider, MeshPlacement};
-use firn_render::stage::{COLLIDER_ALBEDO, Stage, WALL_ALBEDO};
-use glam::Vec3;
+use firn_render::stage::{COLLIDER_ALBEDO, Stage, StageCollider, WALL_ALBEDO};
+use glam::{Quat, Vec3};
 
-use super::geometry::{SurfaceVertex, mesh_triangles, plane_polygon, unit_cube, unit_sphere};
+use super::geometry::{
+    SurfaceVertex, mesh_triangles, plane_polygon, unit_cube, unit_cylinder, unit_sphere,
+};
 use super::gpu::{
     ColorTarget, DepthUse, GrowingBuffer, PipelineSpec, fill_at_creation, render_pipeline,
     shader_module,
@@ -27,7 +29,8 @@ const SHADER: [&str; 2] = [
     include_str!("../../shaders/solids.wgsl"),
 ];
 
-/// Where and how one collider is drawn (`SolidIn` locations 2 to 5).
+/// Where and how one collider is drawn (`SolidIn` locations 2 to 7): a
+/// vertex p goes to pivot + rotation (p · scale + offset − pivot).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 struct SolidInstance {
@@ -35,6 +38,8 @@ struct SolidInstance {
     scale: [f32; 3],
     albedo: [f32; 3],
     shininess: f32,
+    rotation: [f32; 4],
+    pivot: [f32; 3],
 }
 
 impl SolidInstance {
@@ -44,14 +49,24 @@ impl SolidInstance {
             scale: scale.to_array(),
             albedo: albedo.to_array(),
             shininess,
+            rotation: Quat::IDENTITY.to_array(),
+            pivot: offset.to_array(),
         }
+    }
+
+    /// The same instance turned by `rotation` about `pivot`.
+    fn turned(mut self, rotation: Quat, pivot: Vec3) -> SolidInstance {
+        self.rotation = rotation.to_array();
+        self.pivot = pivot.to_array();
+        self
     }
 }
 
 const SURFACE_ATTRIBUTES: [wgpu::VertexAttribute; 2] =
     wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
-const INSTANCE_ATTRIBUTES: [wgpu::VertexAttribute; 4] =
-    wgpu::vertex_attr_array![2 => Float32x3, 3 => Float32x3, 4 => Float32x3, 5 => Float32];
+const INSTANCE_ATTRIBUTES: [wgpu::VertexAttribute; 6] = wgpu::vertex_attr_array![
+    2 => Float32x3, 3 => Float32x3, 4 => Float32x3, 5 => Float32, 6 => Float32x4, 7 => Float32x3
+];
 
 /// Triangles in a vertex buffer.
 struct Shape {
@@ -84,6 +99,7 @@ struct PlacedShape {
 enum Triangles {
     Sphere,
     Cube,
+    Cylinder,
     Mesh(usize),
     /// A range of this frame's plane vertices.
     Planes(Range<u32>),
@@ -100,6 +116,7 @@ pub(super) struct Solids {
     pipeline: wgpu::RenderPipeline,
     sphere: Shape,
     cube: Shape,
+    cylinder: Shape,
     meshes: Vec<PlacedShape>,
     instances: GrowingBuffer,
     planes: GrowingBuffer,
@@ -147,6 +164,7 @@ impl Solids {
             pipeline,
             sphere: Shape::new(device, "firn-view unit sphere", &unit_sphere()),
             cube: Shape::new(device, "firn-view unit cube", &unit_cube()),
+            cylinder: Shape::new(device, "firn-view unit cylinder", &unit_cylinder()),
             meshes: load_meshes(device, scene),
             instances: GrowingBuffer::new(
                 device,
@@ -181,22 +199,48 @@ impl Solids {
             .write(device, queue, bytemuck::cast_slice(&plane_vertices));
     }
 
-    /// The triangles and instance that draw `collider`; a plane's clipped
-    /// polygon is appended to `plane_vertices`. `None` for a mesh that was
-    /// not loaded.
+    /// The triangles and instance that draw `collider`, turned about its
+    /// reference point; a plane's clipped polygon (turned already) is
+    /// appended to `plane_vertices`. `None` for a mesh that was not loaded.
     fn placed(
         &self,
-        collider: &ColliderGeometry,
+        collider: &StageCollider,
         container: Option<(Vec3, Vec3)>,
         plane_vertices: &mut Vec<SurfaceVertex>,
     ) -> Option<(Triangles, SolidInstance)> {
+        let pivot = collider.geometry.reference_point();
+        let (triangles, instance) =
+            if let ColliderGeometry::HalfPlane { point, normal } = collider.geometry {
+                let start = plane_vertices.len() as u32;
+                let normal = collider.rotation * normal;
+                plane_vertices.extend(plane_polygon(point, normal, container));
+                (
+                    Triangles::Planes(start..plane_vertices.len() as u32),
+                    SolidInstance::new(Vec3::ZERO, Vec3::ONE, WALL_ALBEDO, WALL_SHININESS),
+                )
+            } else {
+                self.unturned(&collider.geometry)?
+            };
+        Some((triangles, instance.turned(collider.rotation, pivot)))
+    }
+
+    /// The triangles and instance of a solid that is not a plane, unturned.
+    fn unturned(&self, geometry: &ColliderGeometry) -> Option<(Triangles, SolidInstance)> {
         let solid =
             |offset, scale| SolidInstance::new(offset, scale, COLLIDER_ALBEDO, COLLIDER_SHININESS);
-        Some(match *collider {
+        Some(match *geometry {
             ColliderGeometry::Sphere { center, radius } => {
                 (Triangles::Sphere, solid(center, Vec3::splat(radius)))
             }
             ColliderGeometry::Box { center, size } => (Triangles::Cube, solid(center, size)),
+            ColliderGeometry::Cylinder {
+                center,
+                radius,
+                height,
+            } => (
+                Triangles::Cylinder,
+                solid(center, Vec3::new(radius, height, radius)),
+            ),
             ColliderGeometry::Mesh(ref mesh) => {
                 let shift = mesh.center - mesh.placement.center;
                 (
@@ -204,14 +248,7 @@ impl Solids {
                     solid(shift, Vec3::ONE),
                 )
             }
-            ColliderGeometry::HalfPlane { point, normal } => {
-                let start = plane_vertices.len() as u32;
-                plane_vertices.extend(plane_polygon(point, normal, container));
-                (
-                    Triangles::Planes(start..plane_vertices.len() as u32),
-                    SolidInstance::new(Vec3::ZERO, Vec3::ONE, WALL_ALBEDO, WALL_SHININESS),
-                )
-            }
+            ColliderGeometry::HalfPlane { .. } => return None,
         })
     }
 
@@ -227,6 +264,7 @@ impl Solids {
             let (buffer, vertices) = match &draw.triangles {
                 Triangles::Sphere => (&self.sphere.vertices, 0..self.sphere.count),
                 Triangles::Cube => (&self.cube.vertices, 0..self.cube.count),
+                Triangles::Cylinder => (&self.cylinder.vertices, 0..self.cylinder.count),
                 Triangles::Mesh(index) => {
                     let shape = &self.meshes[*index].shape;
                     (&shape.vertices, 0..shape.count)

@@ -9,10 +9,12 @@ use super::shapes::{
     mesh_issue, mesh_placement,
 };
 use super::values::{
-    Num, ensure, finite_vec, missing, reject, require, unit_or_zero, unit_vec, vec3,
+    Num, ensure, finite_vec, missing, positive, reject, require, unit_or_zero, unit_vec, vec3,
 };
 use crate::scene::mesh::MeshCollider;
-use crate::scene::model::{Collider, ColliderGeometry, Domain, Keyframe, Motion};
+use crate::scene::model::{Collider, ColliderGeometry, Domain, TimeSettings};
+use crate::scene::motion::{Keyframe, Motion, PathShape, rotation_from_degrees};
+use glam::Quat;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -23,10 +25,13 @@ pub(super) struct RawCollider {
     center: Option<[f32; 3]>,
     radius: Option<f32>,
     size: Option<[f32; 3]>,
+    height: Option<f32>,
     mode: Option<RawMode>,
     friction: Option<f32>,
     velocity: Option<[f32; 3]>,
+    angular_velocity: Option<[f32; 3]>,
     keyframes: Option<Vec<RawKeyframe>>,
+    path: Option<PathShape>,
     mesh: Option<String>,
     scale: Option<RawScale>,
     rotation: Option<[f32; 3]>,
@@ -39,6 +44,7 @@ enum RawColliderShape {
     Plane,
     Sphere,
     Box,
+    Cylinder,
     Mesh,
 }
 
@@ -47,6 +53,8 @@ enum RawColliderShape {
 struct RawKeyframe {
     time: Option<f64>,
     position: Option<[f32; 3]>,
+    rotation: Option<[f32; 3]>,
+    quaternion: Option<[f32; 4]>,
 }
 
 fn collider_shape_name(shape: RawColliderShape) -> &'static str {
@@ -54,6 +62,7 @@ fn collider_shape_name(shape: RawColliderShape) -> &'static str {
         RawColliderShape::Plane => "plane",
         RawColliderShape::Sphere => "sphere",
         RawColliderShape::Box => "box",
+        RawColliderShape::Cylinder => "cylinder",
         RawColliderShape::Mesh => "mesh",
     }
 }
@@ -80,22 +89,33 @@ fn resolve_collider(
     domain: &Domain,
 ) -> Result<Collider, Issue> {
     let shape = raw.shape.ok_or_else(|| {
-        missing(path.key("shape"), "the collider's shape")
-            .with_hint("add shape = \"plane\", \"sphere\", \"box\" or \"mesh\" with its dimensions")
+        missing(path.key("shape"), "the collider's shape").with_hint(
+            "add shape = \"plane\", \"sphere\", \"box\", \"cylinder\" or \"mesh\" with its \
+                 dimensions",
+        )
     })?;
     if !matches!(shape, RawColliderShape::Mesh) {
         let name = collider_shape_name(shape);
-        let takes = "mesh, scale, rotation, center and sdf_spacing";
+        let takes = "mesh, scale, center and sdf_spacing";
         reject(&raw.mesh, path.key("mesh"), name, takes)?;
         reject(&raw.scale, path.key("scale"), name, takes)?;
-        reject(&raw.rotation, path.key("rotation"), name, takes)?;
         reject(&raw.sdf_spacing, path.key("sdf_spacing"), name, takes)?;
+    }
+    if !matches!(shape, RawColliderShape::Cylinder) {
+        let name = collider_shape_name(shape);
+        reject(
+            &raw.height,
+            path.key("height"),
+            name,
+            "center, radius and height",
+        )?;
     }
     let geometry = match shape {
         RawColliderShape::Mesh => {
             let takes = "mesh, scale, rotation, center and sdf_spacing";
             reject(&raw.point, path.key("point"), "mesh", takes)?;
             reject(&raw.normal, path.key("normal"), "mesh", takes)?;
+            reject(&raw.height, path.key("height"), "mesh", takes)?;
             reject(&raw.radius, path.key("radius"), "mesh", takes)?;
             reject(&raw.size, path.key("size"), "mesh", takes)?;
             let center = vec3(require(raw.center, path.key("center"), "the centre")?);
@@ -112,6 +132,7 @@ fn resolve_collider(
         RawColliderShape::Plane => {
             let takes = "point and normal";
             reject(&raw.center, path.key("center"), "plane", takes)?;
+            reject(&raw.height, path.key("height"), "plane", takes)?;
             reject(&raw.radius, path.key("radius"), "plane", takes)?;
             reject(&raw.size, path.key("size"), "plane", takes)?;
             ColliderGeometry::HalfPlane {
@@ -131,6 +152,7 @@ fn resolve_collider(
             let takes = "center and radius";
             reject(&raw.point, path.key("point"), "sphere", takes)?;
             reject(&raw.normal, path.key("normal"), "sphere", takes)?;
+            reject(&raw.height, path.key("height"), "sphere", takes)?;
             reject(&raw.size, path.key("size"), "sphere", takes)?;
             ColliderGeometry::Sphere {
                 center: vec3(require(raw.center, path.key("center"), "the centre")?),
@@ -141,49 +163,120 @@ fn resolve_collider(
             let takes = "center and size";
             reject(&raw.point, path.key("point"), "box", takes)?;
             reject(&raw.normal, path.key("normal"), "box", takes)?;
+            reject(&raw.height, path.key("height"), "box", takes)?;
             reject(&raw.radius, path.key("radius"), "box", takes)?;
             ColliderGeometry::Box {
                 center: vec3(require(raw.center, path.key("center"), "the centre")?),
                 size: vec3(require(raw.size, path.key("size"), "the edge lengths")?),
             }
         }
-    };
-    let motion = match (raw.velocity, raw.keyframes) {
-        (Some(_), Some(_)) => {
-            return Err(Issue::new(
-                path.key("keyframes"),
-                format!("{path} has both velocity and keyframes"),
-                "a collider moves either with a constant velocity or through keyframes; \
-                 remove one of the two",
-            ));
-        }
-        (Some(velocity), None) => Motion::Linear {
-            velocity: vec3(velocity),
-        },
-        (None, Some(raw_keys)) => {
-            let mut keys = Vec::with_capacity(raw_keys.len());
-            for (index, key) in raw_keys.into_iter().enumerate() {
-                let key_path = path.key("keyframes").index(index);
-                keys.push(Keyframe {
-                    time: require(key.time, key_path.key("time"), "the key's time in seconds")?,
-                    position: vec3(require(
-                        key.position,
-                        key_path.key("position"),
-                        "where the collider's reference point is at that time",
-                    )?),
-                });
+        RawColliderShape::Cylinder => {
+            let takes = "center, radius and height (its axis is y, turned by rotation)";
+            reject(&raw.point, path.key("point"), "cylinder", takes)?;
+            reject(&raw.normal, path.key("normal"), "cylinder", takes)?;
+            reject(&raw.size, path.key("size"), "cylinder", takes)?;
+            ColliderGeometry::Cylinder {
+                center: vec3(require(raw.center, path.key("center"), "the centre")?),
+                radius: require(raw.radius, path.key("radius"), "the radius in metres")?,
+                height: require(raw.height, path.key("height"), "the length along its axis")?,
             }
-            Motion::Keyframed { keys }
         }
-        (None, None) => Motion::Static,
     };
+    // A mesh's rotation places its vertices (its field is sampled so);
+    // every other shape turns about its reference point.
+    let rotation = match shape {
+        RawColliderShape::Mesh => Quat::IDENTITY,
+        _ => raw.rotation.map_or(Quat::IDENTITY, |degrees| {
+            rotation_from_degrees(vec3(degrees))
+        }),
+    };
+    let motion = resolve_motion(
+        path,
+        raw.velocity,
+        raw.angular_velocity,
+        raw.keyframes,
+        raw.path,
+        rotation,
+    )?;
     Ok(Collider {
         motion,
         contact: contact(Some(RawContact {
             mode: raw.mode,
             friction: raw.friction,
         })),
+        rotation,
         ..Collider::new(geometry)
+    })
+}
+
+/// The motion of a collider from its `velocity` and `angular_velocity`
+/// or its `keyframes` (whose keys without a rotation take `rotation`) and
+/// `path`.
+fn resolve_motion(
+    path: &KeyPath,
+    velocity: Option<[f32; 3]>,
+    angular_velocity: Option<[f32; 3]>,
+    keyframes: Option<Vec<RawKeyframe>>,
+    shape: Option<PathShape>,
+    rotation: Quat,
+) -> Result<Motion, Issue> {
+    let Some(raw_keys) = keyframes else {
+        reject(
+            &shape,
+            path.key("path"),
+            "a collider without keyframes",
+            "keyframes",
+        )?;
+        return Ok(match (velocity, angular_velocity) {
+            (None, None) => Motion::Static,
+            (velocity, angular_velocity) => Motion::Linear {
+                velocity: vec3(velocity.unwrap_or_default()),
+                angular_velocity: vec3(angular_velocity.unwrap_or_default()),
+            },
+        });
+    };
+    for (given, key) in [
+        (velocity, "velocity"),
+        (angular_velocity, "angular_velocity"),
+    ] {
+        if given.is_some() {
+            return Err(Issue::new(
+                path.key("keyframes"),
+                format!("{path} has both {key} and keyframes"),
+                "a collider moves either with a constant velocity and angular velocity or \
+                 through keyframes; remove one of the two",
+            ));
+        }
+    }
+    let mut keys = Vec::with_capacity(raw_keys.len());
+    for (index, key) in raw_keys.into_iter().enumerate() {
+        let key_path = path.key("keyframes").index(index);
+        if key.rotation.is_some() && key.quaternion.is_some() {
+            return Err(Issue::new(
+                key_path.key("quaternion"),
+                format!("{key_path} has both rotation and quaternion"),
+                "give the key's orientation once: rotation = [x, y, z] in degrees, or \
+                 quaternion = [x, y, z, w]",
+            ));
+        }
+        let key_rotation = match (key.rotation, key.quaternion) {
+            (Some(degrees), _) => rotation_from_degrees(vec3(degrees)),
+            (_, Some([x, y, z, w])) => Quat::from_xyzw(x, y, z, w).normalize(),
+            (None, None) => rotation,
+        };
+        keys.push(Keyframe {
+            time: require(key.time, key_path.key("time"), "the key's time in seconds")?,
+            position: vec3(require(
+                key.position,
+                key_path.key("position"),
+                "where the collider's reference point is at that time",
+            )?),
+            rotation: key_rotation,
+        });
+    }
+    Ok(Motion::Keyframed {
+        keys,
+        path: shape.unwrap_or_default(),
     })
 }
 
@@ -199,16 +292,35 @@ pub(super) fn check_collider(path: &KeyPath, collider: &Collider) -> Check {
         ColliderGeometry::Box { center, size } => {
             check_box(path, center, size)?;
         }
+        ColliderGeometry::Cylinder {
+            center,
+            radius,
+            height,
+        } => {
+            check_ball(path, center, radius)?;
+            positive(
+                height,
+                path.key("height"),
+                "set the length along the axis in metres, e.g. height = 0.2".to_string(),
+            )?;
+        }
         ColliderGeometry::Mesh(ref mesh) => {
             check_mesh_placement(path, &mesh.placement)?;
             check_sdf_spacing(path, mesh.sdf_spacing)?;
         }
     }
     check_contact(path, &collider.contact)?;
+    check_rotation(collider.rotation, path.key("rotation"))?;
     match &collider.motion {
         Motion::Static => {}
-        Motion::Linear { velocity } => finite_vec(*velocity, path.key("velocity"))?,
-        Motion::Keyframed { keys } => {
+        Motion::Linear {
+            velocity,
+            angular_velocity,
+        } => {
+            finite_vec(*velocity, path.key("velocity"))?;
+            finite_vec(*angular_velocity, path.key("angular_velocity"))?;
+        }
+        Motion::Keyframed { keys, .. } => {
             let keys_path = path.key("keyframes");
             if keys.len() < 2 {
                 return Err(Issue::new(
@@ -228,6 +340,7 @@ pub(super) fn check_collider(path: &KeyPath, collider: &Collider) -> Check {
                     "give the key's time in seconds, e.g. time = 0.5".to_string(),
                 )?;
                 finite_vec(key.position, key_path.key("position"))?;
+                check_rotation(key.rotation, key_path.key("rotation"))?;
                 if index > 0 && key.time <= keys[index - 1].time {
                     let time_path = key_path.key("time");
                     return Err(Issue::new(
@@ -244,4 +357,59 @@ pub(super) fn check_collider(path: &KeyPath, collider: &Collider) -> Check {
         }
     }
     Ok(())
+}
+
+/// A finite orientation: NaN or infinite angles, or a zero quaternion,
+/// leave none.
+fn check_rotation(rotation: Quat, path: KeyPath) -> Check {
+    ensure(
+        rotation.is_finite(),
+        path,
+        "finite",
+        format!("{rotation:?}"),
+        "give finite angles in degrees, e.g. rotation = [0.0, 90.0, 0.0], or a non-zero \
+         quaternion = [x, y, z, w]"
+            .to_string(),
+    )
+}
+
+/// A turning collider whose rim (its farthest point from the reference
+/// point) would cross more than a cell per substep unless a frame took
+/// more substeps than `time.max_substeps_per_frame` allows: the contact
+/// needs the collider to move at most about a cell per substep.
+pub(super) fn check_turning_speed(
+    path: &KeyPath,
+    collider: &Collider,
+    domain: &Domain,
+    time: &TimeSettings,
+) -> Check {
+    let Motion::Linear {
+        angular_velocity, ..
+    } = collider.motion
+    else {
+        return Ok(());
+    };
+    let reach = collider
+        .geometry
+        .reach()
+        .min((domain.max - domain.min).length());
+    let rim_speed = angular_velocity.length() * reach;
+    let needed = f64::from(rim_speed / domain.cell_size) / time.fps;
+    let limit = f64::from(time.max_substeps_per_frame);
+    let key = path.key("angular_velocity");
+    ensure(
+        needed <= limit,
+        key.clone(),
+        "slow enough for the substeps a frame may take",
+        format!(
+            "{:.3} rad/s, a rim speed of {rim_speed:.3} m/s: one cell (h = {} m) per substep \
+             needs {needed:.0} substeps a frame, more than time.max_substeps_per_frame = {limit}",
+            angular_velocity.length(),
+            domain.cell_size
+        ),
+        format!(
+            "lower {key}, or raise [time] max_substeps_per_frame if the frames really need that \
+             many substeps"
+        ),
+    )
 }

@@ -297,7 +297,9 @@ fn check_scene(scene: &Scene) -> Check {
         wind::check_wind(wind)?;
     }
     for (index, collider) in scene.colliders.iter().enumerate() {
-        colliders::check_collider(&KeyPath::of("colliders").index(index), collider)?;
+        let path = KeyPath::of("colliders").index(index);
+        colliders::check_collider(&path, collider)?;
+        colliders::check_turning_speed(&path, collider, &scene.domain, &scene.time)?;
     }
     output::check_output(&scene.output)?;
     output::check_vdb(&scene.output.vdb, scene.domain.cell_size)?;
