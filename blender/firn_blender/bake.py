@@ -280,8 +280,6 @@ class FIRN_OT_bake(bpy.types.Operator):
             settings.status = f"Error: {error}"
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}
-        for warning in job.made.warnings:
-            self.report({"WARNING"}, warning)
         _job = job
         settings.baking = True
         settings.progress = 0.0

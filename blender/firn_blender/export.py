@@ -7,16 +7,15 @@ into firn's axes (y up, metres; see `axes`). A snow body is its evaluated
 mesh, written as OBJ in firn's axes and placed at its own bounding box's
 centre, so it lands exactly where the object is. A collider is a plane (a
 flat mesh) or a mesh; when its transform changes over the frame range it
-gets one keyframe per frame of its translation. firn's colliders only
-translate for now: rotation is sampled too and reported, so that rotation
-keys can be added when firn reads them."""
+gets one keyframe per frame of its pose: where its reference point is and
+how it is turned from the first frame (a quaternion in firn's axes)."""
 
 import math
 import re
 import struct
 from dataclasses import dataclass, field
 
-from mathutils import Vector
+from mathutils import Quaternion, Vector
 
 from .axes import to_firn, unit_scale
 
@@ -24,7 +23,7 @@ from .axes import to_firn, unit_scale
 RUN_FOLDER = "run"
 #: The folder, inside the cache, of the exported meshes.
 MESH_FOLDER = "meshes"
-#: Smallest rotation, in radians, reported as a rotating collider.
+#: Smallest rotation, in radians, that a collider's keys carry.
 ROTATION_TOLERANCE = 1e-5
 
 
@@ -46,9 +45,10 @@ class Motion:
     rotations: list = field(default_factory=list)
 
     def moves(self):
-        """Whether the translation changes over the range."""
+        """Whether the translation or the rotation changes over the range."""
         first = self.translations[0]
-        return any(any(abs(a - b) > 1e-9 for a, b in zip(t, first, strict=True)) for t in self.translations)
+        moved = any(any(abs(a - b) > 1e-9 for a, b in zip(t, first, strict=True)) for t in self.translations)
+        return moved or self.rotation_angle() > ROTATION_TOLERANCE
 
     def rotation_angle(self):
         """The largest rotation, radians, away from the first frame's."""
@@ -56,13 +56,30 @@ class Motion:
         return max(first.rotation_difference(r).angle for r in self.rotations)
 
     def keyframes(self, reference):
-        """firn keyframes moving `reference` (firn's axes) as the object's
-        origin moves: one `{time, position}` per frame."""
+        """firn keyframes of a collider exported as it is at the first frame,
+        whose reference point is `reference` (firn's axes): per frame the
+        turn r = R R₀⁻¹ of the object's world rotation R since the first
+        frame and the point c = o + r (c₀ − o₀) (o the object's origin), so
+        that every point p of the exported mesh is at c + r (p − c₀), as
+        Blender moves it. A key without a turn carries no quaternion."""
         origin = self.translations[0]
-        return [
-            {"time": time, "position": [r + t - o for r, t, o in zip(reference, translation, origin, strict=True)]}
-            for time, translation in zip(self.times, self.translations, strict=True)
-        ]
+        first = self.rotations[0].inverted()
+        arm = Vector([r - o for r, o in zip(reference, origin, strict=True)])
+        keys = []
+        for time, translation, rotation in zip(self.times, self.translations, self.rotations, strict=True):
+            turn = firn_quaternion(rotation @ first)
+            position = Vector(translation) + turn @ arm
+            key = {"time": time, "position": list(position)}
+            if turn.angle > ROTATION_TOLERANCE:
+                key["quaternion"] = [turn.x, turn.y, turn.z, turn.w]
+            keys.append(key)
+        return keys
+
+
+def firn_quaternion(turn):
+    """A Blender world rotation as the same turn in firn's axes, where
+    Blender's (x, y, z) is firn's (x, z, -y) (`axes.to_firn`)."""
+    return Quaternion((turn.w, turn.x, turn.z, -turn.y))
 
 
 @dataclass
@@ -72,7 +89,6 @@ class Export:
     scene: dict
     meshes: dict
     origins: dict
-    warnings: list
     frame_start: int
     frame_count: int
 
@@ -349,7 +365,7 @@ def build(scene, depsgraph_of, run_directory):
         "render": {"enabled": False},
         "compute": {"backend": settings.backend},
     }
-    meshes, origins, warnings, materials = {}, {"domain": (domain.name, "domain")}, [], {}
+    meshes, origins, materials = {}, {"domain": (domain.name, "domain")}, {}
     for obj in snow:
         vertices, triangles = checked_mesh(obj, depsgraph, scale)
         mesh_file = f"{MESH_FOLDER}/{safe_name(obj.name)}.obj"
@@ -364,7 +380,6 @@ def build(scene, depsgraph_of, run_directory):
             meshes[collider["mesh"]] = obj_text(vertices, triangles)
         origins[f"colliders[{len(keys['colliders'])}]"] = (obj.name, "collider")
         keys["colliders"].append(collider)
-        warnings += motion_warnings(obj, motion)
     scene.frame_set(current)
     if materials:
         keys["materials"] = materials
@@ -375,7 +390,7 @@ def build(scene, depsgraph_of, run_directory):
         origins["wind"] = (scene.name, "wind")
     keys = tidy(keys)
     keys["time"] = {"duration": duration_of(frames, fps), "fps": fps}
-    return Export(keys, meshes, origins, warnings, scene.frame_start, frames)
+    return Export(keys, meshes, origins, scene.frame_start, frames)
 
 
 def gravity(scene, scale):
@@ -393,16 +408,3 @@ def checked_mesh(obj, depsgraph, scale):
     if not triangles:
         raise ExportError(obj.name, "Mesh", "the mesh has no faces to fill or to collide with")
     return vertices, triangles
-
-
-def motion_warnings(obj, motion):
-    """What firn cannot follow of a collider's motion yet."""
-    if obj.firn.motion == "STATIC" or not motion.rotations:
-        return []
-    angle = motion.rotation_angle()
-    if angle <= ROTATION_TOLERANCE:
-        return []
-    return [
-        f"{obj.name}: the collider turns by up to {math.degrees(angle):.1f}° over the frames; "
-        "firn's colliders only translate yet, so it is baked moving without turning"
-    ]

@@ -108,6 +108,10 @@ def test_scene_file_puts_bodies_and_colliders_where_the_objects_are_in_firn_axes
     keys = block["keyframes"]
     assert [round(key["time"] * 24, 6) for key in keys] == list(range(FRAMES))
     assert close(keys[0]["position"], block["center"]) and close(keys[-1]["position"], [0.3, 0.15, 0.05])
+    # The block turns 30° about Blender's z, firn's y, by frame 10.
+    assert "quaternion" not in keys[0]
+    half = math.radians(15.0)
+    assert close(keys[-1]["quaternion"], [0.0, math.sin(half), 0.0, math.cos(half)])
 
 
 def test_caches_hold_every_frame(baked):
