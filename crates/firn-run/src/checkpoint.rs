@@ -349,6 +349,27 @@ mod tests {
     use serde_json::json;
 
     #[test]
+    fn a_scene_read_back_from_its_checkpoint_text_is_the_same_scene() {
+        // A block keyed through a turn, as the Blender add-on bakes one: its
+        // quaternions' f32 values, written as JSON text and read back, must
+        // parse to the very same numbers (serde_json's `float_roundtrip`),
+        // or `--resume` refuses the scene that wrote the checkpoint.
+        let keys = (0..=9).map(|k| {
+            let angle = (k as f32 * 30.0 / 9.0).to_radians();
+            firn_core::scene::Keyframe::new(f64::from(k) / 24.0, glam::Vec3::new(0.25, 0.15, -0.1))
+                .rotated(glam::Quat::from_rotation_y(angle))
+        });
+        let mut scene = Scene::default();
+        scene.colliders.push(
+            firn_core::scene::Collider::cuboid(glam::Vec3::splat(0.5), glam::Vec3::splat(0.1))
+                .keyframed(keys),
+        );
+        let written = scene_json(&scene);
+        let read: serde_json::Value = serde_json::from_str(&written.to_string()).unwrap();
+        assert!(same_physics(&read, &written));
+    }
+
+    #[test]
     fn scenes_that_differ_only_in_their_backend_simulate_the_same() {
         let before_compute = json!({ "name": "ball", "time": { "fps": 30.0 } });
         let on_gpu = json!({
