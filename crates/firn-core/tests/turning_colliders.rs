@@ -22,8 +22,17 @@ center = [1.0, 1.0, 1.0]
 radius = 0.2
 ";
 
-fn load(colliders: &str) -> Result<Scene, SceneError> {
-    Scene::from_toml_str(&format!("{HEAD}{colliders}"), "scenes/wheel.toml")
+/// The scene of [`HEAD`] with `colliders`, which must load.
+fn load(colliders: &str) -> Scene {
+    Scene::from_toml_str(&format!("{HEAD}{colliders}"), "scenes/wheel.toml").unwrap()
+}
+
+/// Why the scene of [`HEAD`] with `colliders` does not load.
+fn error_of(colliders: &str) -> SceneError {
+    match Scene::from_toml_str(&format!("{HEAD}{colliders}"), "scenes/wheel.toml") {
+        Ok(_) => panic!("the scene should not load:\n{colliders}"),
+        Err(error) => error,
+    }
 }
 
 #[test]
@@ -49,8 +58,7 @@ keyframes = [
   { time = 1.0, position = [1.4, 0.5, 1.0], quaternion = [0.0, 0.0, 0.0, 2.0] },
 ]
 ",
-    )
-    .unwrap();
+    );
     let wheel = &scene.colliders[0];
     assert_eq!(
         wheel.geometry,
@@ -83,7 +91,7 @@ keyframes = [
 /// containing `says`.
 #[track_caller]
 fn refused(colliders: &str, line: usize, key: &str, says: &str) {
-    let error = load(colliders).expect_err("the scene should not load");
+    let error = error_of(colliders);
     assert_eq!(error.file, "scenes/wheel.toml", "{error}");
     assert_eq!(error.line, Some(line), "{error}");
     assert_eq!(error.key.as_deref(), Some(key), "{error}");
