@@ -3,7 +3,7 @@
 //! These are ray-cast per sample; the particles are drawn over them with a
 //! depth test.
 
-use firn_core::scene::{ColliderGeometry, MeshCollider};
+use firn_core::scene::ColliderGeometry;
 use glam::{Quat, Vec2, Vec3};
 
 use crate::camera::CameraView;
@@ -211,9 +211,16 @@ impl Stage {
                 intersect_box(origin, direction, center - 0.5 * size, center + 0.5 * size)
                     .map(solid)
             }
-            ColliderGeometry::Mesh(ref mesh) => march_mesh(mesh, origin, direction).map(solid),
-            ColliderGeometry::Cylinder { .. } => {
-                march_solid(collider, origin, direction).map(solid)
+            ColliderGeometry::Mesh(ref mesh) => {
+                let spacing = mesh.sdf_spacing;
+                let steps = (0.05 * spacing, 0.1 * spacing);
+                march(collider, mesh.bounds(), steps, origin, direction).map(solid)
+            }
+            ColliderGeometry::Cylinder { center, .. } => {
+                let reach = Vec3::splat(collider.reach());
+                let bounds = (center - reach, center + reach);
+                let steps = (1e-4 * reach.x, 0.0);
+                march(collider, bounds, steps, origin, direction).map(solid)
             }
             ColliderGeometry::HalfPlane { point, normal } => {
                 let distance = intersect_plane(origin, direction, point, normal)?;
@@ -332,38 +339,20 @@ pub fn intersect_box(origin: Vec3, direction: Vec3, min: Vec3, max: Vec3) -> Opt
     Some((distance, normal))
 }
 
-/// The first crossing of a unit ray with a mesh collider's surface, found by
-/// sphere tracing its signed distance field inside the field's box (Hart
-/// 1996): each step advances by the distance to the nearest surface, which
-/// cannot overshoot it.
-fn march_mesh(mesh: &MeshCollider, origin: Vec3, direction: Vec3) -> Option<(f32, Vec3)> {
+/// The first crossing of a unit ray with a solid's surface inside the box
+/// `low..high`, found by sphere tracing its signed distance (Hart 1996):
+/// each step advances by the distance to the nearest surface, which cannot
+/// overshoot it, and by at least `min_step`; a point nearer than `surface`
+/// is on it.
+fn march(
+    solid: &ColliderGeometry,
+    (low, high): (Vec3, Vec3),
+    (surface, min_step): (f32, f32),
+    origin: Vec3,
+    direction: Vec3,
+) -> Option<(f32, Vec3)> {
     const MAX_STEPS: u32 = 512;
-    let (low, high) = mesh.bounds();
     let (near, far) = slab_interval(origin, direction, low, high)?;
-    let spacing = mesh.sdf_spacing;
-    let surface = 0.05 * spacing;
-    let mut distance = near.max(0.0);
-    for _ in 0..MAX_STEPS {
-        if distance > far {
-            return None;
-        }
-        let (gap, normal) = mesh.signed_distance(origin + direction * distance);
-        if gap < surface {
-            return Some((distance, normal));
-        }
-        distance += gap.max(0.1 * spacing);
-    }
-    None
-}
-
-/// The first point where a ray meets a convex analytic solid, by sphere
-/// tracing its signed distance within its reach of the reference point.
-fn march_solid(solid: &ColliderGeometry, origin: Vec3, direction: Vec3) -> Option<(f32, Vec3)> {
-    const MAX_STEPS: u32 = 256;
-    let reach = Vec3::splat(solid.reach());
-    let center = solid.reference_point();
-    let (near, far) = slab_interval(origin, direction, center - reach, center + reach)?;
-    let surface = 1e-4 * reach.x;
     let mut distance = near.max(0.0);
     for _ in 0..MAX_STEPS {
         if distance > far {
@@ -373,7 +362,7 @@ fn march_solid(solid: &ColliderGeometry, origin: Vec3, direction: Vec3) -> Optio
         if gap < surface {
             return Some((distance, normal));
         }
-        distance += gap;
+        distance += gap.max(min_step);
     }
     None
 }
