@@ -35,7 +35,7 @@ pub use checkpoint::{Checkpoint, CheckpointView};
 pub use error::IoError;
 pub use frame::{Attribute, AttributeValues, CHUNK_VALUES, FrameData, FrameError, Values};
 pub use manifest::{
-    FrameRecord, MANIFEST_FILE, Manifest, MassBalance, RunStatus, SolverFrameStats,
+    ColliderPose, FrameRecord, MANIFEST_FILE, Manifest, MassBalance, RunStatus, SolverFrameStats,
 };
 pub use mesh::{MeshData, write_mesh_obj, write_mesh_ply};
 pub use ply::{PlyCloud, PlyColumn, PlyValues, parse_ply, read_ply, write_ply};

@@ -72,6 +72,20 @@ pub struct FrameRecord {
     /// without it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mass: Option<MassBalance>,
+    /// Where each of the scene's colliders is at the frame and how it is
+    /// turned, in the scene's order (absent without colliders).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub colliders: Vec<ColliderPose>,
+}
+
+/// A collider's pose at a frame: a point p of its scene-file geometry is
+/// at `position` + `rotation` (p − its reference point at time 0).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ColliderPose {
+    /// Where its reference point is (the plane's point, the centre), m.
+    pub position: [f32; 3],
+    /// Its orientation, a unit quaternion [x, y, z, w].
+    pub rotation: [f32; 4],
 }
 
 /// Where a snow scene's mass is, with spindrift: in the snow, in the air
@@ -187,6 +201,10 @@ mod tests {
                 unconverged: 0,
             }),
             mass: None,
+            colliders: vec![ColliderPose {
+                position: [0.5, 0.25, 0.5],
+                rotation: [0.0, 0.38268343, 0.0, 0.9238795],
+            }],
         }
     }
 

@@ -13,7 +13,9 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use firn_core::Scene;
-use firn_io::{FrameRecord, Manifest, MassBalance, PvdCollection, RunStatus, SolverFrameStats};
+use firn_io::{
+    ColliderPose, FrameRecord, Manifest, MassBalance, PvdCollection, RunStatus, SolverFrameStats,
+};
 use firn_mesh::TriangleMesh;
 use firn_mpm::SolverStats;
 
@@ -397,6 +399,7 @@ impl Recording {
             images,
             solver,
             mass,
+            colliders: collider_poses(self.solver.scene(), self.solver.time()),
         });
         self.frame = index;
         let every = self.solver.scene().output.checkpoint_every;
@@ -534,4 +537,19 @@ fn frame_solver_stats(before: Option<SolverStats>, after: SolverStats) -> Solver
         final_residual: after.last_residual,
         unconverged: after.unconverged_steps - before.unconverged_steps,
     }
+}
+
+/// The pose of each of `scene`'s colliders at `time`, for the manifest.
+fn collider_poses(scene: &Scene, time: f64) -> Vec<ColliderPose> {
+    scene
+        .colliders
+        .iter()
+        .map(|collider| {
+            let pose = collider.pose_at(time);
+            ColliderPose {
+                position: pose.position.to_array(),
+                rotation: pose.rotation.to_array(),
+            }
+        })
+        .collect()
 }

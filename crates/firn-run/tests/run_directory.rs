@@ -509,3 +509,34 @@ mod checkpoint_pieces {
         assert!(error.contains("exactly once"), "{error}");
     }
 }
+
+#[test]
+fn the_manifest_records_each_colliders_pose_per_frame() {
+    let folder = tempfile::tempdir().unwrap();
+    let mut scene = common::slab();
+    let spin = glam::Vec3::new(0.0, 2.0, 0.0);
+    scene.colliders.push(
+        firn_core::scene::Collider::cuboid(glam::Vec3::new(0.5, 0.05, 0.5), glam::Vec3::splat(0.1))
+            .moving_and_spinning(glam::Vec3::new(0.1, 0.0, 0.0), spin),
+    );
+    let mut notes = Notes::default();
+    let mut recording = start(scene, folder.path(), &mut notes);
+    recording.run_to(2, &mut notes).expect("the run goes on");
+    let read = RunDirectory::new(folder.path()).read().unwrap();
+    for frame in &read.manifest.frames {
+        let [pose] = frame.colliders[..] else {
+            panic!("one pose per collider: {:?}", frame.colliders);
+        };
+        let t = frame.time as f32;
+        assert!(
+            (pose.position[0] - (0.5 + 0.1 * t)).abs() < 1e-6,
+            "{pose:?}"
+        );
+        let turned = glam::Quat::from_array(pose.rotation);
+        let expected = glam::Quat::from_rotation_y(2.0 * t);
+        assert!(
+            turned.dot(expected).abs() > 1.0 - 1e-6,
+            "{turned:?} at {t} s"
+        );
+    }
+}
