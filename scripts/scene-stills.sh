@@ -29,6 +29,7 @@ stills=(
   "snowball-crosswind 15 points"
   "smoke-pot 150 billboards"
   "cornice 10 points"
+  "wheel-rut 24 points"
 )
 
 wanted=("$@")

@@ -82,15 +82,16 @@ impl Simulation {
     ) -> Result<f32, SimulationError> {
         self.scatter(dt, trade);
         clock.lap(&mut self.profile.scatter);
-        let colliders = self.colliders.placed_at(self.time + f64::from(dt));
+        let placed = self.colliders.placed_at(self.time + f64::from(dt));
+        let colliders = Colliders::new(&placed);
         let wind_impulse = self.update_grid(dt, &colliders);
         clock.lap(&mut self.profile.grid_update);
-        self.solve_implicit(dt, &colliders);
+        self.solve_implicit(dt, &placed);
         clock.lap(&mut self.profile.implicit_solve);
         let stats = self.gather(dt, &colliders, keys);
         clock.lap(&mut self.profile.gather);
         if stats.problem.is_none() {
-            self.blow_spindrift(&colliders, dt);
+            self.blow_spindrift(&placed, dt);
         }
         grid_update::clear_grid(&mut self.grid);
         clock.lap(&mut self.profile.clear);
@@ -132,14 +133,15 @@ impl Simulation {
     /// (placed at the end of the substep), except with the semi-implicit
     /// integrator, whose solve applies them itself to learn which velocity
     /// components they fix. Returns the wind's impulse on the snow.
-    fn update_grid(&mut self, dt: f32, colliders: &[PlacedCollider]) -> DVec3 {
+    fn update_grid(&mut self, dt: f32, colliders: &Colliders) -> DVec3 {
         let forces = match self.scene.solver.transfer {
             Transfer::PicFlip => GridForces::Separate,
             Transfer::Apic => GridForces::InMomentum,
         };
+        let no_colliders = Colliders::new(&[]);
         let grid_colliders = match self.implicit {
-            Some(_) => Colliders::new(&[]),
-            None => Colliders::new(colliders),
+            Some(_) => &no_colliders,
+            None => colliders,
         };
         let wind = self.wind.as_ref().map(|drag| WindStep {
             drag,
@@ -150,7 +152,7 @@ impl Simulation {
             forces,
             dt,
             self.scene.solver.gravity,
-            &grid_colliders,
+            grid_colliders,
             wind,
         )
     }
@@ -177,18 +179,12 @@ impl Simulation {
     /// deformation update with plasticity and stress, the particle
     /// collisions and the advection; the statistics the next Δt and the
     /// checks read.
-    fn gather(
-        &mut self,
-        dt: f32,
-        colliders: &[PlacedCollider],
-        keys: Option<&[u64]>,
-    ) -> GatherStats {
+    fn gather(&mut self, dt: f32, colliders: &Colliders, keys: Option<&[u64]>) -> GatherStats {
         let tolerance = Vec3::splat(LEAVE_TOLERANCE_CELLS * self.grid.layout.cell_size);
-        let colliders = Colliders::new(colliders);
         let context = UpdateContext {
             dt,
             materials: &self.materials,
-            colliders: &colliders,
+            colliders,
             lower: self.scene.domain.min - tolerance,
             upper: self.scene.domain.max + tolerance,
             keys,
