@@ -46,26 +46,38 @@ impl Node {
     }
 }
 
-/// The tree: nodes (the root first) and the triangle corners in tree order.
+/// The tree: nodes (the root first), the triangle corners in tree order,
+/// and each of those triangles' index in the mesh.
 pub(crate) struct Bvh {
     pub nodes: Vec<Node>,
     pub triangles: Vec<[Vec3; 3]>,
+    pub sources: Vec<u32>,
 }
+
+/// A triangle's corners and its index in the mesh, sorted into tree order
+/// together.
+type Placed = ([Vec3; 3], u32);
 
 impl Bvh {
     /// Builds the tree; panics if a triangle refers to a missing vertex.
     pub fn new(mesh: &TriangleMesh) -> Bvh {
-        let mut triangles: Vec<[Vec3; 3]> = mesh
+        let mut placed: Vec<Placed> = mesh
             .triangles
             .iter()
-            .map(|t| t.map(|i| mesh.vertices[i as usize]))
+            .zip(0..)
+            .map(|(t, source)| (t.map(|i| mesh.vertices[i as usize]), source))
             .collect();
         let mut nodes = Vec::new();
-        if !triangles.is_empty() {
+        if !placed.is_empty() {
             nodes.push(placeholder());
-            split(&mut nodes, &mut triangles, 0, 0);
+            split(&mut nodes, &mut placed, 0, 0);
         }
-        Bvh { nodes, triangles }
+        let (triangles, sources) = placed.into_iter().unzip();
+        Bvh {
+            nodes,
+            triangles,
+            sources,
+        }
     }
 
     /// The squared distance from `p` to the nearest triangle and that
@@ -142,7 +154,7 @@ fn placeholder() -> Node {
 
 /// Fills node `index` with `triangles`, which start at `first` in tree
 /// order, and recurses into its two halves.
-fn split(nodes: &mut Vec<Node>, triangles: &mut [[Vec3; 3]], index: usize, first: usize) {
+fn split(nodes: &mut Vec<Node>, triangles: &mut [Placed], index: usize, first: usize) {
     let (min, max) = corner_bounds(triangles);
     let count = triangles.len();
     let mut node = Node {
@@ -156,7 +168,7 @@ fn split(nodes: &mut Vec<Node>, triangles: &mut [[Vec3; 3]], index: usize, first
         let axis = longest_centroid_axis(triangles);
         let middle = count / 2;
         triangles.select_nth_unstable_by(middle, |a, b| {
-            centroid_sum(a)[axis].total_cmp(&centroid_sum(b)[axis])
+            centroid_sum(&a.0)[axis].total_cmp(&centroid_sum(&b.0)[axis])
         });
         node.left = nodes.len() as u32;
         nodes.extend([placeholder(), placeholder()]);
@@ -167,10 +179,10 @@ fn split(nodes: &mut Vec<Node>, triangles: &mut [[Vec3; 3]], index: usize, first
     nodes[index] = node;
 }
 
-fn corner_bounds(triangles: &[[Vec3; 3]]) -> (Vec3, Vec3) {
+fn corner_bounds(triangles: &[Placed]) -> (Vec3, Vec3) {
     triangles
         .iter()
-        .flatten()
+        .flat_map(|(corners, _)| corners)
         .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &v| {
             (lo.min(v), hi.max(v))
         })
@@ -181,10 +193,10 @@ fn centroid_sum(t: &[Vec3; 3]) -> Vec3 {
     t[0] + t[1] + t[2]
 }
 
-fn longest_centroid_axis(triangles: &[[Vec3; 3]]) -> usize {
+fn longest_centroid_axis(triangles: &[Placed]) -> usize {
     let (lo, hi) = triangles
         .iter()
-        .map(centroid_sum)
+        .map(|(corners, _)| centroid_sum(corners))
         .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), c| {
             (lo.min(c), hi.max(c))
         });

@@ -31,6 +31,7 @@ mod error;
 mod geometry;
 mod load;
 mod mesh;
+mod narrow_band;
 mod sdf;
 mod winding;
 
@@ -38,5 +39,8 @@ pub use diagnostics::MeshDiagnostics;
 pub use error::MeshError;
 pub use load::{LoadedMesh, MAX_MESH_FILE_BYTES, load_mesh, load_mesh_bytes};
 pub use mesh::{MeshTransform, TriangleMesh};
+pub use narrow_band::{
+    BRICK_SIDE, BandFootprint, NarrowBandField, SAMPLES_PER_BRICK, SurfaceSample,
+};
 pub use sdf::SignedDistanceField;
 pub use winding::WindingNumber;

@@ -298,6 +298,7 @@ mod tests {
         };
         Bvh {
             nodes: vec![root],
+            sources: (0..count).collect(),
             triangles,
         }
     }

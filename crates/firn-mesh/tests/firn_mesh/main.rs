@@ -6,5 +6,6 @@ mod common;
 mod diagnostics;
 mod loaders;
 mod mesh;
+mod narrow_band;
 mod sdf;
 mod winding;
