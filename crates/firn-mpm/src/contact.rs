@@ -5,6 +5,11 @@ use firn_core::math::lanes::{F32s, Vec3s};
 use firn_core::scene::{Collider, ColliderGeometry, Contact, ContactMode, Domain};
 use glam::{Quat, Vec3, Vec3A};
 
+mod deforming;
+
+pub use deforming::DeformingSurface;
+use deforming::SequenceCache;
+
 /// New velocity of snow moving with `velocity` against a collider surface with
 /// outward `normal` that itself moves with `collider_velocity`.
 ///
@@ -132,6 +137,8 @@ pub struct PlacedCollider {
     /// How it is turned and turns, for a collider that does; `None` keeps
     /// the unturned arithmetic (and its bits) for every other.
     pub spin: Option<Spin>,
+    /// The surface of a deforming mesh collider at this instant.
+    pub surface: Option<DeformingSurface>,
 }
 
 /// The turn of a placed collider: a world point x is the geometry's point
@@ -162,6 +169,9 @@ impl PlacedCollider {
         if let Some(spin) = &self.spin {
             return self.collide_turned(spin, point, velocity);
         }
+        if let Some(surface) = &self.surface {
+            return self.collide_deforming(surface, point, velocity);
+        }
         let (distance, normal) = match self.geometry {
             // The domain walls, which every particle and node meets six
             // times a substep: the same sum as `signed_distance`, inline.
@@ -173,6 +183,35 @@ impl PlacedCollider {
         };
         if distance <= 0.0 {
             contact_response(velocity, self.velocity, normal, self.contact)
+        } else {
+            (velocity, Constraint::Free)
+        }
+    }
+
+    /// Signed distance at `point` (negative inside), however the collider
+    /// is placed, turned or deformed.
+    pub fn signed_distance(&self, point: Vec3) -> f32 {
+        if let Some(spin) = &self.spin {
+            let body_point = spin.center + spin.inverse * (point - spin.center);
+            return self.geometry.signed_distance(body_point).0;
+        }
+        if let Some(surface) = &self.surface {
+            return surface.sample(point).0;
+        }
+        self.geometry.signed_distance(point).0
+    }
+
+    /// [`PlacedCollider::collide_constrained`] for a deforming mesh: the
+    /// contact relative to the surface's own velocity where it touches.
+    fn collide_deforming(
+        &self,
+        surface: &DeformingSurface,
+        point: Vec3,
+        velocity: Vec3,
+    ) -> (Vec3, Constraint) {
+        let (distance, normal, surface_velocity) = surface.sample(point);
+        if distance <= 0.0 {
+            contact_response(velocity, surface_velocity, normal, self.contact)
         } else {
             (velocity, Constraint::Free)
         }
@@ -200,10 +239,12 @@ impl PlacedCollider {
     }
 }
 
-/// The scene's colliders plus the six domain walls.
+/// The scene's colliders plus the six domain walls, and the fields the
+/// deforming ones have built.
 #[derive(Clone, Debug)]
 pub struct ColliderSet {
     colliders: Vec<Collider>,
+    sequences: Vec<SequenceCache>,
 }
 
 impl ColliderSet {
@@ -220,7 +261,10 @@ impl ColliderSet {
                 });
             }
         }
-        ColliderSet { colliders: all }
+        ColliderSet {
+            sequences: vec![SequenceCache::default(); all.len()],
+            colliders: all,
+        }
     }
 
     /// The colliders, scene ones first, then the walls.
@@ -228,12 +272,20 @@ impl ColliderSet {
         &self.colliders
     }
 
-    /// Every collider placed at time `time`.
-    pub fn placed_at(&self, time: f64) -> Vec<PlacedCollider> {
+    /// Every collider placed at time `time`; a deforming one builds the
+    /// fields of the mesh frames around `time` when it has not yet.
+    pub fn placed_at(&mut self, time: f64) -> Vec<PlacedCollider> {
         self.colliders
             .iter()
-            .map(|collider| {
+            .zip(&mut self.sequences)
+            .map(|(collider, cache)| {
                 let pose = collider.pose_at(time);
+                let surface = match &collider.geometry {
+                    ColliderGeometry::MeshSequence(sequence) => {
+                        Some(cache.surface_at(sequence, time))
+                    }
+                    _ => None,
+                };
                 PlacedCollider {
                     geometry: collider.geometry.moved_to(pose.position),
                     velocity: pose.velocity,
@@ -244,6 +296,7 @@ impl ColliderSet {
                         inverse: pose.rotation.inverse(),
                         angular_velocity: pose.angular_velocity,
                     }),
+                    surface,
                 }
             })
             .collect()

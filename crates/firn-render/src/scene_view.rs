@@ -123,8 +123,14 @@ pub fn scene_stage(scene: &Scene, t: f64) -> Stage {
         .iter()
         .map(|collider| {
             let pose = collider.pose_at(t);
+            let geometry = match &collider.geometry {
+                ColliderGeometry::MeshSequence(sequence) => {
+                    ColliderGeometry::Mesh(Box::new(sequence.rigid_at(t)))
+                }
+                geometry => geometry.moved_to(pose.position),
+            };
             StageCollider {
-                geometry: collider.geometry.moved_to(pose.position),
+                geometry,
                 rotation: pose.rotation,
             }
         })

@@ -222,6 +222,9 @@ impl Stage {
                 let steps = (1e-4 * reach.x, 0.0);
                 march(collider, bounds, steps, origin, direction).map(solid)
             }
+            // Drawn through the rigid mesh of the picture's instant
+            // (`scene_stage`); the sequence alone has no time.
+            ColliderGeometry::MeshSequence(_) => None,
             ColliderGeometry::HalfPlane { point, normal } => {
                 let distance = intersect_plane(origin, direction, point, normal)?;
                 let hit = origin + direction * distance;

@@ -96,5 +96,13 @@ fn usd_shape(geometry: &ColliderGeometry, half_size: f32) -> UsdShape {
                 triangles: placed.triangles,
             }
         }
+        ColliderGeometry::MeshSequence(ref sequence) => {
+            let first = sequence.mesh_of(0);
+            let centre = sequence.reference_point();
+            UsdShape::Mesh {
+                points: first.vertices.iter().map(|&v| v - centre).collect(),
+                triangles: first.triangles,
+            }
+        }
     }
 }

@@ -286,10 +286,16 @@ impl crate::Scene {
             }
         }
         for collider in &mut self.colliders {
-            if let crate::scene::ColliderGeometry::Mesh(mesh) = &mut collider.geometry
-                && !mesh.field.is_loaded()
-            {
-                mesh.build()?;
+            match &mut collider.geometry {
+                crate::scene::ColliderGeometry::Mesh(mesh) if !mesh.field.is_loaded() => {
+                    mesh.build()?;
+                }
+                crate::scene::ColliderGeometry::MeshSequence(sequence)
+                    if !sequence.frames.is_loaded() =>
+                {
+                    sequence.build()?;
+                }
+                _ => {}
             }
         }
         Ok(())
@@ -302,26 +308,32 @@ impl crate::Scene {
             let crate::scene::Shape::Mesh(mesh) = &body.shape else {
                 return None;
             };
-            Some((format!("bodies[{index}]"), &mesh.placement, &mesh.warnings))
+            Some((
+                format!("bodies[{index}]"),
+                &mesh.placement.file,
+                &mesh.warnings,
+            ))
         });
         let colliders = self
             .colliders
             .iter()
             .enumerate()
             .filter_map(|(index, collider)| {
-                let crate::scene::ColliderGeometry::Mesh(mesh) = &collider.geometry else {
-                    return None;
+                let (file, warnings) = match &collider.geometry {
+                    crate::scene::ColliderGeometry::Mesh(mesh) => {
+                        (&mesh.placement.file, &mesh.warnings)
+                    }
+                    crate::scene::ColliderGeometry::MeshSequence(sequence) => {
+                        (&sequence.pattern, &sequence.warnings)
+                    }
+                    _ => return None,
                 };
-                Some((
-                    format!("colliders[{index}]"),
-                    &mesh.placement,
-                    &mesh.warnings,
-                ))
+                Some((format!("colliders[{index}]"), file, warnings))
             });
         bodies
             .chain(colliders)
-            .flat_map(|(owner, placement, warnings)| {
-                let file = placement.file.display().to_string();
+            .flat_map(|(owner, file, warnings)| {
+                let file = file.display().to_string();
                 warnings
                     .iter()
                     .map(move |warning| format!("{owner} ({file}): {warning}"))

@@ -19,6 +19,7 @@ use super::compute::ComputeSettings;
 use super::flow::SceneKind;
 use super::material::Material;
 use super::mesh::{MeshBody, MeshCollider};
+use super::mesh_sequence::MeshSequenceCollider;
 use super::motion::{Keyframe, Motion, PathShape, Pose};
 use super::render::{Camera, RenderSettings};
 use super::wind::{Spindrift, Wind};
@@ -752,6 +753,9 @@ pub enum ColliderGeometry {
     },
     /// A solid triangle mesh, through its signed distance field.
     Mesh(Box<MeshCollider>),
+    /// A triangle mesh that deforms, one file per frame; the solver samples
+    /// each frame's distances when the run reaches it.
+    MeshSequence(Box<MeshSequenceCollider>),
 }
 
 /// Per-particle attributes that caches can carry besides position.
@@ -918,6 +922,7 @@ impl ColliderGeometry {
             | ColliderGeometry::Box { center, .. }
             | ColliderGeometry::Cylinder { center, .. } => center,
             ColliderGeometry::Mesh(ref mesh) => mesh.center,
+            ColliderGeometry::MeshSequence(ref sequence) => sequence.reference_point(),
         }
     }
 
@@ -929,12 +934,9 @@ impl ColliderGeometry {
             ColliderGeometry::Sphere { radius, .. } => radius,
             ColliderGeometry::Box { size, .. } => 0.5 * size.length(),
             ColliderGeometry::Cylinder { radius, height, .. } => radius.hypot(0.5 * height),
-            ColliderGeometry::Mesh(ref mesh) => {
-                let (low, high) = mesh.bounds();
-                (low - mesh.center)
-                    .abs()
-                    .max((high - mesh.center).abs())
-                    .length()
+            ColliderGeometry::Mesh(ref mesh) => reach_of(mesh.bounds(), mesh.center),
+            ColliderGeometry::MeshSequence(ref sequence) => {
+                reach_of(sequence.bounds(), sequence.reference_point())
             }
         }
     }
@@ -948,6 +950,9 @@ impl ColliderGeometry {
             | ColliderGeometry::Box { center, .. }
             | ColliderGeometry::Cylinder { center, .. } => *center = position,
             ColliderGeometry::Mesh(mesh) => mesh.center = position,
+            // A sequence moves by its files only (the format refuses
+            // motion for it), so its reference point never changes.
+            ColliderGeometry::MeshSequence(_) => {}
         }
         moved
     }
@@ -979,8 +984,16 @@ impl ColliderGeometry {
                 height,
             } => cylinder_signed_distance(point - center, radius, 0.5 * height),
             ColliderGeometry::Mesh(ref mesh) => mesh.signed_distance(point),
+            // Without a time the deforming surface is nowhere: the solver
+            // reads it through the narrow-band fields of its frames.
+            ColliderGeometry::MeshSequence(_) => (f32::INFINITY, Vec3::Y),
         }
     }
+}
+
+/// How far a box reaches from a point inside it.
+fn reach_of((low, high): (Vec3, Vec3), center: Vec3) -> f32 {
+    (low - center).abs().max((high - center).abs()).length()
 }
 
 /// Signed distance and outward normal of an axis-aligned box centred at the origin.

@@ -187,6 +187,9 @@ pub fn pack_colliders(colliders: &[firn_core::scene::Collider]) -> PackedCollide
                 gpu.shape = 4;
                 gpu.reference = center.extend(0.0).into();
             }
+            // Refused before packing (`GpuSnow::check_supported`): the
+            // kernels have no deforming meshes yet.
+            ColliderGeometry::MeshSequence(_) => gpu.shape = 5,
             ColliderGeometry::Mesh(ref mesh) => {
                 // The field is sampled around the time-zero placement; the
                 // collider's motion moves its reference point (the centre).

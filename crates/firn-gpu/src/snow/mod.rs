@@ -212,6 +212,19 @@ impl GpuSnow {
                 fix: "run it with --backend cpu (--backend auto does)".into(),
             });
         }
+        if let Some(index) = scene
+            .colliders
+            .iter()
+            .position(|collider| matches!(collider.geometry, ColliderGeometry::MeshSequence(_)))
+        {
+            return Err(GpuError::Unsupported {
+                what: format!(
+                    "colliders[{index}] is a deforming mesh sequence, which the GPU backend does \
+                     not run yet"
+                ),
+                fix: "run it with --backend cpu (--backend auto does)".into(),
+            });
+        }
         if let Some(wind) = &scene.wind
             && wind.field.obstacles.len() > MAX_WIND_OBSTACLES
         {

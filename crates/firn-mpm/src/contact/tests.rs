@@ -97,6 +97,7 @@ fn only_points_inside_a_collider_are_affected() {
         velocity: Vec3::ZERO,
         contact: contact(ContactMode::Separate, 0.0),
         spin: None,
+        surface: None,
     };
     let towards_centre = Vec3::new(-1.0, 0.0, 0.0);
     assert_eq!(

@@ -248,7 +248,7 @@ impl Solids {
                     solid(shift, Vec3::ONE),
                 )
             }
-            ColliderGeometry::HalfPlane { .. } => return None,
+            ColliderGeometry::HalfPlane { .. } | ColliderGeometry::MeshSequence(_) => return None,
         })
     }
 

@@ -11,7 +11,8 @@ use super::shapes::{
 use super::values::{
     Num, ensure, finite_vec, missing, positive, reject, require, unit_or_zero, unit_vec, vec3,
 };
-use crate::scene::mesh::MeshCollider;
+use crate::scene::mesh::{MAX_SDF_SAMPLES, MeshCollider};
+use crate::scene::mesh_sequence::MeshSequenceCollider;
 use crate::scene::model::{Collider, ColliderGeometry, Domain, TimeSettings};
 use crate::scene::motion::{Keyframe, Motion, PathShape, rotation_from_degrees};
 use glam::Quat;
@@ -33,6 +34,9 @@ pub(super) struct RawCollider {
     keyframes: Option<Vec<RawKeyframe>>,
     path: Option<PathShape>,
     mesh: Option<String>,
+    sequence: Option<String>,
+    frame_rate: Option<f64>,
+    start: Option<f64>,
     scale: Option<RawScale>,
     rotation: Option<[f32; 3]>,
     sdf_spacing: Option<f32>,
@@ -68,16 +72,17 @@ fn collider_shape_name(shape: RawColliderShape) -> &'static str {
 }
 
 /// Every `[[colliders]]` table; a mesh collider's default sample spacing
-/// comes from `domain`.
+/// comes from `domain`, a mesh sequence's default frame rate from `time`.
 pub(super) fn resolve_colliders(
     raw: Vec<RawCollider>,
     origin: &str,
     domain: &Domain,
+    time: &TimeSettings,
 ) -> Result<Vec<Collider>, Issue> {
     let mut colliders = Vec::new();
     for (index, raw_collider) in raw.into_iter().enumerate() {
         let path = KeyPath::of("colliders").index(index);
-        colliders.push(resolve_collider(&path, raw_collider, origin, domain)?);
+        colliders.push(resolve_collider(&path, raw_collider, origin, domain, time)?);
     }
     Ok(colliders)
 }
@@ -87,6 +92,7 @@ fn resolve_collider(
     raw: RawCollider,
     origin: &str,
     domain: &Domain,
+    time: &TimeSettings,
 ) -> Result<Collider, Issue> {
     let shape = raw.shape.ok_or_else(|| {
         missing(path.key("shape"), "the collider's shape").with_hint(
@@ -94,10 +100,22 @@ fn resolve_collider(
                  dimensions",
         )
     })?;
+    if raw.sequence.is_some() && matches!(shape, RawColliderShape::Mesh) {
+        return resolve_sequence(path, raw, origin, domain, time);
+    }
+    let takes = "sequence (with shape = \"mesh\")";
+    reject(
+        &raw.frame_rate,
+        path.key("frame_rate"),
+        "this collider",
+        takes,
+    )?;
+    reject(&raw.start, path.key("start"), "this collider", takes)?;
     if !matches!(shape, RawColliderShape::Mesh) {
         let name = collider_shape_name(shape);
         let takes = "mesh, scale, center and sdf_spacing";
         reject(&raw.mesh, path.key("mesh"), name, takes)?;
+        reject(&raw.sequence, path.key("sequence"), name, takes)?;
         reject(&raw.scale, path.key("scale"), name, takes)?;
         reject(&raw.sdf_spacing, path.key("sdf_spacing"), name, takes)?;
     }
@@ -209,6 +227,110 @@ fn resolve_collider(
     })
 }
 
+/// A deforming mesh collider: `sequence = "boot/frame_####.obj"`, its
+/// `frame_rate` (the scene's fps unless given) and `start` time, placed by
+/// `scale`, `rotation` and optionally `center`; it moves by its files only.
+fn resolve_sequence(
+    path: &KeyPath,
+    raw: RawCollider,
+    origin: &str,
+    domain: &Domain,
+    time: &TimeSettings,
+) -> Result<Collider, Issue> {
+    let takes = "sequence, frame_rate, start, scale, rotation, center and sdf_spacing";
+    reject(&raw.mesh, path.key("mesh"), "a mesh sequence", takes)?;
+    reject(&raw.point, path.key("point"), "a mesh sequence", takes)?;
+    reject(&raw.normal, path.key("normal"), "a mesh sequence", takes)?;
+    reject(&raw.radius, path.key("radius"), "a mesh sequence", takes)?;
+    reject(&raw.size, path.key("size"), "a mesh sequence", takes)?;
+    reject(&raw.height, path.key("height"), "a mesh sequence", takes)?;
+    let moves = "a mesh sequence (it moves by its files: animate the mesh you export instead)";
+    reject(&raw.velocity, path.key("velocity"), moves, takes)?;
+    reject(
+        &raw.angular_velocity,
+        path.key("angular_velocity"),
+        moves,
+        takes,
+    )?;
+    reject(&raw.keyframes, path.key("keyframes"), moves, takes)?;
+    reject(&raw.path, path.key("path"), moves, takes)?;
+    let pattern = raw.sequence.unwrap_or_default();
+    let center = raw.center.map(vec3);
+    let placement = mesh_placement(
+        path,
+        Some(pattern),
+        raw.scale,
+        raw.rotation,
+        center.unwrap_or_default(),
+        origin,
+    )?;
+    let frame_rate = raw.frame_rate.unwrap_or(time.fps);
+    ensure(
+        frame_rate.is_finite() && frame_rate > 0.0,
+        path.key("frame_rate"),
+        "positive",
+        Num(frame_rate),
+        "give the mesh files per second, e.g. frame_rate = 24, or remove it to use the \
+         scene's fps"
+            .to_string(),
+    )?;
+    let start = raw.start.unwrap_or(0.0);
+    ensure(
+        start.is_finite(),
+        path.key("start"),
+        "finite",
+        Num(start),
+        "give the time of the first file in seconds, e.g. start = 0.0".to_string(),
+    )?;
+    let spacing = raw.sdf_spacing.unwrap_or(0.5 * domain.cell_size);
+    check_sdf_spacing(path, spacing)?;
+    let band = MeshSequenceCollider::band_for(domain.cell_size, spacing);
+    let sequence = MeshSequenceCollider::load(
+        placement.file,
+        (placement.scale, placement.rotation_degrees, center),
+        (frame_rate, start),
+        spacing,
+        band,
+    )
+    .map_err(|err| sequence_issue(path, &err))?;
+    check_band_size(path, &sequence)?;
+    Ok(Collider {
+        contact: contact(Some(RawContact {
+            mode: raw.mode,
+            friction: raw.friction,
+        })),
+        ..Collider::new(ColliderGeometry::MeshSequence(Box::new(sequence)))
+    })
+}
+
+/// A sequence's loading error at its `sequence` key.
+fn sequence_issue(path: &KeyPath, err: &firn_mesh::MeshError) -> Issue {
+    let location = match err.line {
+        Some(line) => format!("{}:{line}", err.path.display()),
+        None => err.path.display().to_string(),
+    };
+    Issue::new(
+        path.key("sequence"),
+        format!(
+            "{path}.sequence cannot be used: {location}: {}",
+            err.message
+        ),
+        err.hint.clone(),
+    )
+}
+
+/// Every frame's band must stay under [`MAX_SDF_SAMPLES`].
+fn check_band_size(path: &KeyPath, sequence: &MeshSequenceCollider) -> Check {
+    let (largest, _) = sequence.footprint();
+    ensure(
+        largest.samples() <= MAX_SDF_SAMPLES,
+        path.key("sdf_spacing"),
+        &format!("coarse enough for at most {MAX_SDF_SAMPLES} distance samples per mesh frame"),
+        format!("{} samples", largest.samples()),
+        "raise sdf_spacing, or scale the mesh down".to_string(),
+    )
+}
+
 /// The motion of a collider from its `velocity` and `angular_velocity`
 /// or its `keyframes` (whose keys without a rotation take `rotation`) and
 /// `path`.
@@ -307,6 +429,9 @@ pub(super) fn check_collider(path: &KeyPath, collider: &Collider) -> Check {
         ColliderGeometry::Mesh(ref mesh) => {
             check_mesh_placement(path, &mesh.placement)?;
             check_sdf_spacing(path, mesh.sdf_spacing)?;
+        }
+        ColliderGeometry::MeshSequence(ref sequence) => {
+            check_sdf_spacing(path, sequence.sdf_spacing)?;
         }
     }
     check_contact(path, &collider.contact)?;

@@ -250,7 +250,7 @@ fn resolve(raw: RawScene, origin: &str) -> Result<Scene, Issue> {
     let (materials, bodies) =
         bodies::resolve_bodies(raw.bodies.unwrap_or_default(), &declared, origin)?;
     let colliders =
-        colliders::resolve_colliders(raw.colliders.unwrap_or_default(), origin, &domain)?;
+        colliders::resolve_colliders(raw.colliders.unwrap_or_default(), origin, &domain, &time)?;
     let wind = wind::resolve_wind(raw.wind, &domain)?;
     let output = output::resolve_output(raw.output, &name, &SceneKind::Snow);
     let camera = camera::resolve_camera(raw.camera)?;
