@@ -73,6 +73,16 @@ pub struct BenchArgs {
     /// With --scene: a fixed substep Δt in seconds (default: the scene's step).
     #[arg(long, requires = "scene")]
     pub dt: Option<f32>,
+    /// With --scene: hold every collider at its starting pose (a deforming
+    /// mesh at its first file), to measure what the colliders' motion costs.
+    #[arg(long, requires = "scene")]
+    pub still_colliders: bool,
+    /// Measure the narrow-band distance field of one mesh frame of a
+    /// deforming collider instead: a 20,480-triangle sphere of radius
+    /// 0.25 m sampled at 1 cm within 6 cm of its surface, --repeats times;
+    /// see bench_mesh_field.rs.
+    #[arg(long)]
+    pub mesh_field: bool,
     /// Measure the renderer instead: `points` on the snowball of the first
     /// --particles count, `volume` on the bundled default scene.
     #[arg(long)]
@@ -85,8 +95,8 @@ pub struct BenchArgs {
         requires = "render"
     )]
     pub size: Vec<u32>,
-    /// With --render: timed pictures per style.
-    #[arg(long, default_value_t = 3, requires = "render")]
+    /// With --render or --mesh-field: timed repetitions.
+    #[arg(long, default_value_t = 3)]
     pub repeats: u32,
     /// Print where the time of each substep goes, phase by phase (binning,
     /// scatter, grid update, implicit solve, gather, clear); the JSON record
@@ -427,6 +437,9 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
     if args.flow {
         return crate::bench_flow::bench_flow(&args);
     }
+    if args.mesh_field {
+        return crate::bench_mesh_field::bench_mesh_field(args.repeats, &args.json);
+    }
     if let Some(kind) = args.sweep.sweep {
         return crate::bench_sweep::bench_sweep(kind, &args);
     }
@@ -501,6 +514,11 @@ fn bench_scene(path: &std::path::Path, args: &BenchArgs) -> Result<Scene, Failur
     }
     if let Some(choice) = args.integrator {
         scene.solver.integrator = choice.applied_to(scene.solver.integrator);
+    }
+    if args.still_colliders {
+        for collider in &mut scene.colliders {
+            collider.hold_still();
+        }
     }
     scene.validate().map_err(|error| {
         Failure::BadInput(format!(

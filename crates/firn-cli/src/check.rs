@@ -6,7 +6,10 @@ use std::path::PathBuf;
 use clap::Args;
 use firn_core::Scene;
 use firn_core::scene::Backend;
-use firn_core::scene::{Bytes, CacheFormat, Domain, FlowSettings, Shape, TimeStep};
+use firn_core::scene::{
+    Bytes, CacheFormat, ColliderGeometry, Domain, FlowSettings, MeshSequenceCollider, Shape,
+    TimeStep,
+};
 use firn_gpu::AdapterPolicy;
 use firn_mpm::grid::GridLayout;
 use firn_run::Budget;
@@ -116,6 +119,11 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
         "colliders   {} (plus the 6 domain walls)",
         scene.colliders.len()
     );
+    for (index, collider) in scene.colliders.iter().enumerate() {
+        if let ColliderGeometry::MeshSequence(sequence) = &collider.geometry {
+            print_sequence(index, sequence);
+        }
+    }
     if let Some(wind) = &scene.wind {
         let field = &wind.field;
         let direction = field.background_direction;
@@ -311,4 +319,30 @@ fn check_flow(scene: &Scene, flow: &FlowSettings, budget: &Budget) -> Result<(),
     );
     outln!("output      {}", scene.output.directory.display());
     gpu
+}
+
+/// A deforming collider's files and the work of its distance fields: one
+/// narrow band per mesh frame, built when the run reaches the frame.
+fn print_sequence(index: usize, sequence: &MeshSequenceCollider) {
+    let frames = sequence.frames.get();
+    let (largest, total) = sequence.footprint();
+    outln!(
+        "  collider {index} mesh sequence {}: {} files from number {} at {} per second from t = {} s, {} vertices and {} triangles each",
+        sequence.pattern.display(),
+        sequence.frame_count,
+        sequence.first_number,
+        sequence.frame_rate,
+        sequence.start,
+        frames.positions.first().map_or(0, Vec::len),
+        frames.triangles.len()
+    );
+    outln!(
+        "              distance band {} m at {} m: at most {} samples ({}) per mesh frame, two held at a time; {} rebuilds sample {} distances in all",
+        sequence.band,
+        sequence.sdf_spacing,
+        largest.samples(),
+        Bytes(largest.bytes()),
+        sequence.frame_count,
+        total
+    );
 }

@@ -11,6 +11,7 @@ mod backend;
 mod bench;
 mod bench_flow;
 mod bench_gpu;
+mod bench_mesh_field;
 mod bench_render;
 mod bench_sweep;
 mod charts;

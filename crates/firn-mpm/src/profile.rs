@@ -7,6 +7,8 @@
 //! - `binning`: sorting particles into grid blocks (and reordering them);
 //! - `scatter`: particle-to-grid transfer of mass, momentum and stress
 //!   (steps 1 and 3);
+//! - `colliders`: placing the colliders at the substep's end (and building
+//!   a deforming mesh's distance fields when the run reaches a mesh frame);
 //! - `grid_update`: grid velocities from momentum and forces, gravity and
 //!   grid collisions (steps 4 and 5);
 //! - `implicit_solve`: the semi-implicit velocity solve (step 6), zero with
@@ -25,6 +27,8 @@ pub struct PhaseTimes {
     pub binning: f64,
     /// Particle-to-grid transfer.
     pub scatter: f64,
+    /// Placing the colliders, deforming meshes' field rebuilds included.
+    pub colliders: f64,
     /// Grid velocity update and grid collisions.
     pub grid_update: f64,
     /// Semi-implicit solve.
@@ -37,10 +41,11 @@ pub struct PhaseTimes {
 
 impl PhaseTimes {
     /// Each phase's name and seconds, in the order a substep runs them.
-    pub fn entries(&self) -> [(&'static str, f64); 6] {
+    pub fn entries(&self) -> [(&'static str, f64); 7] {
         [
             ("binning", self.binning),
             ("scatter", self.scatter),
+            ("colliders", self.colliders),
             ("grid_update", self.grid_update),
             ("implicit_solve", self.implicit_solve),
             ("gather", self.gather),

@@ -63,6 +63,45 @@ fn a_snow_checkpoint_resumes_to_the_same_bits_as_an_uninterrupted_run() {
 }
 
 #[test]
+fn a_checkpoint_with_a_deforming_collider_resumes_to_the_same_bits() {
+    use firn_core::scene::{Collider, ColliderGeometry, MeshSequenceCollider};
+    use glam::Vec3;
+    // A block under the slab rising 5 cm per mesh frame, one file per
+    // frame: the resumed run rebuilds the fields of the frames it is
+    // between from the files alone.
+    let folder = tempfile::tempdir().expect("a temporary folder");
+    for frame in 0..6 {
+        let lift = 0.05 * frame as f32;
+        let corners: String = (0..8)
+            .map(|i| {
+                let at = |bit: u32, low: f32, high: f32| if i & bit == 0 { low } else { high };
+                let (x, y, z) = (at(1, 0.3, 0.7), at(2, lift, 0.1 + lift), at(4, 0.3, 0.7));
+                format!("v {x} {y} {z}\n")
+            })
+            .collect();
+        let faces = "f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n";
+        let file = folder.path().join(format!("lift_{:02}.obj", frame + 1));
+        std::fs::write(file, corners + faces).expect("a mesh file");
+    }
+    let lifting = MeshSequenceCollider::load(
+        folder.path().join("lift_##.obj"),
+        (Vec3::ONE, Vec3::ZERO, None),
+        (24.0, 0.0),
+        0.05,
+        MeshSequenceCollider::band_for(0.1, 0.05),
+    )
+    .expect("the sequence loads");
+    let mut scene = common::slab();
+    scene
+        .colliders
+        .push(Collider::new(ColliderGeometry::MeshSequence(Box::new(
+            lifting,
+        ))));
+    let (whole, resumed) = uninterrupted_and_resumed(scene, 2, 5);
+    assert!(whole == resumed, "the resumed run's state differs");
+}
+
+#[test]
 fn a_flow_checkpoint_resumes_to_the_same_bits_as_an_uninterrupted_run() {
     let (whole, resumed) = uninterrupted_and_resumed(common::flow(), 3, 6);
     assert!(whole == resumed, "the resumed flow's state differs");

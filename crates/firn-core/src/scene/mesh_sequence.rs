@@ -165,6 +165,19 @@ impl MeshSequenceCollider {
         Ok(())
     }
 
+    /// The same sequence cut to its first file: a mesh that holds still.
+    pub fn first_frame_only(&self) -> MeshSequenceCollider {
+        let frames = self.frames.get();
+        MeshSequenceCollider {
+            frame_count: 1,
+            frames: Derived::new(MeshFrames {
+                triangles: frames.triangles.clone(),
+                positions: vec![frames.positions[0].clone()],
+            }),
+            ..self.clone()
+        }
+    }
+
     /// The simulated time of mesh frame `index` (counting from 0).
     pub fn time_of(&self, index: usize) -> f64 {
         self.start + index as f64 / self.frame_rate

@@ -654,6 +654,18 @@ impl Collider {
         })
     }
 
+    /// Holds the collider at its starting pose from now on: no motion, and
+    /// a deforming mesh keeps its first file.
+    pub fn hold_still(&mut self) {
+        let start = self.pose_at(0.0);
+        self.motion = Motion::Static;
+        self.rotation = start.rotation;
+        self.geometry = self.geometry.moved_to(start.position);
+        if let ColliderGeometry::MeshSequence(sequence) = &mut self.geometry {
+            **sequence = sequence.first_frame_only();
+        }
+    }
+
     /// The same collider moving at a constant `velocity` (m/s), not
     /// turning.
     pub fn moving(self, velocity: Vec3) -> Collider {

@@ -84,6 +84,7 @@ impl Simulation {
         clock.lap(&mut self.profile.scatter);
         let placed = self.colliders.placed_at(self.time + f64::from(dt));
         let colliders = Colliders::new(&placed);
+        clock.lap(&mut self.profile.colliders);
         let wind_impulse = self.update_grid(dt, &colliders);
         clock.lap(&mut self.profile.grid_update);
         self.solve_implicit(dt, &placed);
