@@ -196,7 +196,7 @@ impl PlacedCollider {
             return self.geometry.signed_distance(body_point).0;
         }
         if let Some(surface) = &self.surface {
-            return surface.sample(point).0;
+            return surface.distance(point);
         }
         self.geometry.signed_distance(point).0
     }
@@ -209,12 +209,11 @@ impl PlacedCollider {
         point: Vec3,
         velocity: Vec3,
     ) -> (Vec3, Constraint) {
-        let (distance, normal, surface_velocity) = surface.sample(point);
-        if distance <= 0.0 {
-            contact_response(velocity, surface_velocity, normal, self.contact)
-        } else {
-            (velocity, Constraint::Free)
+        if surface.distance(point) > 0.0 {
+            return (velocity, Constraint::Free);
         }
+        let (_, normal, surface_velocity) = surface.sample(point);
+        contact_response(velocity, surface_velocity, normal, self.contact)
     }
 
     /// [`PlacedCollider::collide_constrained`] for a turned or turning

@@ -151,5 +151,10 @@ fn band_does_not_depend_on_the_thread_count() {
         );
         assert_eq!(x.distance.to_bits(), y.distance.to_bits());
         assert_eq!(x.value, y.value);
+        assert_eq!(
+            a.distance(p).to_bits(),
+            x.distance.to_bits(),
+            "the cheap test's bits"
+        );
     }
 }

@@ -34,6 +34,14 @@ pub struct DeformingSurface {
 }
 
 impl DeformingSurface {
+    /// Signed distance at `point` (negative inside), the same bits as
+    /// [`DeformingSurface::sample`]'s.
+    #[inline]
+    pub fn distance(&self, point: Vec3) -> f32 {
+        let (a, b) = (self.from.distance(point), self.to.distance(point));
+        a + (b - a) * self.fraction
+    }
+
     /// Signed distance (negative inside), outward unit normal and the
     /// surface's velocity at `point`.
     #[inline]
