@@ -184,7 +184,7 @@ impl SpindriftStep<'_> {
         if self
             .colliders
             .iter()
-            .any(|collider| collider.geometry.signed_distance(to).0 <= 0.0)
+            .any(|collider| collider.signed_distance(to).0 <= 0.0)
         {
             return Fate::Landed;
         }
