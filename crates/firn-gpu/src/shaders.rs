@@ -281,6 +281,7 @@ pub const SNOW_PARITY: Program = Program {
         SNOW_LIBRARY[1],
         SNOW_LIBRARY[2],
         SNOW_LIBRARY[3],
+        SNOW_LIBRARY[4],
         SNOW_LIBRARY[5],
         Part::Bindings(&ParityBindings::TABLE),
         part!("parity/snow_parity.wgsl"),

@@ -188,12 +188,24 @@ impl PlacedCollider {
         }
     }
 
+    /// Signed distance (negative inside) and outward unit normal at
+    /// `point`, however the collider is placed, turned or deformed.
+    pub fn distance_and_normal(&self, point: Vec3) -> (f32, Vec3) {
+        if let Some(spin) = &self.spin {
+            return turned_distance(&self.geometry, spin, point);
+        }
+        if let Some(surface) = &self.surface {
+            let (distance, normal, _) = surface.sample(point);
+            return (distance, normal);
+        }
+        self.geometry.signed_distance(point)
+    }
+
     /// Signed distance at `point` (negative inside), however the collider
     /// is placed, turned or deformed.
     pub fn signed_distance(&self, point: Vec3) -> f32 {
         if let Some(spin) = &self.spin {
-            let body_point = spin.center + spin.inverse * (point - spin.center);
-            return self.geometry.signed_distance(body_point).0;
+            return turned_distance(&self.geometry, spin, point).0;
         }
         if let Some(surface) = &self.surface {
             return surface.distance(point);
@@ -220,22 +232,24 @@ impl PlacedCollider {
     /// collider: the distance read in its own frame, the normal turned back,
     /// and the contact relative to its velocity at `point`, v + ω × r.
     fn collide_turned(&self, spin: &Spin, point: Vec3, velocity: Vec3) -> (Vec3, Constraint) {
-        let arm = point - spin.center;
-        let (distance, normal) = self
-            .geometry
-            .signed_distance(spin.center + spin.inverse * arm);
+        let (distance, normal) = turned_distance(&self.geometry, spin, point);
         if distance <= 0.0 {
-            let surface_velocity = self.velocity + spin.angular_velocity.cross(arm);
-            contact_response(
-                velocity,
-                surface_velocity,
-                spin.rotation * normal,
-                self.contact,
-            )
+            let surface_velocity = self.velocity + spin.angular_velocity.cross(point - spin.center);
+            contact_response(velocity, surface_velocity, normal, self.contact)
         } else {
             (velocity, Constraint::Free)
         }
     }
+}
+
+/// The signed distance and outward normal of `geometry` turned by `spin` at
+/// `point`: read in its own frame at c + R⁻¹ (x − c), the normal turned back
+/// by R.
+#[inline(always)]
+fn turned_distance(geometry: &ColliderGeometry, spin: &Spin, point: Vec3) -> (f32, Vec3) {
+    let (distance, normal) =
+        geometry.signed_distance(spin.center + spin.inverse * (point - spin.center));
+    (distance, spin.rotation * normal)
 }
 
 /// The scene's colliders plus the six domain walls, and the fields the

@@ -1,11 +1,17 @@
 // Rigid colliders and the domain walls (thesis section 3.4 steps 5 and 9,
 // Quellcode 12), as in firn_mpm::contact: placed at a time from their
-// motion, then the contact law applied in the collider's own frame.
+// motion (firn_core::scene::motion), then the contact law applied relative
+// to the collider's velocity at the point. A turned collider's geometry is
+// read in its own frame: a world point x is its point c + R^-1 (x - c), and
+// it moves there at v + omega x (x - c). The colliders are placed once a
+// substep (place_colliders, into collider_poses), so the trigonometry of
+// their turns stays out of the kernels' per-node and per-particle work.
 
 const SHAPE_HALF_PLANE: u32 = 0u;
 const SHAPE_SPHERE: u32 = 1u;
 const SHAPE_BOX: u32 = 2u;
 const SHAPE_MESH: u32 = 3u;
+const SHAPE_CYLINDER: u32 = 4u;
 
 const CONTACT_STICKY: u32 = 0u;
 const CONTACT_SEPARATE: u32 = 1u;
@@ -15,21 +21,37 @@ const MOTION_STATIC: u32 = 0u;
 const MOTION_LINEAR: u32 = 1u;
 const MOTION_KEYFRAMED: u32 = 2u;
 
+const PATH_LINEAR: u32 = 0u;
+const PATH_CATMULL_ROM: u32 = 1u;
+
+// The quaternion (xyzw) that does not turn.
+const QUAT_IDENTITY: vec4<f32> = vec4<f32>(0.0, 0.0, 0.0, 1.0);
+
 struct Collider {
     shape: u32,
     contact: u32,
     friction: f32,
     motion: u32,
+    // Keyframed motion: the index of the first key in collider_keys (two
+    // vectors a key) and the number of keys.
     first_key: u32,
     key_count: u32,
-    pad0: u32,
-    pad1: u32,
+    // 1 when the collider is ever turned or turning; 0 keeps the unturned
+    // arithmetic (and its bits).
+    turns: u32,
+    // How keyframed positions go from key to key (PATH_*).
+    path: u32,
     // Plane point or centre at t = 0; w: sphere radius.
     reference: vec4<f32>,
-    // Plane normal (out of the solid) or box edge lengths.
+    // Plane normal (out of the solid), box edge lengths or cylinder radius
+    // (x) and height (y).
     extent: vec4<f32>,
     // Velocity of linear motion.
     velocity: vec4<f32>,
+    // Angular velocity of linear motion (xyz, rad/s).
+    angular_velocity: vec4<f32>,
+    // Orientation (a unit quaternion, xyzw) while the motion gives none.
+    rotation: vec4<f32>,
     // Meshes: the signed distance grid's first point at the time-zero
     // placement (xyz) and its spacing (w); extent.xyz is then the time-zero
     // centre.
@@ -39,10 +61,17 @@ struct Collider {
     sdf_dims: vec4<u32>,
 }
 
-// Where a collider's reference point is at one instant, and how fast it moves.
+// Where a collider's reference point is at one instant, how fast it moves,
+// and how it is turned (firn_core::scene::Pose).
 struct Placement {
     position: vec3<f32>,
     velocity: vec3<f32>,
+    // From the collider's frame to the world's, about the reference point.
+    rotation: vec4<f32>,
+    angular_velocity: vec3<f32>,
+    // Whether the geometry is read through the rotation and the contact
+    // velocity has its omega x r (Pose::turns).
+    turned: bool,
 }
 
 // Signed distance (negative inside) and outward unit normal.
@@ -51,40 +80,231 @@ struct SurfacePoint {
     normal: vec3<f32>,
 }
 
-// Piecewise-linear motion through keys (xyz: position, w: time); rests at
-// the first and last key outside their times.
-fn keyframe_placement(first: u32, count: u32, t: f32) -> Placement {
-    let a = collider_keys[first];
-    let z = collider_keys[first + count - 1u];
-    if t <= a.w {
-        return Placement(a.xyz, vec3<f32>(0.0));
-    }
-    if t >= z.w {
-        return Placement(z.xyz, vec3<f32>(0.0));
-    }
-    var next = first + 1u;
-    while collider_keys[next].w <= t {
-        next++;
-    }
-    let start = collider_keys[next - 1u];
-    let end = collider_keys[next];
-    let span = end.w - start.w;
-    let s = (t - start.w) / span;
-    return Placement(mix(start.xyz, end.xyz, s), (end.xyz - start.xyz) / span);
+// A point on a path and its velocity.
+struct PathPoint {
+    position: vec3<f32>,
+    velocity: vec3<f32>,
 }
 
-fn placement(collider: Collider, t: f32) -> Placement {
+// The Hamilton product a b: the turn b, then a.
+fn quat_mul(a: vec4<f32>, b: vec4<f32>) -> vec4<f32> {
+    return vec4<f32>(
+        a.w * b.x + a.x * b.w + a.y * b.z - a.z * b.y,
+        a.w * b.y - a.x * b.z + a.y * b.w + a.z * b.x,
+        a.w * b.z + a.x * b.y - a.y * b.x + a.z * b.w,
+        a.w * b.w - a.x * b.x - a.y * b.y - a.z * b.z,
+    );
+}
+
+// The inverse of a unit quaternion.
+fn quat_conjugate(q: vec4<f32>) -> vec4<f32> {
+    return vec4<f32>(-q.xyz, q.w);
+}
+
+// v turned by the unit quaternion q, with u its vector part:
+// (w^2 - u.u) v + 2 (u.v) u + 2 w (u x v).
+fn quat_rotate(q: vec4<f32>, v: vec3<f32>) -> vec3<f32> {
+    let u = q.xyz;
+    return v * (q.w * q.w - dot(u, u)) + u * (dot(v, u) * 2.0) + cross(u, v) * (q.w * 2.0);
+}
+
+// The turn by the angle |v| about v's direction (none for v = 0).
+fn quat_from_scaled_axis(v: vec3<f32>) -> vec4<f32> {
+    let angle = length(v);
+    if angle == 0.0 {
+        return QUAT_IDENTITY;
+    }
+    let half = angle * 0.5;
+    return vec4<f32>(v / angle * sin(half), cos(half));
+}
+
+// The axis of the unit quaternion q's turn scaled by its angle.
+fn quat_to_scaled_axis(q: vec4<f32>) -> vec3<f32> {
+    let length = length(q.xyz);
+    if length < 1.0e-8 {
+        return vec3<f32>(0.0);
+    }
+    return q.xyz / length * (2.0 * atan2(length, q.w));
+}
+
+// The spherical interpolation from a to b at fraction s, the short way
+// round; nearly equal turns interpolate linearly and normalise.
+fn quat_slerp(a: vec4<f32>, b_in: vec4<f32>, s: f32) -> vec4<f32> {
+    var b = b_in;
+    var cosine = dot(a, b);
+    if cosine < 0.0 {
+        b = -b;
+        cosine = -cosine;
+    }
+    // 1 - f32::EPSILON.
+    if cosine > 1.0 - 1.1920929e-7 {
+        return normalize(a * (1.0 - s) + b * s);
+    }
+    let theta = acos(cosine);
+    return (a * sin(theta * (1.0 - s)) + b * sin(theta * s)) / sin(theta);
+}
+
+// The constant angular velocity of a slerp from `start` to `end` over
+// `span` seconds, the short way round.
+fn rotation_rate(start: vec4<f32>, end: vec4<f32>, span: f32) -> vec3<f32> {
+    var turn = quat_mul(end, quat_conjugate(start));
+    if turn.w < 0.0 {
+        turn = -turn;
+    }
+    return quat_to_scaled_axis(turn) / span;
+}
+
+// Key k of collider_keys: position (xyz) and time (w).
+fn key_point(k: u32) -> vec4<f32> {
+    return collider_keys[2u * k];
+}
+
+// Key k's orientation (a unit quaternion).
+fn key_rotation(k: u32) -> vec4<f32> {
+    return collider_keys[2u * k + 1u];
+}
+
+// The Catmull-Rom tangent at key k: the finite difference of the keys
+// around it in time (one-sided at the first and last key).
+fn catmull_rom_tangent(first: u32, count: u32, k: u32) -> vec3<f32> {
+    let before = key_point(max(k, first + 1u) - 1u);
+    let after = key_point(min(k + 1u, first + count - 1u));
+    return (after.xyz - before.xyz) / (after.w - before.w);
+}
+
+// Position and velocity at fraction s of the segment from key `index` to
+// the next on the Catmull-Rom curve through the keys: a cubic Hermite
+// segment with the keys' finite-difference tangents.
+fn catmull_rom(first: u32, count: u32, index: u32, s: f32) -> PathPoint {
+    let a = key_point(index);
+    let b = key_point(index + 1u);
+    let span = b.w - a.w;
+    let ta = catmull_rom_tangent(first, count, index) * span;
+    let tb = catmull_rom_tangent(first, count, index + 1u) * span;
+    let s2 = s * s;
+    let s3 = s * s * s;
+    let position = a.xyz * (2.0 * s3 - 3.0 * s2 + 1.0)
+        + ta * (s3 - 2.0 * s2 + s)
+        + b.xyz * (-2.0 * s3 + 3.0 * s2)
+        + tb * (s3 - s2);
+    let slope = a.xyz * (6.0 * s2 - 6.0 * s)
+        + ta * (3.0 * s2 - 4.0 * s + 1.0)
+        + b.xyz * (-6.0 * s2 + 6.0 * s)
+        + tb * (3.0 * s2 - 2.0 * s);
+    return PathPoint(position, slope / span);
+}
+
+// A segment of a collider's keys: from key `index` to the next, at
+// fraction s of it, which lasts `span` seconds (0: resting at key `index`).
+struct KeySegment {
+    index: u32,
+    s: f32,
+    span: f32,
+}
+
+// Where time t falls among the `count` keys from `first`: resting at the
+// first key before its time and at the last after it.
+fn key_segment(first: u32, count: u32, t: f32) -> KeySegment {
+    let last = first + count - 1u;
+    if t <= key_point(first).w {
+        return KeySegment(first, 0.0, 0.0);
+    }
+    if t >= key_point(last).w {
+        return KeySegment(last, 0.0, 0.0);
+    }
+    var next = first + 1u;
+    while key_point(next).w <= t {
+        next++;
+    }
+    let start = key_point(next - 1u).w;
+    let span = key_point(next).w - start;
+    return KeySegment(next - 1u, (t - start) / span, span);
+}
+
+// A keyframed collider's position and velocity: straight from key to key
+// or along a Catmull-Rom curve; at rest at the first and last key outside
+// their times.
+fn keyframe_path(collider: Collider, t: f32) -> PathPoint {
+    let segment = key_segment(collider.first_key, collider.key_count, t);
+    let start = key_point(segment.index);
+    if segment.span == 0.0 {
+        return PathPoint(start.xyz, vec3<f32>(0.0));
+    }
+    if collider.path == PATH_CATMULL_ROM {
+        return catmull_rom(collider.first_key, collider.key_count, segment.index, segment.s);
+    }
+    let end = key_point(segment.index + 1u);
+    return PathPoint(mix(start.xyz, end.xyz, segment.s), (end.xyz - start.xyz) / segment.span);
+}
+
+// An orientation and the angular velocity it turns at.
+struct Turn {
+    rotation: vec4<f32>,
+    angular_velocity: vec3<f32>,
+}
+
+// A keyframed collider's turn: by slerp at a constant rate from key to
+// key; still at the first and last key outside their times.
+fn keyframe_turn(collider: Collider, t: f32) -> Turn {
+    let segment = key_segment(collider.first_key, collider.key_count, t);
+    let start = key_rotation(segment.index);
+    if segment.span == 0.0 {
+        return Turn(start, vec3<f32>(0.0));
+    }
+    let end = key_rotation(segment.index + 1u);
+    if all(start == end) {
+        return Turn(start, vec3<f32>(0.0));
+    }
+    return Turn(quat_slerp(start, end, segment.s), rotation_rate(start, end, segment.span));
+}
+
+// The turn by angular_velocity over t seconds (none at rest).
+fn turned_by(angular_velocity: vec3<f32>, t: f32) -> vec4<f32> {
+    if all(angular_velocity == vec3<f32>(0.0)) {
+        return QUAT_IDENTITY;
+    }
+    return quat_from_scaled_axis(angular_velocity * t);
+}
+
+// A turning collider's turn at time t: its own orientation when static;
+// exp(omega t) R0 with linear motion; the keys' otherwise.
+fn collider_turn(collider: Collider, t: f32) -> Turn {
     switch collider.motion {
         case MOTION_LINEAR: {
-            return Placement(collider.reference.xyz + collider.velocity.xyz * t, collider.velocity.xyz);
+            let omega = collider.angular_velocity.xyz;
+            return Turn(quat_mul(turned_by(omega, t), collider.rotation), omega);
         }
         case MOTION_KEYFRAMED: {
-            return keyframe_placement(collider.first_key, collider.key_count, t);
+            return keyframe_turn(collider, t);
         }
         default: {
-            return Placement(collider.reference.xyz, vec3<f32>(0.0));
+            return Turn(collider.rotation, vec3<f32>(0.0));
         }
     }
+}
+
+// The collider's pose at time t (firn_core::scene::Collider::pose_at).
+fn placement(collider: Collider, t: f32) -> Placement {
+    var placed = Placement(collider.reference.xyz, vec3<f32>(0.0), QUAT_IDENTITY, vec3<f32>(0.0), false);
+    switch collider.motion {
+        case MOTION_LINEAR: {
+            placed.position = collider.reference.xyz + collider.velocity.xyz * t;
+            placed.velocity = collider.velocity.xyz;
+        }
+        case MOTION_KEYFRAMED: {
+            let path = keyframe_path(collider, t);
+            placed.position = path.position;
+            placed.velocity = path.velocity;
+        }
+        default: {}
+    }
+    if collider.turns != 0u {
+        let turn = collider_turn(collider, t);
+        placed.rotation = turn.rotation;
+        placed.angular_velocity = turn.angular_velocity;
+        placed.turned = any(turn.rotation != QUAT_IDENTITY) || any(turn.angular_velocity != vec3<f32>(0.0));
+    }
+    return placed;
 }
 
 fn box_surface(p: vec3<f32>, half: vec3<f32>) -> SurfacePoint {
@@ -102,6 +322,29 @@ fn box_surface(p: vec3<f32>, half: vec3<f32>) -> SurfacePoint {
         return SurfacePoint(q.y, vec3<f32>(0.0, signs.y, 0.0));
     }
     return SurfacePoint(q.z, vec3<f32>(0.0, 0.0, signs.z));
+}
+
+// Signed distance and outward normal of a cylinder centred at the origin,
+// its axis along y, of `radius` and half length `half_height`.
+fn cylinder_surface(p: vec3<f32>, radius: f32, half_height: f32) -> SurfacePoint {
+    let across = sqrt(p.x * p.x + p.z * p.z);
+    var outward = vec3<f32>(1.0, 0.0, 0.0);
+    if across > 0.0 {
+        outward = vec3<f32>(p.x / across, 0.0, p.z / across);
+    }
+    let along = select(vec3<f32>(0.0, -1.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), p.y >= 0.0);
+    let side = across - radius;
+    let cap = abs(p.y) - half_height;
+    if side > 0.0 || cap > 0.0 {
+        let side_out = max(side, 0.0);
+        let cap_out = max(cap, 0.0);
+        let length = sqrt(side_out * side_out + cap_out * cap_out);
+        return SurfacePoint(length, (outward * side_out + along * cap_out) / length);
+    }
+    if side >= cap {
+        return SurfacePoint(side, outward);
+    }
+    return SurfacePoint(cap, along);
 }
 
 fn sdf_sample(collider: Collider, point: vec3<u32>) -> f32 {
@@ -178,10 +421,69 @@ fn surface_point(collider: Collider, at: vec3<f32>, point: vec3<f32>) -> Surface
         case SHAPE_MESH: {
             return mesh_surface(collider, point - (at - collider.extent.xyz));
         }
+        case SHAPE_CYLINDER: {
+            return cylinder_surface(point - at, collider.extent.x, 0.5 * collider.extent.y);
+        }
         default: {
             return SurfacePoint(dot(point - at, collider.extent.xyz), collider.extent.xyz);
         }
     }
+}
+
+// A Placement as collider_poses stores it; position.w is 1 for a turned
+// collider.
+struct ColliderPose {
+    position: vec4<f32>,
+    velocity: vec4<f32>,
+    rotation: vec4<f32>,
+    angular_velocity: vec4<f32>,
+}
+
+// Places every collider at time t into collider_poses, for the contacts of
+// one substep (one invocation).
+fn place_colliders(t: f32) {
+    let count = arrayLength(&colliders);
+    for (var c = 0u; c < count; c++) {
+        let placed = placement(colliders[c], t);
+        collider_poses[c] = ColliderPose(
+            vec4<f32>(placed.position, select(0.0, 1.0, placed.turned)),
+            vec4<f32>(placed.velocity, 0.0),
+            placed.rotation,
+            vec4<f32>(placed.angular_velocity, 0.0),
+        );
+    }
+}
+
+// Collider c as place_colliders placed it.
+fn posed(c: u32) -> Placement {
+    let pose = collider_poses[c];
+    return Placement(pose.position.xyz, pose.velocity.xyz, pose.rotation, pose.angular_velocity.xyz, pose.position.w != 0.0);
+}
+
+// The collider's surface at `point` as placed: a turned collider's distance
+// is read in its own frame at c + R^-1 (x - c) and its normal turned back
+// by R (firn_mpm::contact::PlacedCollider::signed_distance).
+fn placed_surface(collider: Collider, placed: Placement, point: vec3<f32>) -> SurfacePoint {
+    // One surface_point for both cases: the shape's code is the bulk of a
+    // kernel, and a software adapter (lavapipe) runs both sides of a
+    // branch.
+    var own = point;
+    if placed.turned {
+        own = placed.position + quat_rotate(quat_conjugate(placed.rotation), point - placed.position);
+    }
+    var surface = surface_point(collider, placed.position, own);
+    if placed.turned {
+        surface.normal = quat_rotate(placed.rotation, surface.normal);
+    }
+    return surface;
+}
+
+// How fast the placed collider's surface moves at `point`: v + omega x (x - c).
+fn surface_velocity(placed: Placement, point: vec3<f32>) -> vec3<f32> {
+    if !placed.turned {
+        return placed.velocity;
+    }
+    return placed.velocity + cross(placed.angular_velocity, point - placed.position);
 }
 
 // The contact law relative to a collider moving with collider_velocity:
@@ -209,17 +511,23 @@ fn contact_response(velocity: vec3<f32>, collider_velocity: vec3<f32>, normal: v
     return collider_velocity;
 }
 
-// Applies every collider in turn to a velocity at point, at time t.
-fn collide_all(point: vec3<f32>, velocity_in: vec3<f32>, t: f32) -> vec3<f32> {
+// Applies one collider, placed, to a velocity at point
+// (firn_mpm::contact::PlacedCollider::collide).
+fn collide(collider: Collider, placed: Placement, point: vec3<f32>, velocity: vec3<f32>) -> vec3<f32> {
+    let surface = placed_surface(collider, placed, point);
+    if surface.distance <= 0.0 {
+        return contact_response(velocity, surface_velocity(placed, point), surface.normal, collider.contact, collider.friction);
+    }
+    return velocity;
+}
+
+// Applies every collider in turn, as placed for this substep, to a
+// velocity at point.
+fn collide_all(point: vec3<f32>, velocity_in: vec3<f32>) -> vec3<f32> {
     var velocity = velocity_in;
     let count = arrayLength(&colliders);
     for (var c = 0u; c < count; c++) {
-        let collider = colliders[c];
-        let placed = placement(collider, t);
-        let surface = surface_point(collider, placed.position, point);
-        if surface.distance <= 0.0 {
-            velocity = contact_response(velocity, placed.velocity, surface.normal, collider.contact, collider.friction);
-        }
+        velocity = collide(colliders[c], posed(c), point, velocity);
     }
     return velocity;
 }
@@ -322,15 +630,15 @@ fn project(constraint: vec4<f32>, velocity: vec3<f32>) -> vec3<f32> {
 
 // collide_all, plus the components the contacts fixed
 // (firn_mpm::contact::collide_all_constrained).
-fn collide_all_constrained(point: vec3<f32>, velocity_in: vec3<f32>, t: f32) -> Constrained {
+fn collide_all_constrained(point: vec3<f32>, velocity_in: vec3<f32>) -> Constrained {
     var result = Constrained(velocity_in, vec4<f32>(0.0, 0.0, 0.0, CONSTRAINT_FREE));
     let count = arrayLength(&colliders);
     for (var c = 0u; c < count; c++) {
         let collider = colliders[c];
-        let placed = placement(collider, t);
-        let surface = surface_point(collider, placed.position, point);
+        let placed = posed(c);
+        let surface = placed_surface(collider, placed, point);
         if surface.distance <= 0.0 {
-            let response = constrained_response(result.velocity, placed.velocity, surface.normal, collider.contact, collider.friction);
+            let response = constrained_response(result.velocity, surface_velocity(placed, point), surface.normal, collider.contact, collider.friction);
             result = Constrained(response.velocity, constraint_and(result.constraint, response.constraint));
         }
     }

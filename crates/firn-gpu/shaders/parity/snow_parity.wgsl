@@ -1,11 +1,39 @@
 // Entry points that run single library functions over arrays, so tests can
 // compare them with the CPU functions they mirror (svd3, the B-spline
-// weights, the snow model's elastic update). The arrays are bound by
-// ParityBindings in src/snow/bindings.rs.
+// weights, the snow model's elastic update, the colliders). The arrays are
+// bound by ParityBindings in src/snow/bindings.rs.
 
 // Vectors written per point by weights_parity: both bases, then the
 // quadratic values and slopes, then the cubic values and slopes.
 const WEIGHT_VECTORS: u32 = 16u;
+
+// Vectors written per point by collider_parity.
+const COLLIDER_VECTORS: u32 = 6u;
+
+// Collider vectors_in[2n + 1].w, placed at time vectors_in[2n].w, at point
+// vectors_in[2n].xyz on a velocity vectors_in[2n + 1].xyz: the velocity
+// after its contact; the placed position and the signed distance at the
+// point (w); the rotation; the velocity; the angular velocity and whether
+// it is turned (w: 1); the outward normal at the point.
+@compute @workgroup_size(64)
+fn collider_parity(@builtin(global_invocation_id) id: vec3<u32>) {
+    let n = id.x;
+    if n >= arrayLength(&vectors_in) / 2u {
+        return;
+    }
+    let at = vectors_in[2u * n];
+    let moving = vectors_in[2u * n + 1u];
+    let collider = colliders[u32(moving.w)];
+    let placed = placement(collider, at.w);
+    let surface = placed_surface(collider, placed, at.xyz);
+    let first = n * COLLIDER_VECTORS;
+    vectors_out[first] = vec4<f32>(collide(collider, placed, at.xyz, moving.xyz), 0.0);
+    vectors_out[first + 1u] = vec4<f32>(placed.position, surface.distance);
+    vectors_out[first + 2u] = placed.rotation;
+    vectors_out[first + 3u] = vec4<f32>(placed.velocity, 0.0);
+    vectors_out[first + 4u] = vec4<f32>(placed.angular_velocity, select(0.0, 1.0, placed.turned));
+    vectors_out[first + 5u] = vec4<f32>(surface.normal, 0.0);
+}
 
 // U and V to matrices_out[2n], [2n + 1]; sigma to vectors_out[n].
 @compute @workgroup_size(64)

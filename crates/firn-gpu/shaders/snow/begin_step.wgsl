@@ -25,8 +25,9 @@ fn next_dt(speed_squared: f32, wave_speed_squared: f32) -> f32 {
 }
 
 // One invocation: stops the frame when it is done or a particle is in
-// trouble, else chooses dt, clipped to the frame's end, and resets the
-// maxima for this substep's gather.
+// trouble, else chooses dt, clipped to the frame's end, places the
+// colliders at the substep's end and resets the maxima for this substep's
+// gather.
 @compute @workgroup_size(1)
 fn begin_step() {
     if state.running == 0u {
@@ -52,6 +53,7 @@ fn begin_step() {
         state.elapsed = state.elapsed + dt;
     }
     state.steps = state.steps + 1u;
+    place_colliders(simulated_time());
     atomicStore(&state.max_speed_bits, 0u);
     atomicStore(&state.max_wave_bits, 0u);
 }

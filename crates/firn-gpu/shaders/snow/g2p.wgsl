@@ -104,7 +104,7 @@ fn update_particle(p: u32, grid: Interpolated) {
     affine[p] = grid.gradient;
 
     let position = position_mass[p].xyz;
-    let velocity = collide_all(position + grid.velocity * dt, grid.velocity, simulated_time());
+    let velocity = collide_all(position + grid.velocity * dt, grid.velocity);
     let moved = position + velocity * dt;
     position_mass[p] = vec4<f32>(moved, position_mass[p].w);
     velocity_volume[p] = vec4<f32>(velocity, velocity_volume[p].w);

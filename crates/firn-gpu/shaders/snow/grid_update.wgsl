@@ -64,7 +64,7 @@ fn update_node(node: u32, windy: bool, colliding: bool) {
     }
     var velocity_new = velocity_star;
     if colliding {
-        velocity_new = collide_all(position, velocity_star, simulated_time());
+        velocity_new = collide_all(position, velocity_star);
     }
     store_node_velocities(node, velocity, velocity_new);
 }

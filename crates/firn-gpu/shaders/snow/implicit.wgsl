@@ -345,7 +345,7 @@ fn load_node(node: u32) -> f32 {
         return 0.0;
     }
     atomicAdd(&solve.active_nodes, 1u);
-    let collided = collide_all_constrained(node_position(node), node_velocity_new(node), simulated_time());
+    let collided = collide_all_constrained(node_position(node), node_velocity_new(node));
     set_node_vector(VECTOR_X, node, collided.velocity);
     set_node_word(VECTOR_CONSTRAINT, node, collided.constraint);
     return mass * dot(collided.velocity, collided.velocity);
@@ -459,7 +459,7 @@ fn solve_store(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups)
     if node >= node_count() || state.running == 0u || solve_node_mass(node) <= 0.0 {
         return;
     }
-    let velocity_new = collide_all(node_position(node), node_vector(VECTOR_X, node), simulated_time());
+    let velocity_new = collide_all(node_position(node), node_vector(VECTOR_X, node));
     atomicStore(&px_hi[node], bitcast<u32>(velocity_new.x));
     atomicStore(&py_hi[node], bitcast<u32>(velocity_new.y));
     atomicStore(&pz_hi[node], bitcast<u32>(velocity_new.z));

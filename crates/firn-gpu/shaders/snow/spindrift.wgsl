@@ -146,10 +146,8 @@ fn landed(to: vec3<f32>) -> bool {
     if any(through_floor) {
         return true;
     }
-    let t = simulated_time();
     for (var c = 0u; c < spindrift.flags.z; c++) {
-        let collider = colliders[c];
-        if surface_point(collider, placement(collider, t).position, to).distance <= 0.0 {
+        if placed_surface(colliders[c], posed(c), to).distance <= 0.0 {
             return true;
         }
     }

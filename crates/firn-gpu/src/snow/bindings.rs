@@ -18,7 +18,8 @@ bind_group! {
         2 => materials: Read "array<Material>",
         /// The colliders: the scene's, then the six walls.
         3 => colliders: Read "array<Collider>",
-        /// The keyframes of keyframed colliders (xyz: position, w: time).
+        /// The keyframes of keyframed colliders, two vectors a key: the
+        /// position (xyz) and time (w), then the orientation quaternion.
         4 => collider_keys: Read "array<vec4<f32>>",
         /// xyz: position; w: mass.
         5 => position_mass: ReadWrite "array<vec4<f32>>",
@@ -96,6 +97,9 @@ bind_group! {
         35 => linearized: ReadWrite "array<StressDifferential>",
         /// The solve's scalars and the workgroups' partial sums.
         36 => solve: ReadWrite "SolveState",
+        /// Each collider's pose at the end of the substep, which
+        /// `begin_step` writes for the contacts of the substep.
+        37 => collider_poses: ReadWrite "array<ColliderPose>",
     }
 }
 
@@ -114,5 +118,15 @@ bind_group! {
         3 => vectors_out: ReadWrite "array<vec4<f32>>",
         /// The material of the snow model's entry point.
         4 => parity_material: Read "array<Material>",
+        /// The colliders of the collider entry point.
+        5 => colliders: Read "array<Collider>",
+        /// Their keyframes, as the snow step's `collider_keys`.
+        6 => collider_keys: Read "array<vec4<f32>>",
+        /// Their signed distance samples, as the snow step's
+        /// `collider_distances`.
+        7 => collider_distances: Read "array<f32>",
+        /// Poses of the colliders, as the snow step's `collider_poses`
+        /// (the collider entry point places its own).
+        8 => collider_poses: ReadWrite "array<ColliderPose>",
     }
 }

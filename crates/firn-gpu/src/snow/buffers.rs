@@ -2,12 +2,12 @@
 //! grid's word planes and the binning's buffers, and how they fill the
 //! step's bind group by name ([`SnowBuffers::bindings`]).
 
-use firn_core::scene::Transfer;
+use firn_core::scene::{Collider, Transfer};
 use firn_mpm::Particles;
 
 use super::bindings::StepBindings;
 use super::binning::BinningBuffers;
-use super::layout::{GpuMat3, GpuPlastic, PackedColliders, SolveHeader};
+use super::layout::{GpuMat3, GpuPlastic, SolveHeader, pack_colliders};
 use super::wind::WindBuffers;
 use crate::buffers::{storage_buffer, zeroed_storage_buffer};
 use crate::context::GpuContext;
@@ -169,23 +169,30 @@ impl SolveBuffers {
     }
 }
 
-/// The colliders as the kernels read them ([`PackedColliders`]).
+/// The colliders as the kernels read them (`layout.rs`: `pack_colliders`).
 pub struct ColliderBuffers {
     /// The colliders: the scene's, then the six walls.
     pub colliders: wgpu::Buffer,
-    /// Keyframes (xyz: position, w: time).
+    /// Keyframes, two vectors a key: position and time, then the
+    /// orientation quaternion.
     pub keys: wgpu::Buffer,
     /// Signed distance samples of the mesh colliders.
     pub distances: wgpu::Buffer,
+    /// Each collider's pose in the current substep (`ColliderPose` in
+    /// `colliders.wgsl`, four vectors), which the kernels write.
+    pub poses: wgpu::Buffer,
 }
 
 impl ColliderBuffers {
-    /// Uploads the packed colliders.
-    pub fn upload(context: &GpuContext, packed: &PackedColliders) -> ColliderBuffers {
+    /// Packs and uploads `colliders` (for a run: the scene's, then the
+    /// walls, as `firn_mpm::contact::ColliderSet::colliders` lists them).
+    pub fn of(context: &GpuContext, colliders: &[Collider]) -> ColliderBuffers {
+        let packed = pack_colliders(colliders);
         ColliderBuffers {
             colliders: storage_buffer(context, "colliders", &packed.colliders),
             keys: storage_buffer(context, "collider keys", &packed.keys),
             distances: storage_buffer(context, "collider distances", &packed.distances),
+            poses: zeroed_storage_buffer(context, "collider poses", 64 * colliders.len() as u64),
         }
     }
 }
@@ -242,6 +249,7 @@ impl SnowBuffers {
             colliders: &self.colliders.colliders,
             collider_keys: &self.colliders.keys,
             collider_distances: &self.colliders.distances,
+            collider_poses: &self.colliders.poses,
             position_mass: &particles.position_mass,
             velocity_volume: &particles.velocity_volume,
             elastic: &particles.elastic,

@@ -2,7 +2,7 @@
 //! `shaders/common/*.wgsl`, byte for byte.
 
 use bytemuck::{Pod, Zeroable};
-use firn_core::scene::{ColliderGeometry, ContactMode, Motion};
+use firn_core::scene::{ColliderGeometry, ContactMode, Motion, PathShape};
 use firn_mpm::snow_model::MaterialConstants;
 use glam::{Mat3, Vec3};
 
@@ -103,10 +103,13 @@ pub struct GpuCollider {
     pub motion: u32,
     pub first_key: u32,
     pub key_count: u32,
-    pub pad: [u32; 2],
+    pub turns: u32,
+    pub path: u32,
     pub reference: [f32; 4],
     pub extent: [f32; 4],
     pub velocity: [f32; 4],
+    pub angular_velocity: [f32; 4],
+    pub rotation: [f32; 4],
     pub sdf_origin: [f32; 4],
     pub sdf_dims: [u32; 4],
 }
@@ -142,8 +145,9 @@ impl From<GpuMat3> for Mat3 {
 }
 
 /// The colliders as the kernels read them: the colliders (scene colliders,
-/// then the six walls), their keyframes (xyz: position, w: time) and the
-/// signed distance samples of the mesh colliders, one after another.
+/// then the six walls), their keyframes (two vectors a key: position and
+/// time, then the orientation quaternion) and the signed distance samples
+/// of the mesh colliders, one after another.
 #[derive(Debug, Default)]
 pub struct PackedColliders {
     pub colliders: Vec<GpuCollider>,
@@ -164,6 +168,8 @@ pub fn pack_colliders(colliders: &[firn_core::scene::Collider]) -> PackedCollide
                 ContactMode::Slip => 2,
             },
             friction: collider.contact.friction,
+            turns: u32::from(collider.turns()),
+            rotation: collider.rotation.to_array(),
             ..GpuCollider::default()
         };
         match collider.geometry {
@@ -181,11 +187,14 @@ pub fn pack_colliders(colliders: &[firn_core::scene::Collider]) -> PackedCollide
                 gpu.reference = center.extend(0.0).into();
                 gpu.extent = size.extend(0.0).into();
             }
-            // Refused before packing (`GpuSnow::check_supported`): the
-            // kernels have no cylinder yet.
-            ColliderGeometry::Cylinder { center, .. } => {
+            ColliderGeometry::Cylinder {
+                center,
+                radius,
+                height,
+            } => {
                 gpu.shape = 4;
                 gpu.reference = center.extend(0.0).into();
+                gpu.extent = [radius, height, 0.0, 0.0];
             }
             // Refused before packing (`GpuSnow::check_supported`): the
             // kernels have no deforming meshes yet.
@@ -204,19 +213,26 @@ pub fn pack_colliders(colliders: &[firn_core::scene::Collider]) -> PackedCollide
         }
         match &collider.motion {
             Motion::Static => gpu.motion = 0,
-            Motion::Linear { velocity, .. } => {
+            Motion::Linear {
+                velocity,
+                angular_velocity,
+            } => {
                 gpu.motion = 1;
                 gpu.velocity = velocity.extend(0.0).into();
+                gpu.angular_velocity = angular_velocity.extend(0.0).into();
             }
-            Motion::Keyframed { keys: frames, .. } => {
+            Motion::Keyframed { keys: frames, path } => {
                 gpu.motion = 2;
-                gpu.first_key = keys.len() as u32;
+                gpu.path = match path {
+                    PathShape::Linear => 0,
+                    PathShape::CatmullRom => 1,
+                };
+                gpu.first_key = (keys.len() / 2) as u32;
                 gpu.key_count = frames.len() as u32;
-                keys.extend(
-                    frames
-                        .iter()
-                        .map(|key| key.position.extend(key.time as f32).to_array()),
-                );
+                for key in frames {
+                    keys.push(key.position.extend(key.time as f32).to_array());
+                    keys.push(key.rotation.to_array());
+                }
             }
         }
         packed.push(gpu);

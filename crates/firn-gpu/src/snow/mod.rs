@@ -62,10 +62,7 @@ mod wind;
 use std::sync::Arc;
 
 use firn_core::Scene;
-use firn_core::scene::{
-    Collider, ColliderGeometry, Integrator, Material, Motion, PathShape, SceneKind, TimeStep,
-    Transfer, Wind,
-};
+use firn_core::scene::{Integrator, Material, SceneKind, TimeStep, Transfer, Wind};
 use firn_mpm::grid::GridLayout;
 use firn_mpm::implicit::SolverStats;
 use firn_mpm::snow_model::{MaterialConstants, max_wave_speed_squared};
@@ -77,13 +74,14 @@ use crate::context::GpuContext;
 use crate::draw::{ParticleArrays, SnowArrays, StridedArray};
 use crate::error::GpuError;
 use binning::BinningBuffers;
-use buffers::{ColliderBuffers, GridBuffers, ParticleBuffers, SnowBuffers, SolveBuffers};
+use buffers::{GridBuffers, ParticleBuffers, SnowBuffers, SolveBuffers};
 use fixed_point::Scales;
-use layout::{GpuMat3, GpuMaterial, GpuPlastic, NO_PARTICLE, Params, StepState, pack_colliders};
+use layout::{GpuMat3, GpuMaterial, GpuPlastic, NO_PARTICLE, Params, StepState};
 use spindrift::{PHASE_SNOW, ReadBack, SpindriftParams, joined, split_phases};
 use substep::Substep;
 use wind::{MAX_WIND_OBSTACLES, WindBuffers};
 
+pub use buffers::ColliderBuffers;
 pub use memory::MemoryEstimate;
 pub use p2g::Scatter;
 
@@ -148,10 +146,9 @@ impl GpuSnow {
         params.flags[1] = context.limits.max_compute_workgroups_per_dimension;
         let implicit = is_implicit(&scene);
         let all_colliders = firn_mpm::contact::ColliderSet::new(domain, &scene.colliders);
-        let packed = pack_colliders(all_colliders.colliders());
         let buffers = SnowBuffers {
             materials,
-            colliders: ColliderBuffers::upload(&context, &packed),
+            colliders: ColliderBuffers::of(&context, all_colliders.colliders()),
             particles: ParticleBuffers::upload(&context, &particles, &material_words),
             grid: GridBuffers::new(&context, estimate.nodes, scene.solver.transfer, implicit),
             binning: BinningBuffers::new(&context, estimate.particles, estimate.nodes),
@@ -203,20 +200,12 @@ impl GpuSnow {
                 fix: "run it through firn_gpu::GpuFlow".into(),
             });
         }
-        if let Some(index) = scene.colliders.iter().position(needs_the_cpu) {
-            return Err(GpuError::Unsupported {
-                what: format!(
-                    "colliders[{index}] turns, is a cylinder or follows a Catmull-Rom path, which \
-                     the GPU backend does not run yet"
-                ),
-                fix: "run it with --backend cpu (--backend auto does)".into(),
-            });
-        }
-        if let Some(index) = scene
-            .colliders
-            .iter()
-            .position(|collider| matches!(collider.geometry, ColliderGeometry::MeshSequence(_)))
-        {
+        if let Some(index) = scene.colliders.iter().position(|collider| {
+            matches!(
+                collider.geometry,
+                firn_core::scene::ColliderGeometry::MeshSequence(_)
+            )
+        }) {
             return Err(GpuError::Unsupported {
                 what: format!(
                     "colliders[{index}] is a deforming mesh sequence, which the GPU backend does \
@@ -455,20 +444,6 @@ fn gpu_materials(constants: &[MaterialConstants], materials: &[Material]) -> Vec
 }
 
 /// Whether `scene` runs the semi-implicit integrator.
-/// Whether a collider needs what only the CPU backend runs so far: a
-/// rotation, a cylinder or a curved keyframe path.
-fn needs_the_cpu(collider: &Collider) -> bool {
-    collider.turns()
-        || matches!(collider.geometry, ColliderGeometry::Cylinder { .. })
-        || matches!(
-            collider.motion,
-            Motion::Keyframed {
-                path: PathShape::CatmullRom,
-                ..
-            }
-        )
-}
-
 fn is_implicit(scene: &Scene) -> bool {
     matches!(scene.solver.integrator, Integrator::SemiImplicit(_))
 }

@@ -88,6 +88,42 @@ fn moving_collider_works_in_its_own_frame() {
 }
 
 #[test]
+fn a_turned_collider_reads_its_distance_through_its_turn() {
+    // A flat box turned a quarter about z stands up: it is the tall box.
+    let center = Vec3::new(0.5, 0.5, 0.5);
+    let quarter = Quat::from_rotation_z(std::f32::consts::FRAC_PI_2);
+    let placed = |size: Vec3, rotation: Quat| PlacedCollider {
+        geometry: ColliderGeometry::Box { center, size },
+        velocity: Vec3::ZERO,
+        contact: contact(ContactMode::Sticky, 0.0),
+        spin: (rotation != Quat::IDENTITY).then(|| Spin {
+            center,
+            rotation,
+            inverse: rotation.inverse(),
+            angular_velocity: Vec3::ZERO,
+        }),
+        surface: None,
+    };
+    let turned = placed(Vec3::new(0.6, 0.1, 0.4), quarter);
+    let tall = placed(Vec3::new(0.1, 0.6, 0.4), Quat::IDENTITY);
+    for point in [
+        Vec3::new(0.52, 0.78, 0.5),
+        Vec3::new(0.8, 0.52, 0.45),
+        Vec3::new(0.53, 0.3, 0.6),
+        Vec3::new(0.9, 0.9, 0.1),
+    ] {
+        let spin = turned.spin.as_ref().expect("turned");
+        let a = turned_distance(&turned.geometry, spin, point);
+        let b = tall.geometry.signed_distance(point);
+        assert!(
+            (a.0 - b.0).abs() < 1e-6 && close(a.1, b.1),
+            "at {point}: {a:?} vs {b:?}"
+        );
+        assert_eq!(turned.signed_distance(point), a.0);
+    }
+}
+
+#[test]
 fn only_points_inside_a_collider_are_affected() {
     let ball = PlacedCollider {
         geometry: ColliderGeometry::Sphere {
