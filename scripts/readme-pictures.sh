@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
 # Regenerates the pictures in the README (docs/images/): from the bundled
-# default scene a still and a short animated GIF per snow style, and a
-# still of the curl-noise demo's trails after two seconds.
+# default scene a still and a short animated GIF per snow style, a still
+# of the curl-noise demo's trails after two seconds, and a GIF of the
+# treaded wheel rolling its rut (needs ffmpeg).
 #
 #   scripts/readme-pictures.sh
 #
-# Takes about four minutes on two cores.
+# Takes about fifteen minutes on two cores, eleven of them the wheel's.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out="$(mktemp -d)"
@@ -19,4 +20,10 @@ for style in points volume; do
 done
 cargo run --release --quiet -- run scenes/curl-noise-demo.toml --out "$out/flow" --frames 60 --quiet
 cp "$out/flow/images/trails/frame_00060.png" docs/images/curl-noise-demo-trails.png
+# The wheel's GIF: every other frame at 400x225 in 64 colours, without
+# dithering (firn's own GIF of 145,600 shimmering sprites is 2 MB).
+cargo run --release --quiet -- run scenes/wheel-rut.toml --out "$out/wheel" --size 480x270 --quiet
+ffmpeg -loglevel error -y -framerate 20 -i "$out/wheel/images/points/frame_%05d.png" \
+  -vf "fps=10,scale=400:-1:flags=lanczos,split[a][b];[a]palettegen=max_colors=64[p];[b][p]paletteuse=dither=none" \
+  docs/images/wheel-rut.gif
 echo "docs/images updated"

@@ -9,8 +9,11 @@
 //! and the drift in the air where the scene has spindrift), each with
 //! `points`, `velocities`, `extent` and one primvar per other cached
 //! attribute, all time-sampled at the frame index as time code; its
-//! colliders are `Mesh` (planes and mesh colliders), `Cube` (boxes) and
-//! `Sphere` prims moved by a time-sampled `xformOp:translate`. Rewriting one file with every frame
+//! colliders are `Mesh` (planes and mesh colliders), `Cube` (boxes),
+//! `Cylinder` and `Sphere` prims moved by a time-sampled `xformOp:translate`
+//! and, where they turn, turned by a time-sampled `xformOp:orient` (the
+//! rotation about the reference point, applied before the translate).
+//! Rewriting one file with every frame
 //! would cost the whole run's data at each frame, so the samples are split
 //! into USD *value clips*, one layer per frame ([`clip_name`]), which the
 //! small stage file ([`STAGE_FILE`]) lists by a template: a frame writes its
@@ -24,7 +27,7 @@ use std::path::Path;
 
 use glam::Vec3;
 
-use crate::{AttributeValues, FrameData, IoError, Values, write_atomically};
+use crate::{AttributeValues, ColliderPose, FrameData, IoError, Values, write_atomically};
 
 /// The stage file, relative to the run folder.
 pub const STAGE_FILE: &str = "particles.usda";
@@ -51,8 +54,18 @@ pub struct UsdStage {
     pub fps: f64,
     /// The last frame written so far: the stage's end time code.
     pub last_frame: u32,
-    /// The colliders' shapes, about their reference points.
-    pub colliders: Vec<UsdShape>,
+    /// The colliders, in the scene's order.
+    pub colliders: Vec<UsdCollider>,
+}
+
+/// One collider prim of the stage.
+#[derive(Clone, Debug, PartialEq)]
+pub struct UsdCollider {
+    /// Its shape, about its reference point.
+    pub shape: UsdShape,
+    /// Whether it is ever turned: only then does the prim carry a
+    /// time-sampled `xformOp:orient`.
+    pub turns: bool,
 }
 
 /// One points prim of the stage.
@@ -103,14 +116,15 @@ pub enum UsdShape {
 
 /// Writes a frame's clip into `folder` (the run folder), with `frames`
 /// the particle sets of the stage's points prims in their order (of one
-/// frame index) and the colliders' reference points at `colliders`, then
+/// frame index) and the colliders' poses at that frame in `colliders`, then
 /// the clip manifest and the stage, each atomically. Panics if `frames`
-/// and the stage's points prims differ in number.
+/// and the stage's points prims, or `colliders` and its collider prims,
+/// differ in number.
 pub fn write_usd_frame(
     folder: &Path,
     stage: &UsdStage,
     frames: &[&FrameData],
-    colliders: &[Vec3],
+    colliders: &[ColliderPose],
 ) -> Result<(), IoError> {
     let index = frames.first().map_or(0, |frame| frame.index);
     let path = folder.join(clip_name(index));
@@ -118,6 +132,11 @@ pub fn write_usd_frame(
         frames.len(),
         stage.points.len(),
         "one particle set per points prim"
+    );
+    assert_eq!(
+        colliders.len(),
+        stage.colliders.len(),
+        "one pose per collider prim"
     );
     for frame in frames {
         frame.validate().map_err(|problem| IoError::InvalidFrame {
@@ -201,8 +220,8 @@ pub fn encode_usd_stage(stage: &UsdStage, frames: &[&FrameData]) -> String {
     for (points, frame) in stage.points.iter().zip(frames) {
         push_points(&mut text, points, frame);
     }
-    for (index, shape) in stage.colliders.iter().enumerate() {
-        push_collider(&mut text, index, shape);
+    for (index, collider) in stage.colliders.iter().enumerate() {
+        push_collider(&mut text, index, collider);
     }
     text.push_str("}\n");
     text
@@ -230,8 +249,10 @@ fn push_points(text: &mut String, points: &UsdPoints, frame: &FrameData) {
     text.push_str("    }\n");
 }
 
-/// A collider prim, its translate left to the clips.
-fn push_collider(text: &mut String, index: usize, shape: &UsdShape) {
+/// A collider prim, its translate (and orient, where it turns) left to the
+/// clips.
+fn push_collider(text: &mut String, index: usize, collider: &UsdCollider) {
+    let shape = &collider.shape;
     let (kind, body, scaled) = match shape {
         UsdShape::Plane { normal, half_size } => ("Mesh", plane_mesh(*normal, *half_size), false),
         UsdShape::Mesh { points, triangles } => ("Mesh", triangle_mesh(points, triangles), false),
@@ -251,15 +272,21 @@ fn push_collider(text: &mut String, index: usize, shape: &UsdShape) {
         ),
     };
     let _ = write!(text, "    def {kind} \"Collider{index}\"\n    {{\n{body}");
+    let mut order = vec!["\"xformOp:translate\""];
     text.push_str("        double3 xformOp:translate\n");
+    if collider.turns {
+        text.push_str("        quatf xformOp:orient\n");
+        order.push("\"xformOp:orient\"");
+    }
     if let (true, UsdShape::Box { size }) = (scaled, shape) {
         let _ = writeln!(text, "        float3 xformOp:scale = {}", tuple(*size));
-        text.push_str(
-            "        uniform token[] xformOpOrder = [\"xformOp:translate\", \"xformOp:scale\"]\n",
-        );
-    } else {
-        text.push_str("        uniform token[] xformOpOrder = [\"xformOp:translate\"]\n");
+        order.push("\"xformOp:scale\"");
     }
+    let _ = writeln!(
+        text,
+        "        uniform token[] xformOpOrder = [{}]",
+        order.join(", ")
+    );
     text.push_str("    }\n");
 }
 
@@ -301,10 +328,15 @@ pub fn encode_usd_manifest(stage: &UsdStage, frames: &[&FrameData]) -> String {
         }
         text.push_str("    }\n");
     }
-    for index in 0..stage.colliders.len() {
+    for (index, collider) in stage.colliders.iter().enumerate() {
+        let orient = if collider.turns {
+            "        quatf xformOp:orient\n"
+        } else {
+            ""
+        };
         let _ = write!(
             text,
-            "    over \"Collider{index}\"\n    {{\n        double3 xformOp:translate\n    }}\n"
+            "    over \"Collider{index}\"\n    {{\n        double3 xformOp:translate\n{orient}    }}\n"
         );
     }
     text.push_str("}\n");
@@ -312,8 +344,12 @@ pub fn encode_usd_manifest(stage: &UsdStage, frames: &[&FrameData]) -> String {
 }
 
 /// A frame's clip: the samples of its particle sets `frames` (one per points
-/// prim) and of the colliders at its time code.
-pub fn encode_usd_clip(stage: &UsdStage, frames: &[&FrameData], colliders: &[Vec3]) -> String {
+/// prim) and of the colliders' poses `colliders` at its time code.
+pub fn encode_usd_clip(
+    stage: &UsdStage,
+    frames: &[&FrameData],
+    colliders: &[ColliderPose],
+) -> String {
     text_of(|out| write_usd_clip(out, stage, frames, colliders))
 }
 
@@ -323,20 +359,29 @@ fn write_usd_clip(
     out: &mut dyn io::Write,
     stage: &UsdStage,
     frames: &[&FrameData],
-    colliders: &[Vec3],
+    colliders: &[ColliderPose],
 ) -> io::Result<()> {
     let code = frames.first().map_or(0, |frame| frame.index);
     out.write_all(b"#usda 1.0\n\nover \"World\"\n{\n")?;
     for (points, frame) in stage.points.iter().zip(frames) {
         write_samples(out, points, frame)?;
     }
-    for (index, position) in colliders.iter().enumerate() {
+    for (index, (collider, pose)) in stage.colliders.iter().zip(colliders).enumerate() {
         write!(
             out,
             "    over \"Collider{index}\"\n    {{\n        \
-             double3 xformOp:translate.timeSamples = {{ {code}: {} }}\n    }}\n",
-            tuple(*position)
+             double3 xformOp:translate.timeSamples = {{ {code}: {} }}\n",
+            tuple(Vec3::from_array(pose.position))
         )?;
+        if collider.turns {
+            // USD writes a quaternion real part first: (w, x, y, z).
+            let [x, y, z, w] = pose.rotation;
+            writeln!(
+                out,
+                "        quatf xformOp:orient.timeSamples = {{ {code}: ({w}, {x}, {y}, {z}) }}"
+            )?;
+        }
+        out.write_all(b"    }\n")?;
     }
     out.write_all(b"}\n")
 }
@@ -471,14 +516,28 @@ mod tests {
             fps: 24.0,
             last_frame: 3,
             colliders: vec![
-                UsdShape::Plane {
-                    normal: Vec3::Y,
-                    half_size: 1.0,
+                UsdCollider {
+                    shape: UsdShape::Plane {
+                        normal: Vec3::Y,
+                        half_size: 1.0,
+                    },
+                    turns: false,
                 },
-                UsdShape::Box {
-                    size: Vec3::new(1.0, 2.0, 3.0),
+                UsdCollider {
+                    shape: UsdShape::Box {
+                        size: Vec3::new(1.0, 2.0, 3.0),
+                    },
+                    turns: true,
                 },
             ],
+        }
+    }
+
+    /// A pose at `position`, turned by `rotation`.
+    fn pose(position: Vec3, rotation: glam::Quat) -> ColliderPose {
+        ColliderPose {
+            position: position.to_array(),
+            rotation: rotation.to_array(),
         }
     }
 
@@ -490,7 +549,12 @@ mod tests {
             .with_attribute(Attribute::vector("velocity", &positions))
             .with_attribute(Attribute::scalar("plastic-j", &density));
         let drift = FrameData::new(3, 0.125, &positions[..1]);
-        let clip = encode_usd_clip(&stage(), &[&frame, &drift], &[Vec3::ZERO, Vec3::X]);
+        let quarter = glam::Quat::from_rotation_z(std::f32::consts::FRAC_PI_2);
+        let poses = [
+            pose(Vec3::ZERO, glam::Quat::IDENTITY),
+            pose(Vec3::X, quarter),
+        ];
+        let clip = encode_usd_clip(&stage(), &[&frame, &drift], &poses);
         assert!(
             clip.contains("point3f[] points.timeSamples = { 3: [(0.5, 1, 0.25), (0, 0.1, 2)] }")
         );
@@ -498,6 +562,17 @@ mod tests {
         assert!(clip.contains("float[] primvars:plastic_j.timeSamples = { 3: [400, 350.5] }"));
         assert!(clip.contains("float3[] extent.timeSamples = { 3: [(-0.01, "));
         assert!(clip.contains("double3 xformOp:translate.timeSamples = { 3: (1, 0, 0) }"));
+        let [x, y, z, w] = quarter.to_array();
+        let orient = format!("quatf xformOp:orient.timeSamples = {{ 3: ({w}, {x}, {y}, {z}) }}");
+        let plane = &clip[clip
+            .find("over \"Collider0\"")
+            .expect("the plane's samples")..];
+        let turning = &clip[clip.find("over \"Collider1\"").expect("the box's samples")..];
+        assert!(turning.contains(&orient), "{orient} missing from\n{clip}");
+        assert!(
+            !plane[..plane.find('}').unwrap()].contains("orient"),
+            "an unturned collider has no orient: {plane}"
+        );
         let drift = &clip[clip.find("over \"Drift\"").expect("the drift's samples")..];
         assert!(drift.contains("point3f[] points.timeSamples = { 3: [(0.5, 1, 0.25)] }"));
         assert!(drift.contains("float3[] extent.timeSamples = { 3: [(0.495, 0.995, 0.245), "));
@@ -525,9 +600,17 @@ mod tests {
             "def Mesh \"Collider0\"",
             "def Cube \"Collider1\"",
             "float3 xformOp:scale = (1, 2, 3)",
+            "uniform token[] xformOpOrder = [\"xformOp:translate\"]",
+            "quatf xformOp:orient\n",
+            "uniform token[] xformOpOrder = [\"xformOp:translate\", \"xformOp:orient\", \
+             \"xformOp:scale\"]",
         ] {
             assert!(text.contains(line), "{line} missing from\n{text}");
         }
+        let manifest = encode_usd_manifest(&stage(), &[&snow, &drift]);
+        let turning = &manifest[manifest.find("over \"Collider1\"").expect("the box")..];
+        assert!(turning.contains("quatf xformOp:orient\n"), "{manifest}");
+        assert_eq!(manifest.matches("xformOp:orient").count(), 1, "{manifest}");
         assert_eq!(clip_name(3), "usd/frame.00003.usda");
     }
 

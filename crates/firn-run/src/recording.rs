@@ -539,8 +539,9 @@ fn frame_solver_stats(before: Option<SolverStats>, after: SolverStats) -> Solver
     }
 }
 
-/// The pose of each of `scene`'s colliders at `time`, for the manifest.
-fn collider_poses(scene: &Scene, time: f64) -> Vec<ColliderPose> {
+/// The pose of each of `scene`'s colliders at `time`, for the manifest and
+/// the USD stage.
+pub fn collider_poses(scene: &Scene, time: f64) -> Vec<ColliderPose> {
     scene
         .colliders
         .iter()

@@ -1,6 +1,7 @@
 //! What a run's USD stage says besides the particles: the points prims'
 //! names and widths (the snow, or a flow's particles, and a spindrift
-//! scene's drift), the frame rate and the colliders (see [`firn_io::usd`]).
+//! scene's drift), the frame rate and the colliders (see [`firn_io::usd`]);
+//! each frame's collider poses are [`crate::recording::collider_poses`].
 //!
 //! Planes are drawn as squares as wide as the domain's longest edge; mesh
 //! colliders as their file's triangles, placed as at time zero about the
@@ -11,8 +12,7 @@
 use firn_core::Scene;
 use firn_core::scene::ColliderGeometry;
 use firn_core::scene::sampling::particle_spacing;
-use firn_io::{UsdPoints, UsdShape, UsdStage};
-use glam::Vec3;
+use firn_io::{UsdCollider, UsdPoints, UsdShape, UsdStage};
 
 /// The stage of `scene` with frames up to `last_frame`.
 pub fn usd_stage(scene: &Scene, last_frame: u32) -> UsdStage {
@@ -34,21 +34,12 @@ pub fn usd_stage(scene: &Scene, last_frame: u32) -> UsdStage {
         colliders: scene
             .colliders
             .iter()
-            .map(|collider| usd_shape(&collider.geometry, plane_half_size(scene)))
+            .map(|collider| UsdCollider {
+                shape: usd_shape(&collider.geometry, plane_half_size(scene)),
+                turns: collider.turns(),
+            })
             .collect(),
     }
-}
-
-/// The reference points of the colliders at `time`.
-pub fn collider_positions(scene: &Scene, time: f64) -> Vec<Vec3> {
-    scene
-        .colliders
-        .iter()
-        .map(|collider| {
-            let start = collider.geometry.reference_point();
-            collider.motion.state_at(start, time).0
-        })
-        .collect()
 }
 
 /// `Snow` for a snow scene, `Particles` for a flow.

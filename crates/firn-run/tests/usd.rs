@@ -1,7 +1,7 @@
 //! A run's `usd` stage opened by Pixar's USD (`usd-core` from PyPI, the
 //! `pxr` module): the prim type, time codes and rate, and several frames'
-//! points against the run's PLY caches; and a resumed run's stage against an
-//! uninterrupted one's. The python is `FIRN_USD_PYTHON`, else `python3`;
+//! points against the run's PLY caches, a turning wheel's transform against
+//! its pose; and a resumed run's stage against an uninterrupted one's. The python is `FIRN_USD_PYTHON`, else `python3`;
 //! the pxr test is skipped where `pxr` is missing, unless
 //! `FIRN_REQUIRE_USD=1` (as `.ci/run` sets it).
 
@@ -16,7 +16,8 @@ use firn_io::{PlyValues, read_ply};
 use firn_run::recording::Observer;
 use firn_run::{Placement, Recording, RunDirectory, Solver};
 
-/// A slab of snow falling past a moving ball onto a floor plane: 5 frames.
+/// A slab of snow falling past a moving ball and a turning wheel onto a
+/// floor plane: 5 frames.
 const SCENE: &str = r#"
 format = 1
 name = "usd-slab"
@@ -46,6 +47,15 @@ center = [0.2, 0.7, 0.2]
 radius = 0.1
 velocity = [1.0, 0.0, 0.0]
 
+[[colliders]]
+shape = "cylinder"
+center = [0.8, 0.8, 0.8]
+radius = 0.1
+height = 0.1
+rotation = [90.0, 0.0, 0.0]
+velocity = [-0.5, 0.0, 0.0]
+angular_velocity = [0.0, 0.0, 4.0]
+
 [render]
 enabled = false
 
@@ -56,8 +66,10 @@ checkpoint_every = 1
 "#;
 
 /// Opens the stage `sys.argv[1]`; prints the prim type, the time codes and
-/// rate, the primvars, the points' sample times and the ball's translate at 2, then per frame of
-/// `sys.argv[2:]` its index, point count and points.
+/// rate, the primvars, the points' sample times; the ball's transform ops
+/// and translate at 2; the wheel's transform ops and its local-to-world
+/// matrix at 2 (row by row); then per frame of `sys.argv[2:]` its index,
+/// point count and points.
 const READ: &str = "
 import sys
 from pxr import Usd, UsdGeom
@@ -69,8 +81,13 @@ print(prim.GetTypeName(), stage.GetStartTimeCode(), stage.GetEndTimeCode(),
       stage.GetTimeCodesPerSecond(), UsdGeom.GetStageUpAxis(stage),
       UsdGeom.GetStageMetersPerUnit(stage), ','.join(names),
       *points.GetPointsAttr().GetTimeSamples())
-ball = stage.GetPrimAtPath('/World/Collider1')
-print(ball.GetTypeName(), *UsdGeom.Xformable(ball).ComputeLocalToWorldTransform(2).ExtractTranslation())
+ball = UsdGeom.Xformable(stage.GetPrimAtPath('/World/Collider1'))
+ops = ','.join(op.GetOpName() for op in ball.GetOrderedXformOps())
+print(ball.GetPrim().GetTypeName(), ops, *ball.ComputeLocalToWorldTransform(2).ExtractTranslation())
+wheel = UsdGeom.Xformable(stage.GetPrimAtPath('/World/Collider2'))
+ops = ','.join(op.GetOpName() for op in wheel.GetOrderedXformOps())
+matrix = wheel.ComputeLocalToWorldTransform(2)
+print(wheel.GetPrim().GetTypeName(), ops, *(matrix[i][j] for i in range(4) for j in range(4)))
 for frame in sys.argv[2:]:
     t = float(frame)
     xyz = [repr(c) for p in points.GetPointsAttr().Get(t) for c in p]
@@ -159,10 +176,11 @@ fn pixar_usd_reads_the_frames_of_the_ply_caches() {
         "Points 0.0 4.0 20.0 Y 1.0 density,plastic_j 0.0 1.0 2.0 3.0 4.0"
     );
     assert_eq!(
-        lines[1], "Sphere 0.3 0.7 0.2",
-        "the ball at frame 2 (0.1 s)"
+        lines[1], "Sphere xformOp:translate 0.3 0.7 0.2",
+        "the ball at frame 2 (0.1 s), unturned"
     );
-    for (line, frame) in lines[2..].iter().zip(FRAMES) {
+    the_wheel_is_posed_as_at(&scene, lines[2], 0.1);
+    for (line, frame) in lines[3..].iter().zip(FRAMES) {
         let fields: Vec<&str> = line.split(' ').collect();
         let ply = ply_positions(&folder.path().join(format!("ply/frame_{frame:05}.ply")));
         assert_eq!(fields[0], frame.to_string());
@@ -182,7 +200,29 @@ fn pixar_usd_reads_the_frames_of_the_ply_caches() {
             fields[1]
         );
     }
-    assert_eq!(lines.len(), 2 + FRAMES.len());
+    assert_eq!(lines.len(), 3 + FRAMES.len());
+}
+
+/// Checks pxr's line for the wheel (the third collider): its prim type,
+/// transform ops, and a local-to-world matrix that is the wheel's pose at
+/// `time` (translate after orient; USD's rows are glam's columns).
+fn the_wheel_is_posed_as_at(scene: &Scene, line: &str, time: f64) {
+    let fields: Vec<&str> = line.split(' ').collect();
+    assert_eq!(
+        fields[..2],
+        ["Cylinder", "xformOp:translate,xformOp:orient"]
+    );
+    let pose = scene.colliders[2].pose_at(time);
+    let expected = glam::Mat4::from_rotation_translation(pose.rotation, pose.position);
+    let matrix: Vec<f32> = fields[2..].iter().map(|f| f.parse().unwrap()).collect();
+    assert_eq!(matrix.len(), 16, "{line}");
+    for (got, want) in matrix.iter().zip(expected.to_cols_array()) {
+        assert!(
+            (got - want).abs() < 1e-6,
+            "pxr's wheel transform {matrix:?}, its pose {expected:?}"
+        );
+    }
+    eprintln!("pxr turned the wheel as its pose at {time} s: {matrix:?}");
 }
 
 #[test]
