@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Regenerates the pictures in the README (docs/images/): from the bundled
 # default scene a still and a short animated GIF per snow style, a still
-# of the curl-noise demo's trails after two seconds, and a GIF of the
-# treaded wheel rolling its rut (needs ffmpeg).
+# of the curl-noise demo's trails after two seconds, and GIFs of the
+# treaded wheel rolling its rut and of the boot stepping into the snow
+# (needs ffmpeg).
 #
 #   scripts/readme-pictures.sh
 #
@@ -26,4 +27,8 @@ cargo run --release --quiet -- run scenes/wheel-rut.toml --out "$out/wheel" --si
 ffmpeg -loglevel error -y -framerate 20 -i "$out/wheel/images/points/frame_%05d.png" \
   -vf "fps=10,scale=400:-1:flags=lanczos,split[a][b];[a]palettegen=max_colors=64[p];[b][p]paletteuse=dither=none" \
   docs/images/wheel-rut.gif
+cargo run --release --quiet -- run scenes/boot-print.toml --out "$out/boot" --size 480x270 --quiet
+ffmpeg -loglevel error -y -framerate 24 -i "$out/boot/images/points/frame_%05d.png" \
+  -vf "fps=12,scale=400:-1:flags=lanczos,split[a][b];[a]palettegen=max_colors=64[p];[b][p]paletteuse=dither=none" \
+  docs/images/boot-print.gif
 echo "docs/images updated"

@@ -31,6 +31,7 @@ stills=(
   "cornice 10 points"
   "wheel-rut 33 points"
   "plough-swing 24 points"
+  "boot-print 36 points"
 )
 
 wanted=("$@")
