@@ -285,8 +285,14 @@ fn resolve_sequence(
     let spacing = raw.sdf_spacing.unwrap_or(0.5 * domain.cell_size);
     check_sdf_spacing(path, spacing)?;
     let band = MeshSequenceCollider::band_for(domain.cell_size, spacing);
+    // The pattern names no file; its folder is made canonical instead.
+    let pattern = match (placement.file.parent(), placement.file.file_name()) {
+        (Some(folder), Some(name)) => std::fs::canonicalize(folder)
+            .map_or_else(|_| placement.file.clone(), |folder| folder.join(name)),
+        _ => placement.file.clone(),
+    };
     let sequence = MeshSequenceCollider::load(
-        placement.file,
+        pattern,
         (placement.scale, placement.rotation_degrees, center),
         (frame_rate, start),
         spacing,
