@@ -12,7 +12,9 @@
 //! colliders are `Mesh` (planes and mesh colliders), `Cube` (boxes),
 //! `Cylinder` and `Sphere` prims moved by a time-sampled `xformOp:translate`
 //! and, where they turn, turned by a time-sampled `xformOp:orient` (the
-//! rotation about the reference point, applied before the translate).
+//! rotation about the reference point, applied before the translate); a
+//! deforming mesh collider's `points` are time-sampled too, its triangles
+//! written once.
 //! Rewriting one file with every frame
 //! would cost the whole run's data at each frame, so the samples are split
 //! into USD *value clips*, one layer per frame ([`clip_name`]), which the
@@ -112,19 +114,37 @@ pub enum UsdShape {
         /// outside.
         triangles: Vec<[u32; 3]>,
     },
+    /// A triangle mesh whose points move from frame to frame (a deforming
+    /// mesh collider): each frame's clip gives them
+    /// ([`UsdColliderSample::points`]).
+    DeformingMesh {
+        /// Triangles as indices into each frame's points, counter-clockwise
+        /// seen from outside.
+        triangles: Vec<[u32; 3]>,
+    },
+}
+
+/// One collider's samples at a frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct UsdColliderSample {
+    /// Where it is and how it is turned.
+    pub pose: ColliderPose,
+    /// A deforming mesh's points at the frame in metres, about its
+    /// reference point; empty for every other collider.
+    pub points: Vec<Vec3>,
 }
 
 /// Writes a frame's clip into `folder` (the run folder), with `frames`
 /// the particle sets of the stage's points prims in their order (of one
-/// frame index) and the colliders' poses at that frame in `colliders`, then
-/// the clip manifest and the stage, each atomically. Panics if `frames`
-/// and the stage's points prims, or `colliders` and its collider prims,
-/// differ in number.
+/// frame index) and the colliders' samples at that frame in `colliders`,
+/// then the clip manifest and the stage, each atomically. Panics if
+/// `frames` and the stage's points prims, or `colliders` and its collider
+/// prims, differ in number.
 pub fn write_usd_frame(
     folder: &Path,
     stage: &UsdStage,
     frames: &[&FrameData],
-    colliders: &[ColliderPose],
+    colliders: &[UsdColliderSample],
 ) -> Result<(), IoError> {
     let index = frames.first().map_or(0, |frame| frame.index);
     let path = folder.join(clip_name(index));
@@ -136,7 +156,7 @@ pub fn write_usd_frame(
     assert_eq!(
         colliders.len(),
         stage.colliders.len(),
-        "one pose per collider prim"
+        "one sample per collider prim"
     );
     for frame in frames {
         frame.validate().map_err(|problem| IoError::InvalidFrame {
@@ -249,13 +269,14 @@ fn push_points(text: &mut String, points: &UsdPoints, frame: &FrameData) {
     text.push_str("    }\n");
 }
 
-/// A collider prim, its translate (and orient, where it turns) left to the
-/// clips.
+/// A collider prim, its translate (and orient, where it turns, and points,
+/// where it deforms) left to the clips.
 fn push_collider(text: &mut String, index: usize, collider: &UsdCollider) {
     let shape = &collider.shape;
     let (kind, body, scaled) = match shape {
         UsdShape::Plane { normal, half_size } => ("Mesh", plane_mesh(*normal, *half_size), false),
         UsdShape::Mesh { points, triangles } => ("Mesh", triangle_mesh(points, triangles), false),
+        UsdShape::DeformingMesh { triangles } => ("Mesh", deforming_mesh(triangles), false),
         UsdShape::Sphere { radius } => (
             "Sphere",
             format!("        double radius = {radius}\n"),
@@ -305,12 +326,28 @@ fn plane_mesh(normal: Vec3, half_size: f32) -> String {
 
 /// A triangle mesh's topology and points, as a `Mesh` prim's body.
 fn triangle_mesh(points: &[Vec3], triangles: &[[u32; 3]]) -> String {
+    format!(
+        "{}        point3f[] points = {}\n        uniform token subdivisionScheme = \"none\"\n",
+        topology(triangles),
+        vectors(points)
+    )
+}
+
+/// A deforming mesh's topology, as a `Mesh` prim's body: its points are
+/// declared without a value, which would be stronger than the clips'.
+fn deforming_mesh(triangles: &[[u32; 3]]) -> String {
+    format!(
+        "{}        point3f[] points\n        uniform token subdivisionScheme = \"none\"\n",
+        topology(triangles)
+    )
+}
+
+/// A triangle mesh's face counts and indices.
+fn topology(triangles: &[[u32; 3]]) -> String {
     let counts = vec!["3"; triangles.len()].join(", ");
     let indices = list(triangles.iter().flatten());
     format!(
-        "        int[] faceVertexCounts = [{counts}]\n        int[] faceVertexIndices = {indices}\n        \
-         point3f[] points = {}\n        uniform token subdivisionScheme = \"none\"\n",
-        vectors(points)
+        "        int[] faceVertexCounts = [{counts}]\n        int[] faceVertexIndices = {indices}\n"
     )
 }
 
@@ -334,21 +371,31 @@ pub fn encode_usd_manifest(stage: &UsdStage, frames: &[&FrameData]) -> String {
         } else {
             ""
         };
+        let points = if deforms(collider) {
+            "        point3f[] points\n"
+        } else {
+            ""
+        };
         let _ = write!(
             text,
-            "    over \"Collider{index}\"\n    {{\n        double3 xformOp:translate\n{orient}    }}\n"
+            "    over \"Collider{index}\"\n    {{\n        double3 xformOp:translate\n{orient}{points}    }}\n"
         );
     }
     text.push_str("}\n");
     text
 }
 
+/// Whether `collider` is a deforming mesh, whose clips carry its points.
+fn deforms(collider: &UsdCollider) -> bool {
+    matches!(collider.shape, UsdShape::DeformingMesh { .. })
+}
+
 /// A frame's clip: the samples of its particle sets `frames` (one per points
-/// prim) and of the colliders' poses `colliders` at its time code.
+/// prim) and of the colliders `colliders` at its time code.
 pub fn encode_usd_clip(
     stage: &UsdStage,
     frames: &[&FrameData],
-    colliders: &[ColliderPose],
+    colliders: &[UsdColliderSample],
 ) -> String {
     text_of(|out| write_usd_clip(out, stage, frames, colliders))
 }
@@ -359,14 +406,15 @@ fn write_usd_clip(
     out: &mut dyn io::Write,
     stage: &UsdStage,
     frames: &[&FrameData],
-    colliders: &[ColliderPose],
+    colliders: &[UsdColliderSample],
 ) -> io::Result<()> {
     let code = frames.first().map_or(0, |frame| frame.index);
     out.write_all(b"#usda 1.0\n\nover \"World\"\n{\n")?;
     for (points, frame) in stage.points.iter().zip(frames) {
         write_samples(out, points, frame)?;
     }
-    for (index, (collider, pose)) in stage.colliders.iter().zip(colliders).enumerate() {
+    for (index, (collider, sample)) in stage.colliders.iter().zip(colliders).enumerate() {
+        let pose = &sample.pose;
         write!(
             out,
             "    over \"Collider{index}\"\n    {{\n        \
@@ -380,6 +428,11 @@ fn write_usd_clip(
                 out,
                 "        quatf xformOp:orient.timeSamples = {{ {code}: ({w}, {x}, {y}, {z}) }}"
             )?;
+        }
+        if deforms(collider) {
+            write!(out, "        point3f[] points.timeSamples = {{ {code}: ")?;
+            write_vectors(out, sample.points.iter().copied())?;
+            out.write_all(b" }\n")?;
         }
         out.write_all(b"    }\n")?;
     }
@@ -533,11 +586,14 @@ mod tests {
         }
     }
 
-    /// A pose at `position`, turned by `rotation`.
-    fn pose(position: Vec3, rotation: glam::Quat) -> ColliderPose {
-        ColliderPose {
-            position: position.to_array(),
-            rotation: rotation.to_array(),
+    /// A rigid collider's sample at `position`, turned by `rotation`.
+    fn pose(position: Vec3, rotation: glam::Quat) -> UsdColliderSample {
+        UsdColliderSample {
+            pose: ColliderPose {
+                position: position.to_array(),
+                rotation: rotation.to_array(),
+            },
+            points: Vec::new(),
         }
     }
 
@@ -612,6 +668,74 @@ mod tests {
         assert!(turning.contains("quatf xformOp:orient\n"), "{manifest}");
         assert_eq!(manifest.matches("xformOp:orient").count(), 1, "{manifest}");
         assert_eq!(clip_name(3), "usd/frame.00003.usda");
+    }
+
+    #[test]
+    fn a_deforming_mesh_has_its_points_in_every_clip_and_none_in_the_stage() {
+        let triangle = [[0, 1, 2]];
+        let stage = UsdStage {
+            points: vec![UsdPoints {
+                name: "Snow".to_string(),
+                width: 0.02,
+            }],
+            fps: 24.0,
+            last_frame: 2,
+            colliders: vec![
+                UsdCollider {
+                    shape: UsdShape::Mesh {
+                        points: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+                        triangles: triangle.to_vec(),
+                    },
+                    turns: false,
+                },
+                UsdCollider {
+                    shape: UsdShape::DeformingMesh {
+                        triangles: triangle.to_vec(),
+                    },
+                    turns: false,
+                },
+            ],
+        };
+        let clip = |index: u32, lift: f32| {
+            let frame = FrameData::new(index, index as f64 / 24.0, &[]);
+            let mut samples = [
+                pose(Vec3::ZERO, glam::Quat::IDENTITY),
+                pose(Vec3::ONE, glam::Quat::IDENTITY),
+            ];
+            samples[1].points = vec![Vec3::ZERO, Vec3::X, Vec3::new(0.0, lift, 0.0)];
+            encode_usd_clip(&stage, &[&frame], &samples)
+        };
+        for (index, lift, points) in [
+            (1, 1.0, "[(0, 0, 0), (1, 0, 0), (0, 1, 0)]"),
+            (2, 0.5, "[(0, 0, 0), (1, 0, 0), (0, 0.5, 0)]"),
+        ] {
+            let text = clip(index, lift);
+            let rigid = &text[text.find("over \"Collider0\"").expect("the mesh")..];
+            let deforming = &text[text.find("over \"Collider1\"").expect("the sequence")..];
+            let line = format!("point3f[] points.timeSamples = {{ {index}: {points} }}");
+            assert!(deforming.contains(&line), "{line} missing from\n{text}");
+            assert!(
+                !rigid[..rigid.find('}').unwrap()].contains("points"),
+                "a rigid mesh's points are in the stage: {rigid}"
+            );
+        }
+        let frame = FrameData::new(2, 2.0 / 24.0, &[]);
+        let text = encode_usd_stage(&stage, &[&frame]);
+        let deforming = &text[text.find("def Mesh \"Collider1\"").expect("the sequence")..];
+        for line in [
+            "int[] faceVertexIndices = [0, 1, 2]\n",
+            "point3f[] points\n",
+        ] {
+            assert!(deforming.contains(line), "{line} missing from\n{text}");
+        }
+        let manifest = encode_usd_manifest(&stage, &[&frame]);
+        let declared = &manifest[manifest.find("over \"Collider1\"").expect("the sequence")..];
+        assert!(declared.contains("point3f[] points\n"), "{manifest}");
+        assert_eq!(
+            manifest.matches("point3f[] points").count(),
+            2,
+            "{manifest}"
+        );
     }
 
     #[test]

@@ -38,7 +38,7 @@ use glam::Vec3;
 use image::RgbImage;
 pub use legend::Legend;
 pub use ramp::{Coloring, ValueRange};
-pub use stage::{Light, Stage, StageCollider};
+pub use stage::{DeformedMesh, Light, Stage, StageCollider};
 pub use trails::{RibbonLook, Trails};
 pub use volume::{DensityGrid, SnowLook};
 

@@ -11,7 +11,7 @@ use glam::Vec3;
 use crate::camera::{CameraView, automatic_framing};
 use crate::legend::Legend;
 use crate::ramp::{Coloring, ValueRange, ramp};
-use crate::stage::{Stage, StageCollider};
+use crate::stage::{DeformedMesh, Stage, StageCollider};
 use crate::trails::Trails;
 use crate::volume::SnowLook;
 use crate::{DriftLayer, ParticleLayer, Picture};
@@ -116,22 +116,25 @@ pub fn scene_camera(scene: &Scene, t: f64, width: u32, height: u32) -> CameraVie
 }
 
 /// The container, the ground at the domain floor, and the colliders (and a
-/// flow's obstacles) where they are at time `t`.
+/// flow's obstacles) where they are at time `t`; a deforming mesh carries
+/// its triangles of that instant, their distance field left until a ray
+/// tracer asks for it.
 pub fn scene_stage(scene: &Scene, t: f64) -> Stage {
     let mut colliders: Vec<StageCollider> = scene
         .colliders
         .iter()
         .map(|collider| {
             let pose = collider.pose_at(t);
-            let geometry = match &collider.geometry {
+            let deformed = match &collider.geometry {
                 ColliderGeometry::MeshSequence(sequence) => {
-                    ColliderGeometry::Mesh(Box::new(sequence.rigid_at(t)))
+                    Some(DeformedMesh::new(sequence.mesh_at(t), sequence.sdf_spacing))
                 }
-                geometry => geometry.moved_to(pose.position),
+                _ => None,
             };
             StageCollider {
-                geometry,
+                geometry: collider.geometry.moved_to(pose.position),
                 rotation: pose.rotation,
+                deformed,
             }
         })
         .collect();

@@ -3,7 +3,11 @@
 //! These are ray-cast per sample; the particles are drawn over them with a
 //! depth test.
 
-use firn_core::scene::ColliderGeometry;
+use std::fmt;
+use std::sync::OnceLock;
+
+use firn_core::scene::{ColliderGeometry, MeshCollider};
+use firn_mesh::{SignedDistanceField, TriangleMesh};
 use glam::{Quat, Vec2, Vec3};
 
 use crate::camera::CameraView;
@@ -56,15 +60,74 @@ pub struct StageCollider {
     pub geometry: ColliderGeometry,
     /// The collider's orientation about its reference point.
     pub rotation: Quat,
+    /// A deforming mesh's triangles at the picture's time (`geometry` is
+    /// then the sequence they come from); `None` for a rigid collider.
+    pub deformed: Option<DeformedMesh>,
 }
 
 impl From<ColliderGeometry> for StageCollider {
-    /// An unturned collider.
+    /// An unturned rigid collider.
     fn from(geometry: ColliderGeometry) -> StageCollider {
         StageCollider {
             geometry,
             rotation: Quat::IDENTITY,
+            deformed: None,
         }
+    }
+}
+
+/// A deforming mesh at one instant, in scene coordinates. A viewer draws
+/// its triangles as they are; the ray tracer reads a signed distance field
+/// of them, built the first time a ray needs it, so a stage that is only
+/// rasterised never pays for one.
+#[derive(Clone)]
+pub struct DeformedMesh {
+    /// The triangles where they are at the picture's time.
+    pub mesh: TriangleMesh,
+    /// Spacing of the distance field's samples, metres.
+    pub sdf_spacing: f32,
+    field: OnceLock<SignedDistanceField>,
+}
+
+impl DeformedMesh {
+    /// The mesh, its distance field (at `sdf_spacing`) not yet built.
+    pub fn new(mesh: TriangleMesh, sdf_spacing: f32) -> DeformedMesh {
+        DeformedMesh {
+            mesh,
+            sdf_spacing,
+            field: OnceLock::new(),
+        }
+    }
+
+    /// The signed distance field around the mesh, built on the first call.
+    pub fn field(&self) -> &SignedDistanceField {
+        self.field.get_or_init(|| {
+            let padding = MeshCollider::PADDING_SAMPLES as f32 * self.sdf_spacing;
+            SignedDistanceField::build(&self.mesh, self.sdf_spacing, padding)
+        })
+    }
+
+    /// Whether [`DeformedMesh::field`] has been built.
+    pub fn has_field(&self) -> bool {
+        self.field.get().is_some()
+    }
+}
+
+impl PartialEq for DeformedMesh {
+    /// The same triangles at the same spacing (the field follows from them).
+    fn eq(&self, other: &DeformedMesh) -> bool {
+        self.mesh == other.mesh && self.sdf_spacing == other.sdf_spacing
+    }
+}
+
+impl fmt::Debug for DeformedMesh {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("DeformedMesh")
+            .field("vertices", &self.mesh.vertices.len())
+            .field("triangles", &self.mesh.triangles.len())
+            .field("sdf_spacing", &self.sdf_spacing)
+            .field("has_field", &self.has_field())
+            .finish()
     }
 }
 
@@ -177,14 +240,37 @@ impl Stage {
         direction: Vec3,
     ) -> Option<SurfaceHit> {
         if collider.rotation == Quat::IDENTITY {
-            return self.hit_geometry(&collider.geometry, origin, direction);
+            return self.hit_unturned(collider, origin, direction);
         }
         let center = collider.geometry.reference_point();
         let inverse = collider.rotation.inverse();
         let local_origin = center + inverse * (origin - center);
-        let mut hit = self.hit_geometry(&collider.geometry, local_origin, inverse * direction)?;
+        let mut hit = self.hit_unturned(collider, local_origin, inverse * direction)?;
         hit.normal = collider.rotation * hit.normal;
         Some(hit)
+    }
+
+    /// Where a ray meets `collider` in its own frame: its deformed mesh
+    /// where it has one, else its geometry.
+    fn hit_unturned(
+        &self,
+        collider: &StageCollider,
+        origin: Vec3,
+        direction: Vec3,
+    ) -> Option<SurfaceHit> {
+        let Some(deformed) = &collider.deformed else {
+            return self.hit_geometry(&collider.geometry, origin, direction);
+        };
+        let field = deformed.field();
+        let steps = mesh_steps(deformed.sdf_spacing);
+        march(
+            |p| field.sample(p),
+            field.bounds(),
+            steps,
+            origin,
+            direction,
+        )
+        .map(solid_hit)
     }
 
     fn hit_geometry(
@@ -193,37 +279,29 @@ impl Stage {
         origin: Vec3,
         direction: Vec3,
     ) -> Option<SurfaceHit> {
-        // Solids share one look: a glossy rigid body.
-        let solid = |(distance, normal): (f32, Vec3)| SurfaceHit {
-            distance,
-            normal,
-            albedo: COLLIDER_ALBEDO,
-            shininess: 48.0,
-            is_ground: false,
-        };
+        let distance_to = |p| collider.signed_distance(p);
         match *collider {
             ColliderGeometry::Sphere { center, radius } => {
                 let distance = intersect_sphere(origin, direction, center, radius)?;
                 let normal = (origin + direction * distance - center).normalize();
-                Some(solid((distance, normal)))
+                Some(solid_hit((distance, normal)))
             }
             ColliderGeometry::Box { center, size } => {
                 intersect_box(origin, direction, center - 0.5 * size, center + 0.5 * size)
-                    .map(solid)
+                    .map(solid_hit)
             }
             ColliderGeometry::Mesh(ref mesh) => {
-                let spacing = mesh.sdf_spacing;
-                let steps = (0.05 * spacing, 0.1 * spacing);
-                march(collider, mesh.bounds(), steps, origin, direction).map(solid)
+                let steps = mesh_steps(mesh.sdf_spacing);
+                march(distance_to, mesh.bounds(), steps, origin, direction).map(solid_hit)
             }
             ColliderGeometry::Cylinder { center, .. } => {
                 let reach = Vec3::splat(collider.reach());
                 let bounds = (center - reach, center + reach);
                 let steps = (1e-4 * reach.x, 0.0);
-                march(collider, bounds, steps, origin, direction).map(solid)
+                march(distance_to, bounds, steps, origin, direction).map(solid_hit)
             }
-            // Drawn through the rigid mesh of the picture's instant
-            // (`scene_stage`); the sequence alone has no time.
+            // Drawn through the stage collider's deformed mesh
+            // (`hit_unturned`); the sequence alone has no time.
             ColliderGeometry::MeshSequence(_) => None,
             ColliderGeometry::HalfPlane { point, normal } => {
                 let distance = intersect_plane(origin, direction, point, normal)?;
@@ -289,6 +367,18 @@ impl Stage {
     }
 }
 
+/// A collider's surface `distance` along a ray with `normal`: solids share
+/// one look, a glossy rigid body.
+fn solid_hit((distance, normal): (f32, Vec3)) -> SurfaceHit {
+    SurfaceHit {
+        distance,
+        normal,
+        albedo: COLLIDER_ALBEDO,
+        shininess: 48.0,
+        is_ground: false,
+    }
+}
+
 /// The ground plane at `height`, a checkerboard of `tile`-sized squares.
 fn hit_ground(origin: Vec3, direction: Vec3, height: f32, tile: f32) -> Option<SurfaceHit> {
     let distance = intersect_plane(origin, direction, Vec3::new(0.0, height, 0.0), Vec3::Y)?;
@@ -343,12 +433,12 @@ pub fn intersect_box(origin: Vec3, direction: Vec3, min: Vec3, max: Vec3) -> Opt
 }
 
 /// The first crossing of a unit ray with a solid's surface inside the box
-/// `low..high`, found by sphere tracing its signed distance (Hart 1996):
-/// each step advances by the distance to the nearest surface, which cannot
-/// overshoot it, and by at least `min_step`; a point nearer than `surface`
-/// is on it.
+/// `low..high`, found by sphere tracing its signed distance `distance_to`
+/// (Hart 1996): each step advances by the distance to the nearest surface,
+/// which cannot overshoot it, and by at least `min_step`; a point nearer
+/// than `surface` is on it.
 fn march(
-    solid: &ColliderGeometry,
+    distance_to: impl Fn(Vec3) -> (f32, Vec3),
     (low, high): (Vec3, Vec3),
     (surface, min_step): (f32, f32),
     origin: Vec3,
@@ -361,13 +451,19 @@ fn march(
         if distance > far {
             return None;
         }
-        let (gap, normal) = solid.signed_distance(origin + direction * distance);
+        let (gap, normal) = distance_to(origin + direction * distance);
         if gap < surface {
             return Some((distance, normal));
         }
         distance += gap.max(min_step);
     }
     None
+}
+
+/// The surface tolerance and the least step of [`march`] through a mesh's
+/// distance field sampled `spacing` apart.
+fn mesh_steps(spacing: f32) -> (f32, f32) {
+    (0.05 * spacing, 0.1 * spacing)
 }
 
 /// The parameter interval [near, far] in which a ray is inside a box, if any.

@@ -484,3 +484,50 @@ fn drift_glows_over_the_snow_in_every_style_and_only_where_it_is() {
         }
     }
 }
+
+/// A cube of edge 0.3 centred at `(x, 0, 0)` as an OBJ, its corners in a
+/// fixed order so that every frame has the same topology.
+fn cube_obj(x: f32) -> String {
+    let mut text = String::new();
+    for corner in 0..8 {
+        let pick = |bit: u32| if corner & bit == 0 { -0.15 } else { 0.15 };
+        text += &format!("v {} {} {}\n", x + pick(1), pick(2), pick(4));
+    }
+    text + "f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n"
+}
+
+#[test]
+fn a_deforming_mesh_collider_is_drawn_where_its_mesh_is_at_the_picture_time() {
+    let folder = tempfile::tempdir().unwrap();
+    std::fs::write(folder.path().join("cube_0001.obj"), cube_obj(-0.3)).unwrap();
+    std::fs::write(folder.path().join("cube_0002.obj"), cube_obj(0.3)).unwrap();
+    let toml = "format = 1\nname = \"deforming\"\n[domain]\nmin = [-1.0, -1.0, -1.0]\n\
+        max = [1.0, 1.0, 1.0]\ncell_size = 0.1\n[time]\nduration = 1.0\n[[bodies]]\n\
+        shape = \"sphere\"\ncenter = [0.0, -0.8, 0.0]\nradius = 0.1\n[[colliders]]\n\
+        shape = \"mesh\"\nsequence = \"cube_####.obj\"\nframe_rate = 2\nsdf_spacing = 0.02\n";
+    let path = folder.path().join("scene.toml");
+    std::fs::write(&path, toml).unwrap();
+    let scene = firn_core::Scene::load(&path).expect("the scene loads");
+    let is_collider = |image: &RgbImage, x: f32| {
+        let pixel = camera()
+            .project(Vec3::new(x, 0.0, 0.0))
+            .expect("in front")
+            .pixel;
+        let [r, g, b] = image.get_pixel(pixel.x as u32, pixel.y as u32).0;
+        r > g.saturating_add(30) && r > b.saturating_add(30)
+    };
+    // Mesh frame 2 is at 0.5 s; at 0.25 s the cube is halfway.
+    for (time, centre) in [(0.0, -0.3), (0.25, 0.0), (0.5, 0.3)] {
+        let stage = firn_render::scene_view::scene_stage(&scene, time);
+        let mut shown = picture(&[], Coloring::Uniform(Vec3::ONE), RenderStyle::Points);
+        shown.stage.colliders = stage.colliders;
+        let image = render(&shown);
+        for x in [-0.3, 0.0, 0.3] {
+            assert_eq!(
+                is_collider(&image, x),
+                x == centre,
+                "at {time} s the cube is at x = {centre}, the pixel of x = {x}"
+            );
+        }
+    }
+}

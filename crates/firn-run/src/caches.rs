@@ -19,11 +19,10 @@ use firn_mesh::TriangleMesh;
 use firn_mpm::{Particles, SnowView};
 use glam::Vec3;
 
-use crate::recording::collider_poses;
 use crate::run_dir::RunDirectory;
 use crate::simulation::HostState;
 use crate::surface::scene_surface;
-use crate::usd_stage::usd_stage;
+use crate::usd_stage::{usd_collider_samples, usd_stage};
 use crate::volumes::{density_grid, snow_volumes};
 
 /// Bytes a `vdb` cache holds per voxel of snow while a frame is written:
@@ -423,7 +422,7 @@ fn write_caches(
                     .into_iter()
                     .flatten()
                     .collect::<Vec<_>>(),
-                &collider_poses(scene, frame.time),
+                &usd_collider_samples(scene, frame.time),
             )?,
         }
         files.push(name);

@@ -1,18 +1,21 @@
 //! What a run's USD stage says besides the particles: the points prims'
 //! names and widths (the snow, or a flow's particles, and a spindrift
 //! scene's drift), the frame rate and the colliders (see [`firn_io::usd`]);
-//! each frame's collider poses are [`crate::recording::collider_poses`].
+//! each frame's collider samples are [`usd_collider_samples`].
 //!
 //! Planes are drawn as squares as wide as the domain's longest edge; mesh
 //! colliders as their file's triangles, placed as at time zero about the
 //! centre of their bounding box (read again from the file each time the
 //! stage is written, since the scene keeps only their distance field; a
-//! file that no longer reads gives an empty mesh).
+//! file that no longer reads gives an empty mesh); a deforming mesh as its
+//! triangles, its points those of each frame's time.
 
 use firn_core::Scene;
 use firn_core::scene::ColliderGeometry;
 use firn_core::scene::sampling::particle_spacing;
-use firn_io::{UsdCollider, UsdPoints, UsdShape, UsdStage};
+use firn_io::{UsdCollider, UsdColliderSample, UsdPoints, UsdShape, UsdStage};
+
+use crate::recording::collider_poses;
 
 /// The stage of `scene` with frames up to `last_frame`.
 pub fn usd_stage(scene: &Scene, last_frame: u32) -> UsdStage {
@@ -40,6 +43,27 @@ pub fn usd_stage(scene: &Scene, last_frame: u32) -> UsdStage {
             })
             .collect(),
     }
+}
+
+/// Each of `scene`'s colliders at `time`: its pose, and a deforming mesh's
+/// points then, about its reference point.
+pub fn usd_collider_samples(scene: &Scene, time: f64) -> Vec<UsdColliderSample> {
+    scene
+        .colliders
+        .iter()
+        .zip(collider_poses(scene, time))
+        .map(|(collider, pose)| {
+            let points = match &collider.geometry {
+                ColliderGeometry::MeshSequence(sequence) => {
+                    let centre = sequence.reference_point();
+                    let mesh = sequence.mesh_at(time);
+                    mesh.vertices.iter().map(|&v| v - centre).collect()
+                }
+                _ => Vec::new(),
+            };
+            UsdColliderSample { pose, points }
+        })
+        .collect()
 }
 
 /// `Snow` for a snow scene, `Particles` for a flow.
@@ -87,13 +111,8 @@ fn usd_shape(geometry: &ColliderGeometry, half_size: f32) -> UsdShape {
                 triangles: placed.triangles,
             }
         }
-        ColliderGeometry::MeshSequence(ref sequence) => {
-            let first = sequence.mesh_of(0);
-            let centre = sequence.reference_point();
-            UsdShape::Mesh {
-                points: first.vertices.iter().map(|&v| v - centre).collect(),
-                triangles: first.triangles,
-            }
-        }
+        ColliderGeometry::MeshSequence(ref sequence) => UsdShape::DeformingMesh {
+            triangles: sequence.frames.get().triangles.clone(),
+        },
     }
 }

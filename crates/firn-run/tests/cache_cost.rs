@@ -15,9 +15,8 @@ use firn_io::mesh::{encode_mesh_obj, encode_mesh_ply};
 use firn_io::vdb::encode_vdb;
 use firn_io::{Attribute, FrameData, MeshData, write_usd_frame};
 use firn_mpm::Simulation;
-use firn_run::recording::collider_poses;
 use firn_run::surface::snow_surface;
-use firn_run::usd_stage::usd_stage;
+use firn_run::usd_stage::{usd_collider_samples, usd_stage};
 use firn_run::volumes::snow_volumes;
 
 /// A snowball of radius 20 cells falling onto the floor: 268k particles.
@@ -94,7 +93,7 @@ fn usd_cost_per_frame() {
             folder.path(),
             &stage,
             &[&frame],
-            &collider_poses(&scene, 0.0),
+            &usd_collider_samples(&scene, 0.0),
         )
         .unwrap();
         let clip = folder.path().join(firn_io::usd::clip_name(index));

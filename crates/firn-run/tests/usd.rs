@@ -1,9 +1,10 @@
 //! A run's `usd` stage opened by Pixar's USD (`usd-core` from PyPI, the
 //! `pxr` module): the prim type, time codes and rate, and several frames'
 //! points against the run's PLY caches, a turning wheel's transform against
-//! its pose; and a resumed run's stage against an uninterrupted one's. The python is `FIRN_USD_PYTHON`, else `python3`;
-//! the pxr test is skipped where `pxr` is missing, unless
-//! `FIRN_REQUIRE_USD=1` (as `.ci/run` sets it).
+//! its pose, a deforming mesh collider's bounds at three frames; and a
+//! resumed run's stage against an uninterrupted one's. The python is
+//! `FIRN_USD_PYTHON`, else `python3`; the pxr tests are skipped where `pxr`
+//! is missing, unless `FIRN_REQUIRE_USD=1` (as `.ci/run` sets it).
 
 mod common;
 
@@ -326,6 +327,99 @@ fn pixar_usd_reads_a_mesh_collider_as_a_moving_mesh() {
             "bounds {bounds:?}, expected {expected:?}"
         );
     }
+}
+
+/// The unit cube of [`CUBE_OBJ`] with its top raised to y = 2: the second
+/// file of a deforming sequence (same vertices and faces).
+const TALL_CUBE_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 1 2 0\nv 0 2 0\nv 0 0 1\nv 1 0 1\nv 1 2 1\nv 0 2 1\n\
+     f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 4 8 7 3\nf 1 5 8 4\nf 2 3 7 6\n";
+
+/// Snow over a deforming mesh collider: the cube, scaled to 0.2 m, whose
+/// top rises 0.2 m between its two files (0 s and 0.1 s).
+const SEQUENCE_SCENE: &str = r#"
+format = 1
+name = "usd-deforming-collider"
+
+[domain]
+max = [1.0, 1.0, 1.0]
+cell_size = 0.1
+
+[time]
+duration = 0.1
+fps = 20
+
+[[bodies]]
+shape = "box"
+center = [0.5, 0.7, 0.5]
+size = [0.3, 0.2, 0.3]
+
+[[colliders]]
+shape = "mesh"
+sequence = "cube_####.obj"
+frame_rate = 10
+scale = 0.2
+center = [0.4, 0.2, 0.5]
+
+[render]
+enabled = false
+
+[output]
+formats = ["usd"]
+"#;
+
+/// Prints the deforming collider's points' sample times, then per time
+/// code of `sys.argv[2:]` its world bounds.
+const READ_SEQUENCE: &str = "
+import sys
+from pxr import Usd, UsdGeom
+stage = Usd.Stage.Open(sys.argv[1])
+prim = stage.GetPrimAtPath('/World/Collider0')
+print(prim.GetTypeName(), *UsdGeom.Mesh(prim).GetPointsAttr().GetTimeSamples())
+for code in sys.argv[2:]:
+    bounds = UsdGeom.BBoxCache(float(code), ['default']).ComputeWorldBound(prim).ComputeAlignedRange()
+    print(*bounds.GetMin(), *bounds.GetMax())
+";
+
+#[test]
+fn pixar_usd_reads_a_deforming_collider_as_each_frame_shapes_it() {
+    if !usd_available() {
+        return;
+    }
+    let folder = tempfile::tempdir().unwrap();
+    std::fs::write(folder.path().join("cube_0001.obj"), CUBE_OBJ).unwrap();
+    std::fs::write(folder.path().join("cube_0002.obj"), TALL_CUBE_OBJ).unwrap();
+    let scene_file = folder.path().join("scene.toml").display().to_string();
+    let scene = Scene::from_toml_str(SEQUENCE_SCENE, &scene_file).expect("the scene is valid");
+    let run = folder.path().join("run");
+    record(&scene, &run, scene.time.frame_count());
+    let output = Command::new(python())
+        .args([
+            "-c",
+            READ_SEQUENCE,
+            &run.join("particles.usda").display().to_string(),
+        ])
+        .args(["0", "1", "2"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "pxr failed:\n{stderr}");
+    assert!(stderr.is_empty(), "pxr warned:\n{stderr}");
+    let text = String::from_utf8(output.stdout).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines[0], "Mesh 0.0 1.0 2.0", "{text}");
+    // The top is at 0.3 m in the first file, 0.5 m in the second (frame 2,
+    // 0.1 s), and halfway between them at frame 1.
+    for (line, top) in lines[1..].iter().zip([0.3, 0.4, 0.5]) {
+        let bounds: Vec<f32> = line.split(' ').map(|f| f.parse().unwrap()).collect();
+        let expected = [0.3, 0.1, 0.4, 0.5, top, 0.6];
+        for (got, want) in bounds.iter().zip(expected) {
+            assert!(
+                (got - want).abs() < 1e-5,
+                "bounds {bounds:?}, expected {expected:?}"
+            );
+        }
+    }
+    assert_eq!(lines.len(), 4, "{text}");
 }
 
 /// Opens the stage `sys.argv[1]`; prints the drift prim's type, its

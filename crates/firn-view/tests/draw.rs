@@ -770,6 +770,71 @@ fn a_mesh_collider_is_drawn_where_its_centre_is_now() {
     );
 }
 
+/// [`CUBE_OBJ`] moved `dx` along x.
+fn cube_obj_moved(dx: f32) -> String {
+    let line = |line: &str| match line.strip_prefix("v ") {
+        Some(xyz) => {
+            let [x, y, z] = [0, 1, 2].map(|i| xyz.split(' ').nth(i).expect("x y z"));
+            let x: f32 = x.parse().expect("a number");
+            format!("v {} {y} {z}\n", x + dx)
+        }
+        None => format!("{line}\n"),
+    };
+    CUBE_OBJ.lines().map(line).collect()
+}
+
+#[test]
+fn a_deforming_mesh_is_drawn_where_it_is_now_without_a_distance_field() {
+    let Some(context) = context() else { return };
+    let folder = tempfile::tempdir().expect("a temporary folder");
+    for (number, dx) in [(1, 0.0), (2, 2.0)] {
+        let path = folder.path().join(format!("cube_{number:04}.obj"));
+        std::fs::write(path, cube_obj_moved(dx)).expect("the mesh is written");
+    }
+    // Scaled to 0.2 m, the cube's centre is at x = 0.3 at 0 s and at 0.7
+    // at 1 s, the second file's time.
+    let toml = format!(
+        "{SCENE_TOML}[[colliders]]\nshape = \"mesh\"\nsequence = \"cube_####.obj\"\n\
+         frame_rate = 1\nsdf_spacing = 0.02\nscale = 0.2\ncenter = [0.3, 0.5, 0.5]\n"
+    );
+    let path = folder.path().join("scene.toml");
+    std::fs::write(&path, toml).expect("the scene is written");
+    let scene = Scene::load(&path).expect("the sequence scene loads");
+    let (left, right) = (Vec3::new(0.3, 0.5, 0.5), Vec3::new(0.7, 0.5, 0.5));
+    for (time, now, not) in [(0.0, left, right), (1.0, right, left)] {
+        let mut stage = firn_render::scene_view::scene_stage(&scene, time);
+        stage.ground = None;
+        let particles = ParticleSource::Host {
+            positions: &[],
+            values: None,
+            trails: None,
+        };
+        let image = render_as(
+            &context,
+            &scene,
+            FORMAT,
+            &frame(&stage, DrawStyle::Points, ColorBy::Uniform, particles),
+        );
+        save(&image, "deforming");
+        let [r, g, b] = rgb_at(&image, FRONT.pixel(now));
+        assert!(
+            r > g + 30 && r > b + 30,
+            "at {time} s the mesh is at {now}: {:?}",
+            [r, g, b]
+        );
+        let elsewhere = rgb_at(&image, FRONT.pixel(not));
+        assert!(
+            distance(elsewhere, sky_at(&stage, FRONT.pixel(not).y as u32)) <= 1,
+            "at {time} s nothing at {not}"
+        );
+        let deformed = stage.colliders[0]
+            .deformed
+            .as_ref()
+            .expect("a deforming mesh");
+        assert!(!deformed.has_field(), "the viewer builds no distance field");
+    }
+}
+
 #[test]
 fn drift_glows_over_the_snow_as_billboards() {
     let Some(context) = context() else { return };

@@ -246,24 +246,6 @@ impl MeshSequenceCollider {
         }
     }
 
-    /// The mesh at simulated `time` as a rigid mesh collider (a dense
-    /// field over its box), for pictures and viewers that draw one instant.
-    pub fn rigid_at(&self, time: f64) -> super::mesh::MeshCollider {
-        let mesh = self.mesh_at(time);
-        let (low, high) = mesh.bounds();
-        let placement = super::mesh::MeshPlacement {
-            file: self.pattern.clone(),
-            scale: Vec3::ONE,
-            rotation_degrees: Vec3::ZERO,
-            center: 0.5 * (low + high),
-        };
-        let placed = super::mesh::PlacedMesh {
-            mesh,
-            warnings: Vec::new(),
-        };
-        super::mesh::MeshCollider::from_placed(placement, placed, self.sdf_spacing)
-    }
-
     /// The narrow-band field of mesh frame `index`.
     pub fn field_of(&self, index: usize) -> NarrowBandField {
         NarrowBandField::build(&self.mesh_of(index), self.sdf_spacing, self.band)

@@ -1,7 +1,8 @@
 //! Colliders as shaded triangles (`solids.wgsl`): spheres (a flow's
 //! obstacles too) and boxes scale a unit shape, mesh colliders keep the
-//! triangles loaded once and move with their centre, and planes are clipped
-//! to the container each frame.
+//! triangles loaded once and move with their centre, and planes (clipped to
+//! the container) and deforming meshes (their triangles of the instant,
+//! without a distance field) are uploaded afresh each frame.
 
 use std::ops::Range;
 
@@ -101,8 +102,9 @@ enum Triangles {
     Cube,
     Cylinder,
     Mesh(usize),
-    /// A range of this frame's plane vertices.
-    Planes(Range<u32>),
+    /// A range of this frame's own vertices: a clipped plane or a
+    /// deforming mesh as it is now.
+    ThisFrame(Range<u32>),
 }
 
 /// One collider of this frame: its triangles and its instance.
@@ -119,7 +121,7 @@ pub(super) struct Solids {
     cylinder: Shape,
     meshes: Vec<PlacedShape>,
     instances: GrowingBuffer,
-    planes: GrowingBuffer,
+    this_frame: GrowingBuffer,
     draws: Vec<SolidDraw>,
 }
 
@@ -171,7 +173,11 @@ impl Solids {
                 "firn-view collider instances",
                 wgpu::BufferUsages::VERTEX,
             ),
-            planes: GrowingBuffer::new(device, "firn-view planes", wgpu::BufferUsages::VERTEX),
+            this_frame: GrowingBuffer::new(
+                device,
+                "firn-view planes and deforming meshes",
+                wgpu::BufferUsages::VERTEX,
+            ),
             draws: Vec::new(),
         }
     }
@@ -179,11 +185,11 @@ impl Solids {
     /// Uploads where the stage's colliders are now.
     pub(super) fn prepare(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, stage: &Stage) {
         let mut instances = Vec::new();
-        let mut plane_vertices = Vec::new();
+        let mut frame_vertices = Vec::new();
         self.draws.clear();
         for collider in &stage.colliders {
             let Some((triangles, instance)) =
-                self.placed(collider, stage.container, &mut plane_vertices)
+                self.placed(collider, stage.container, &mut frame_vertices)
             else {
                 continue;
             };
@@ -195,36 +201,43 @@ impl Solids {
         }
         self.instances
             .write(device, queue, bytemuck::cast_slice(&instances));
-        self.planes
-            .write(device, queue, bytemuck::cast_slice(&plane_vertices));
+        self.this_frame
+            .write(device, queue, bytemuck::cast_slice(&frame_vertices));
     }
 
     /// The triangles and instance that draw `collider`, turned about its
-    /// reference point; a plane's clipped polygon (turned already) is
-    /// appended to `plane_vertices`. `None` for a mesh that was not loaded.
+    /// reference point; a plane's clipped polygon (turned already) and a
+    /// deforming mesh's triangles are appended to `frame_vertices`. `None`
+    /// for a mesh that was not loaded.
     fn placed(
         &self,
         collider: &StageCollider,
         container: Option<(Vec3, Vec3)>,
-        plane_vertices: &mut Vec<SurfaceVertex>,
+        frame_vertices: &mut Vec<SurfaceVertex>,
     ) -> Option<(Triangles, SolidInstance)> {
+        let start = frame_vertices.len() as u32;
+        let (triangles, instance) = if let Some(deformed) = &collider.deformed {
+            frame_vertices.extend(mesh_triangles(&deformed.mesh));
+            (
+                Triangles::ThisFrame(start..frame_vertices.len() as u32),
+                SolidInstance::new(Vec3::ZERO, Vec3::ONE, COLLIDER_ALBEDO, COLLIDER_SHININESS),
+            )
+        } else if let ColliderGeometry::HalfPlane { point, normal } = collider.geometry {
+            let normal = collider.rotation * normal;
+            frame_vertices.extend(plane_polygon(point, normal, container));
+            (
+                Triangles::ThisFrame(start..frame_vertices.len() as u32),
+                SolidInstance::new(Vec3::ZERO, Vec3::ONE, WALL_ALBEDO, WALL_SHININESS),
+            )
+        } else {
+            self.unturned(&collider.geometry)?
+        };
         let pivot = collider.geometry.reference_point();
-        let (triangles, instance) =
-            if let ColliderGeometry::HalfPlane { point, normal } = collider.geometry {
-                let start = plane_vertices.len() as u32;
-                let normal = collider.rotation * normal;
-                plane_vertices.extend(plane_polygon(point, normal, container));
-                (
-                    Triangles::Planes(start..plane_vertices.len() as u32),
-                    SolidInstance::new(Vec3::ZERO, Vec3::ONE, WALL_ALBEDO, WALL_SHININESS),
-                )
-            } else {
-                self.unturned(&collider.geometry)?
-            };
         Some((triangles, instance.turned(collider.rotation, pivot)))
     }
 
-    /// The triangles and instance of a solid that is not a plane, unturned.
+    /// The triangles and instance of a rigid solid that is not a plane,
+    /// unturned.
     fn unturned(&self, geometry: &ColliderGeometry) -> Option<(Triangles, SolidInstance)> {
         let solid =
             |offset, scale| SolidInstance::new(offset, scale, COLLIDER_ALBEDO, COLLIDER_SHININESS);
@@ -269,7 +282,7 @@ impl Solids {
                     let shape = &self.meshes[*index].shape;
                     (&shape.vertices, 0..shape.count)
                 }
-                Triangles::Planes(range) => (self.planes.buffer(), range.clone()),
+                Triangles::ThisFrame(range) => (self.this_frame.buffer(), range.clone()),
             };
             pass.set_vertex_buffer(0, buffer.slice(..));
             pass.draw(vertices, draw.instance..draw.instance + 1);
