@@ -220,6 +220,32 @@ def sample_motions(scene, objects, scale):
     return motions
 
 
+def sample_deformations(scene, objects, depsgraph_of, scale):
+    """The evaluated world meshes of deforming `objects` at every frame of
+    the range, in firn's axes; an error when one changes its topology."""
+    frames = {obj.name: [] for obj in objects}
+    if not objects:
+        return frames
+    current = scene.frame_current
+    for frame in range(scene.frame_start, scene.frame_end + 1):
+        scene.frame_set(frame)
+        depsgraph = depsgraph_of()
+        for obj in objects:
+            vertices, triangles = checked_mesh(obj, depsgraph, scale)
+            first = frames[obj.name][0] if frames[obj.name] else None
+            if first is not None and (len(vertices) != len(first[0]) or triangles != first[1]):
+                raise ExportError(
+                    obj.name,
+                    "Motion",
+                    f"the mesh at frame {frame} has {len(vertices)} vertices and {len(triangles)} triangles, "
+                    f"at frame {scene.frame_start} {len(first[0])} and {len(first[1])}: a deforming collider "
+                    "must keep its topology (no remesh or decimate modifiers)",
+                )
+            frames[obj.name].append((vertices, triangles))
+    scene.frame_set(current)
+    return frames
+
+
 def domain_keys(scene, domain, scale):
     """`[domain]` from the domain object's world bounding box."""
     corners = [to_firn(domain.matrix_world @ Vector(c), scale) for c in domain.bound_box]
@@ -266,6 +292,19 @@ def body_keys(obj, vertices, mesh_file, scale, materials):
     if settings.use_clumps:
         body["clumps"] = {"size": settings.clump_size * scale, "contrast": settings.clump_contrast}
     return body
+
+
+def sequence_keys(obj, pattern, fps):
+    """A `[[colliders]]` table of a deforming mesh: its files per frame."""
+    settings = obj.firn
+    return {
+        "shape": "mesh",
+        "sequence": pattern,
+        "frame_rate": fps,
+        "start": 0.0,
+        "mode": settings.contact,
+        "friction": settings.friction,
+    }
 
 
 def collider_keys(obj, vertices, triangles, mesh_file, motion):
@@ -347,7 +386,10 @@ def build(scene, depsgraph_of, run_directory):
         raise ExportError(scene.name, "Snow", "mark at least one mesh object as firn snow")
     if scene.frame_end <= scene.frame_start:
         raise ExportError(scene.name, "Frame Range", "the scene's frame range must hold at least two frames")
-    motions = sample_motions(scene, [o for o in colliders if o.firn.motion != "STATIC"], scale)
+    moving = [o for o in colliders if o.firn.motion in ("AUTO", "ANIMATED")]
+    motions = sample_motions(scene, moving, scale)
+    deforming = [o for o in colliders if o.firn.motion == "DEFORMING"]
+    deformations = sample_deformations(scene, deforming, depsgraph_of, scale)
     current = scene.frame_current
     scene.frame_set(scene.frame_start)
     depsgraph = depsgraph_of()
@@ -373,6 +415,13 @@ def build(scene, depsgraph_of, run_directory):
         origins[f"bodies[{len(keys['bodies'])}]"] = (obj.name, "snow body")
         keys["bodies"].append(body_keys(obj, vertices, mesh_file, scale, materials))
     for obj in colliders:
+        if obj.name in deformations:
+            folder = f"{MESH_FOLDER}/{safe_name(obj.name)}"
+            for number, (vertices, triangles) in enumerate(deformations[obj.name], start=1):
+                meshes[f"{folder}/frame_{number:04d}.obj"] = obj_text(vertices, triangles)
+            origins[f"colliders[{len(keys['colliders'])}]"] = (obj.name, "collider")
+            keys["colliders"].append(sequence_keys(obj, f"{folder}/frame_####.obj", fps))
+            continue
         vertices, triangles = checked_mesh(obj, depsgraph, scale)
         motion = motions.get(obj.name, Motion())
         collider = collider_keys(obj, vertices, triangles, f"{MESH_FOLDER}/{safe_name(obj.name)}.obj", motion)

@@ -47,6 +47,11 @@ MOTIONS = [
     ("AUTO", "Auto", "Animated when the object or a parent has an animation"),
     ("STATIC", "Static", "The collider stays where it is at the first frame"),
     ("ANIMATED", "Animated", "The object's transform is sampled every frame"),
+    (
+        "DEFORMING",
+        "Deforming",
+        "The evaluated mesh (armature, shape keys, modifiers) is exported every frame as a mesh sequence",
+    ),
 ]
 
 

@@ -69,7 +69,28 @@ def shot(cell_size=0.04, voxel_size=0.02):
         for key in curve.keyframe_points:
             key.interpolation = "LINEAR"
     scene.firn.voxel_size = voxel_size
-    return {"domain": domain, "ball": ball, "ground": ground, "block": block}
+    return {"domain": domain, "ball": ball, "ground": ground, "block": block, "paddle": squashed_paddle()}
+
+
+def squashed_paddle():
+    """A deforming collider away from the ball: a cube whose top a shape
+    key lowers 5 cm from frame 1 to frame 10."""
+    bpy.ops.mesh.primitive_cube_add(size=0.15, location=(-0.35, -0.35, 0.1))
+    paddle = bpy.context.object
+    paddle.name = "Paddle"
+    paddle.firn.role = "COLLIDER"
+    paddle.firn.motion = "DEFORMING"
+    paddle.hide_render = True
+    paddle.shape_key_add(name="Basis")
+    squash = paddle.shape_key_add(name="Squash")
+    for point in squash.data:
+        if point.co.z > 0.0:
+            point.co.z -= 0.05
+    squash.value = 0.0
+    squash.keyframe_insert("value", frame=1)
+    squash.value = 1.0
+    squash.keyframe_insert("value", frame=10)
+    return paddle
 
 
 def ground_material():

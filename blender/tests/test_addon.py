@@ -101,7 +101,7 @@ def test_scene_file_puts_bodies_and_colliders_where_the_objects_are_in_firn_axes
     ]
     radii = [math.dist(v, body["center"]) for v in vertices]
     assert 0.119 < min(radii) and max(radii) < 0.1201
-    block, ground = scene["colliders"]
+    block, ground, paddle = scene["colliders"]
     assert ground["shape"] == "plane"
     assert close(ground["point"], [0.0, 0.02, 0.0]) and ground["normal"] == [0.0, 1.0, 0.0]
     assert block["shape"] == "mesh" and close(block["center"], to_firn(objects["block"]["location"]))
@@ -112,6 +112,23 @@ def test_scene_file_puts_bodies_and_colliders_where_the_objects_are_in_firn_axes
     assert "quaternion" not in keys[0]
     half = math.radians(15.0)
     assert close(keys[-1]["quaternion"], [0.0, math.sin(half), 0.0, math.cos(half)])
+
+
+def test_a_deforming_collider_is_baked_as_one_mesh_file_per_frame(baked):
+    out, facts = baked
+    paddle = tomllib.loads(facts["scene_toml"])["colliders"][2]
+    assert paddle["sequence"] == "meshes/Paddle/frame_####.obj" and paddle["frame_rate"] == 24
+    assert "keyframes" not in paddle and "mesh" not in paddle
+    files = sorted((out / "whole" / "meshes" / "Paddle").glob("frame_*.obj"))
+    assert [f.name for f in files] == [f"frame_{n:04d}.obj" for n in range(1, FRAMES + 1)]
+
+    def top(file):
+        heights = [float(line.split()[2]) for line in file.read_text().splitlines() if line.startswith("v ")]
+        return max(heights), len(heights)
+
+    (first, count), (last, last_count) = top(files[0]), top(files[-1])
+    # The shape key lowers the top 5 cm (Blender's z, firn's y).
+    assert count == last_count and abs(first - 0.175) < 1e-5 and abs(last - 0.125) < 1e-5
 
 
 def test_caches_hold_every_frame(baked):
