@@ -142,7 +142,7 @@ impl Program {
                 bind_group_layouts: &bind_group_layouts,
                 immediate_size: 0,
             });
-            compute_pipeline(device, &module, &layout, entry)
+            compute_pipeline(device, &module, &layout, entry, &[])
         })
     }
 }
@@ -208,19 +208,24 @@ impl Reflection {
     }
 }
 
-/// The compute pipeline of `module`'s entry point `entry` with `layout`.
+/// The compute pipeline of `module`'s entry point `entry` with `layout`,
+/// its pipeline-overridable constants set to `constants` (name, value).
 pub fn compute_pipeline(
     device: &wgpu::Device,
     module: &wgpu::ShaderModule,
     layout: &wgpu::PipelineLayout,
     entry: &str,
+    constants: &[(&str, f64)],
 ) -> wgpu::ComputePipeline {
     device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
         label: Some(entry),
         layout: Some(layout),
         module,
         entry_point: Some(entry),
-        compilation_options: wgpu::PipelineCompilationOptions::default(),
+        compilation_options: wgpu::PipelineCompilationOptions {
+            constants,
+            ..Default::default()
+        },
         cache: None,
     })
 }
@@ -233,12 +238,13 @@ macro_rules! part {
 
 /// Functions shared by the snow programs: weights, SVD, snow model,
 /// colliders, and the semi-implicit solve's stress differential.
-const SNOW_LIBRARY: [Part; 6] = [
+const SNOW_LIBRARY: [Part; 7] = [
     part!("common/bspline.wgsl"),
     part!("common/svd.wgsl"),
     part!("common/polar.wgsl"),
     part!("common/snow_model.wgsl"),
     part!("common/colliders.wgsl"),
+    part!("common/deforming.wgsl"),
     part!("common/stress_differential.wgsl"),
 ];
 
@@ -254,6 +260,7 @@ pub const SNOW_STEP: Program = Program {
         SNOW_LIBRARY[3],
         SNOW_LIBRARY[4],
         SNOW_LIBRARY[5],
+        SNOW_LIBRARY[6],
         part!("snow/layout.wgsl"),
         part!("flow/layout.wgsl"),
         Part::Bindings(&StepBindings::TABLE),
@@ -283,6 +290,7 @@ pub const SNOW_PARITY: Program = Program {
         SNOW_LIBRARY[3],
         SNOW_LIBRARY[4],
         SNOW_LIBRARY[5],
+        SNOW_LIBRARY[6],
         Part::Bindings(&ParityBindings::TABLE),
         part!("parity/snow_parity.wgsl"),
     ],

@@ -40,7 +40,8 @@ pub use error::MeshError;
 pub use load::{LoadedMesh, MAX_MESH_FILE_BYTES, load_mesh, load_mesh_bytes};
 pub use mesh::{MeshTransform, TriangleMesh};
 pub use narrow_band::{
-    BRICK_SIDE, BandFootprint, NarrowBandField, SAMPLES_PER_BRICK, SurfaceSample,
+    BRICK_SIDE, BandFootprint, INSIDE_BRICK, NarrowBandField, OUTSIDE_BRICK, SAMPLES_PER_BRICK,
+    SurfaceSample,
 };
 pub use sdf::SignedDistanceField;
 pub use winding::WindingNumber;

@@ -33,9 +33,12 @@ pub const BRICK_SIDE: u32 = 4;
 /// Samples a brick stores.
 pub const SAMPLES_PER_BRICK: usize = (BRICK_SIDE * BRICK_SIDE * BRICK_SIDE) as usize;
 
-/// Table entries of bricks without samples.
-const OUTSIDE: u32 = u32::MAX;
-const INSIDE: u32 = u32::MAX - 1;
+/// The table entry of a brick without samples outside the mesh.
+pub const OUTSIDE_BRICK: u32 = u32::MAX;
+/// The table entry of a brick without samples inside the mesh.
+pub const INSIDE_BRICK: u32 = u32::MAX - 1;
+const OUTSIDE: u32 = OUTSIDE_BRICK;
+const INSIDE: u32 = INSIDE_BRICK;
 /// A brick that will get samples, before the slots are numbered.
 const BANDED: u32 = u32::MAX - 2;
 
@@ -150,6 +153,46 @@ impl NarrowBandField {
     /// The distance within which samples are exact.
     pub fn band(&self) -> f32 {
         self.band
+    }
+
+    /// The lattice's first sample point: sample `(i, j, k)` of brick `b`
+    /// lies at `origin + (4 b + (i, j, k)) · spacing`.
+    pub fn origin(&self) -> Vec3 {
+        self.lattice.origin
+    }
+
+    /// The distance between neighbouring samples.
+    pub fn spacing(&self) -> f32 {
+        self.lattice.spacing
+    }
+
+    /// Bricks of the table along each axis.
+    pub fn bricks(&self) -> UVec3 {
+        self.lattice.bricks
+    }
+
+    /// The table, one entry per brick (x fastest, then y, then z): the slot
+    /// of the brick's samples, or [`OUTSIDE_BRICK`] or [`INSIDE_BRICK`] for
+    /// a brick without samples.
+    pub fn table(&self) -> &[u32] {
+        &self.table
+    }
+
+    /// The samples, 64 per slot (x fastest within the brick): each its
+    /// signed distance and the index of the triangle closest to its point.
+    pub fn samples(&self) -> impl ExactSizeIterator<Item = (f32, u32)> + '_ {
+        self.samples.iter().map(|s| (s.distance, s.triangle))
+    }
+
+    /// The centre of the mesh's box: deep inside, the gradient points away
+    /// from it.
+    pub fn centre(&self) -> Vec3 {
+        self.centre
+    }
+
+    /// The mesh the field was built from.
+    pub fn mesh(&self) -> &TriangleMesh {
+        &self.mesh
     }
 
     /// The box the table covers, `(min, max)`; everything beyond is outside.

@@ -6,12 +6,14 @@
 // it moves there at v + omega x (x - c). The colliders are placed once a
 // substep (place_colliders, into collider_poses), so the trigonometry of
 // their turns stays out of the kernels' per-node and per-particle work.
+// Deforming meshes (SHAPE_SEQUENCE) are in deforming.wgsl.
 
 const SHAPE_HALF_PLANE: u32 = 0u;
 const SHAPE_SPHERE: u32 = 1u;
 const SHAPE_BOX: u32 = 2u;
 const SHAPE_MESH: u32 = 3u;
 const SHAPE_CYLINDER: u32 = 4u;
+const SHAPE_SEQUENCE: u32 = 5u;
 
 const CONTACT_STICKY: u32 = 0u;
 const CONTACT_SEPARATE: u32 = 1u;
@@ -44,7 +46,8 @@ struct Collider {
     // Plane point or centre at t = 0; w: sphere radius.
     reference: vec4<f32>,
     // Plane normal (out of the solid), box edge lengths or cylinder radius
-    // (x) and height (y).
+    // (x) and height (y); a sequence's start time (x) and mesh frames per
+    // second (y).
     extent: vec4<f32>,
     // Velocity of linear motion.
     velocity: vec4<f32>,
@@ -57,7 +60,8 @@ struct Collider {
     // centre.
     sdf_origin: vec4<f32>,
     // Meshes: grid points per axis (xyz) and the index of the first sample
-    // in collider_distances (w).
+    // in collider_fields (w); sequences: the last mesh frame's index (x)
+    // and the first word of the collider's region (w, deforming.wgsl).
     sdf_dims: vec4<u32>,
 }
 
@@ -72,6 +76,10 @@ struct Placement {
     // Whether the geometry is read through the rotation and the contact
     // velocity has its omega x r (Pose::turns).
     turned: bool,
+    // A sequence's interval between mesh frames (SequenceInterval's code)
+    // and how far along it.
+    interval: u32,
+    fraction: f32,
 }
 
 // Signed distance (negative inside) and outward unit normal.
@@ -285,7 +293,7 @@ fn collider_turn(collider: Collider, t: f32) -> Turn {
 
 // The collider's pose at time t (firn_core::scene::Collider::pose_at).
 fn placement(collider: Collider, t: f32) -> Placement {
-    var placed = Placement(collider.reference.xyz, vec3<f32>(0.0), QUAT_IDENTITY, vec3<f32>(0.0), false);
+    var placed = Placement(collider.reference.xyz, vec3<f32>(0.0), QUAT_IDENTITY, vec3<f32>(0.0), false, 0u, 0.0);
     switch collider.motion {
         case MOTION_LINEAR: {
             placed.position = collider.reference.xyz + collider.velocity.xyz * t;
@@ -303,6 +311,11 @@ fn placement(collider: Collider, t: f32) -> Placement {
         placed.rotation = turn.rotation;
         placed.angular_velocity = turn.angular_velocity;
         placed.turned = any(turn.rotation != QUAT_IDENTITY) || any(turn.angular_velocity != vec3<f32>(0.0));
+    }
+    if collider.shape == SHAPE_SEQUENCE {
+        let interval = sequence_interval(collider, t);
+        placed.interval = interval.code;
+        placed.fraction = interval.fraction;
     }
     return placed;
 }
@@ -349,7 +362,7 @@ fn cylinder_surface(p: vec3<f32>, radius: f32, half_height: f32) -> SurfacePoint
 
 fn sdf_sample(collider: Collider, point: vec3<u32>) -> f32 {
     let dims = collider.sdf_dims.xyz;
-    return collider_distances[collider.sdf_dims.w + (point.z * dims.y + point.y) * dims.x + point.x];
+    return bitcast<f32>(collider_fields[collider.sdf_dims.w + (point.z * dims.y + point.y) * dims.x + point.x]);
 }
 
 // A mesh collider's signed distance grid at q (in the time-zero placement),
@@ -431,7 +444,8 @@ fn surface_point(collider: Collider, at: vec3<f32>, point: vec3<f32>) -> Surface
 }
 
 // A Placement as collider_poses stores it; position.w is 1 for a turned
-// collider.
+// collider; a sequence's fraction is velocity.w, its interval's code
+// angular_velocity.w.
 struct ColliderPose {
     position: vec4<f32>,
     velocity: vec4<f32>,
@@ -447,9 +461,9 @@ fn place_colliders(t: f32) {
         let placed = placement(colliders[c], t);
         collider_poses[c] = ColliderPose(
             vec4<f32>(placed.position, select(0.0, 1.0, placed.turned)),
-            vec4<f32>(placed.velocity, 0.0),
+            vec4<f32>(placed.velocity, placed.fraction),
             placed.rotation,
-            vec4<f32>(placed.angular_velocity, 0.0),
+            vec4<f32>(placed.angular_velocity, f32(placed.interval)),
         );
     }
 }
@@ -457,13 +471,17 @@ fn place_colliders(t: f32) {
 // Collider c as place_colliders placed it.
 fn posed(c: u32) -> Placement {
     let pose = collider_poses[c];
-    return Placement(pose.position.xyz, pose.velocity.xyz, pose.rotation, pose.angular_velocity.xyz, pose.position.w != 0.0);
+    return Placement(pose.position.xyz, pose.velocity.xyz, pose.rotation, pose.angular_velocity.xyz, pose.position.w != 0.0, u32(pose.angular_velocity.w), pose.velocity.w);
 }
 
 // The collider's surface at `point` as placed: a turned collider's distance
 // is read in its own frame at c + R^-1 (x - c) and its normal turned back
 // by R (firn_mpm::contact::PlacedCollider::signed_distance).
 fn placed_surface(collider: Collider, placed: Placement, point: vec3<f32>) -> SurfacePoint {
+    if DEFORMING && collider.shape == SHAPE_SEQUENCE {
+        let surface = deforming_surface(collider, placed.fraction, point);
+        return SurfacePoint(surface.distance, surface.normal);
+    }
     // One surface_point for both cases: the shape's code is the bulk of a
     // kernel, and a software adapter (lavapipe) runs both sides of a
     // branch.
@@ -511,12 +529,22 @@ fn contact_response(velocity: vec3<f32>, collider_velocity: vec3<f32>, normal: v
     return collider_velocity;
 }
 
+// The placed collider's surface at `point` and how fast it moves there; a
+// deforming one's normal and velocity only where the point touches it.
+fn moving_surface(collider: Collider, placed: Placement, point: vec3<f32>) -> MovingSurface {
+    if DEFORMING && collider.shape == SHAPE_SEQUENCE {
+        return deforming_contact(collider, placed.fraction, point);
+    }
+    let surface = placed_surface(collider, placed, point);
+    return MovingSurface(surface.distance, surface.normal, surface_velocity(placed, point));
+}
+
 // Applies one collider, placed, to a velocity at point
 // (firn_mpm::contact::PlacedCollider::collide).
 fn collide(collider: Collider, placed: Placement, point: vec3<f32>, velocity: vec3<f32>) -> vec3<f32> {
-    let surface = placed_surface(collider, placed, point);
+    let surface = moving_surface(collider, placed, point);
     if surface.distance <= 0.0 {
-        return contact_response(velocity, surface_velocity(placed, point), surface.normal, collider.contact, collider.friction);
+        return contact_response(velocity, surface.velocity, surface.normal, collider.contact, collider.friction);
     }
     return velocity;
 }
@@ -635,10 +663,9 @@ fn collide_all_constrained(point: vec3<f32>, velocity_in: vec3<f32>) -> Constrai
     let count = arrayLength(&colliders);
     for (var c = 0u; c < count; c++) {
         let collider = colliders[c];
-        let placed = posed(c);
-        let surface = placed_surface(collider, placed, point);
+        let surface = moving_surface(collider, posed(c), point);
         if surface.distance <= 0.0 {
-            let response = constrained_response(result.velocity, surface_velocity(placed, point), surface.normal, collider.contact, collider.friction);
+            let response = constrained_response(result.velocity, surface.velocity, surface.normal, collider.contact, collider.friction);
             result = Constrained(response.velocity, constraint_and(result.constraint, response.constraint));
         }
     }

@@ -27,7 +27,9 @@ fn next_dt(speed_squared: f32, wave_speed_squared: f32) -> f32 {
 // One invocation: stops the frame when it is done or a particle is in
 // trouble, else chooses dt, clipped to the frame's end, places the
 // colliders at the substep's end and resets the maxima for this substep's
-// gather.
+// gather. When a deforming collider's pose there wants mesh frames that
+// are not uploaded, it stops the batch before the substep instead, waiting
+// for the host.
 @compute @workgroup_size(1)
 fn begin_step() {
     if state.running == 0u {
@@ -44,16 +46,22 @@ fn begin_step() {
     let speed_squared = bitcast<f32>(atomicLoad(&state.max_speed_bits));
     let wave_speed_squared = bitcast<f32>(atomicLoad(&state.max_wave_bits));
     let dt = min(next_dt(speed_squared, wave_speed_squared), remaining);
+    var elapsed = state.elapsed + dt;
+    if dt >= remaining {
+        elapsed = params.upper.w;
+    }
+    // simulated_time() once the substep is taken.
+    place_colliders(params.lower.w + elapsed);
+    if !sequences_ready() {
+        state.running = 0u;
+        state.waiting = 1u;
+        return;
+    }
     state.dt = dt;
     state.speed_squared = speed_squared;
     state.wave_speed_squared = wave_speed_squared;
-    if dt >= remaining {
-        state.elapsed = params.upper.w;
-    } else {
-        state.elapsed = state.elapsed + dt;
-    }
+    state.elapsed = elapsed;
     state.steps = state.steps + 1u;
-    place_colliders(simulated_time());
     atomicStore(&state.max_speed_bits, 0u);
     atomicStore(&state.max_wave_bits, 0u);
 }

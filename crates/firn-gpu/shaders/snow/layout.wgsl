@@ -54,7 +54,10 @@ struct StepState {
     // The maxima the current substep's dt came from.
     speed_squared: f32,
     wave_speed_squared: f32,
-    pad: u32,
+    // 1 when begin_step stopped the batch to wait for the fields of a
+    // deforming collider's next mesh frames (deforming.wgsl), which the
+    // host uploads before it resumes.
+    waiting: u32,
 }
 
 struct PlasticState {

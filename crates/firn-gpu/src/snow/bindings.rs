@@ -71,9 +71,11 @@ bind_group! {
         /// `[0..3)`: dispatch size of the binned scatter; `[3]`: work items;
         /// then per item its block and first slot.
         27 => work: ReadWrite "array<u32>",
-        /// Signed distance samples of the mesh colliders, one grid after
-        /// another.
-        28 => collider_distances: Read "array<f32>",
+        /// The mesh colliders' fields, one after another: a rigid mesh's
+        /// grid of signed distances (f32 bits), a deforming one's region
+        /// with the narrow bands of its current mesh frames
+        /// (`common/deforming.wgsl`).
+        28 => collider_fields: Read "array<u32>",
         /// The wind's air field (`flow/field.wgsl`; zeroes without wind).
         29 => field_constants: Uniform "FieldConstants",
         /// The spheres the wind flows around, the first
@@ -122,9 +124,8 @@ bind_group! {
         5 => colliders: Read "array<Collider>",
         /// Their keyframes, as the snow step's `collider_keys`.
         6 => collider_keys: Read "array<vec4<f32>>",
-        /// Their signed distance samples, as the snow step's
-        /// `collider_distances`.
-        7 => collider_distances: Read "array<f32>",
+        /// Their fields, as the snow step's `collider_fields`.
+        7 => collider_fields: Read "array<u32>",
         /// Poses of the colliders, as the snow step's `collider_poses`
         /// (the collider entry point places its own).
         8 => collider_poses: ReadWrite "array<ColliderPose>",

@@ -8,6 +8,7 @@ use firn_mpm::Particles;
 use super::bindings::StepBindings;
 use super::binning::BinningBuffers;
 use super::layout::{GpuMat3, GpuPlastic, SolveHeader, pack_colliders};
+use super::sequences::SequenceRegion;
 use super::wind::WindBuffers;
 use crate::buffers::{storage_buffer, zeroed_storage_buffer};
 use crate::context::GpuContext;
@@ -176,11 +177,15 @@ pub struct ColliderBuffers {
     /// Keyframes, two vectors a key: position and time, then the
     /// orientation quaternion.
     pub keys: wgpu::Buffer,
-    /// Signed distance samples of the mesh colliders.
-    pub distances: wgpu::Buffer,
+    /// The mesh colliders' fields: rigid meshes' signed distances,
+    /// deforming meshes' regions (`sequences.rs`).
+    pub fields: wgpu::Buffer,
     /// Each collider's pose in the current substep (`ColliderPose` in
     /// `colliders.wgsl`, four vectors), which the kernels write.
     pub poses: wgpu::Buffer,
+    /// The deforming colliders' regions of `fields` and the mesh frames
+    /// they hold.
+    pub(super) sequences: Vec<SequenceRegion>,
 }
 
 impl ColliderBuffers {
@@ -191,8 +196,9 @@ impl ColliderBuffers {
         ColliderBuffers {
             colliders: storage_buffer(context, "colliders", &packed.colliders),
             keys: storage_buffer(context, "collider keys", &packed.keys),
-            distances: storage_buffer(context, "collider distances", &packed.distances),
+            fields: storage_buffer(context, "collider fields", &packed.fields),
             poses: zeroed_storage_buffer(context, "collider poses", 64 * colliders.len() as u64),
+            sequences: packed.sequences,
         }
     }
 }
@@ -248,7 +254,7 @@ impl SnowBuffers {
             materials: &self.materials,
             colliders: &self.colliders.colliders,
             collider_keys: &self.colliders.keys,
-            collider_distances: &self.colliders.distances,
+            collider_fields: &self.colliders.fields,
             collider_poses: &self.colliders.poses,
             position_mass: &particles.position_mass,
             velocity_volume: &particles.velocity_volume,

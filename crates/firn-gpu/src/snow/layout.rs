@@ -6,6 +6,8 @@ use firn_core::scene::{ColliderGeometry, ContactMode, Motion, PathShape};
 use firn_mpm::snow_model::MaterialConstants;
 use glam::{Mat3, Vec3};
 
+use super::sequences::SequenceRegion;
+
 /// `Params`: the run's constants and the current frame's time window.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
@@ -36,7 +38,7 @@ pub struct StepState {
     pub overflow: u32,
     pub speed_squared: f32,
     pub wave_speed_squared: f32,
-    pub pad: u32,
+    pub waiting: u32,
 }
 
 /// The head of `SolveState` (`shaders/snow/implicit.wgsl`), before its
@@ -146,21 +148,25 @@ impl From<GpuMat3> for Mat3 {
 
 /// The colliders as the kernels read them: the colliders (scene colliders,
 /// then the six walls), their keyframes (two vectors a key: position and
-/// time, then the orientation quaternion) and the signed distance samples
-/// of the mesh colliders, one after another.
+/// time, then the orientation quaternion) and the fields of the mesh
+/// colliders, one after another (a rigid mesh's signed distances as f32
+/// bits, a deforming mesh's region, whose bands come when the run needs
+/// them).
 #[derive(Debug, Default)]
 pub struct PackedColliders {
     pub colliders: Vec<GpuCollider>,
     pub keys: Vec<[f32; 4]>,
-    pub distances: Vec<f32>,
+    pub fields: Vec<u32>,
+    pub sequences: Vec<SequenceRegion>,
 }
 
 /// Packs `colliders` for the kernels.
 pub fn pack_colliders(colliders: &[firn_core::scene::Collider]) -> PackedColliders {
     let mut packed = Vec::with_capacity(colliders.len());
     let mut keys = Vec::new();
-    let mut distances = Vec::new();
-    for collider in colliders {
+    let mut fields = Vec::new();
+    let mut sequences = Vec::new();
+    for (index, collider) in colliders.iter().enumerate() {
         let mut gpu = GpuCollider {
             contact: match collider.contact.mode {
                 ContactMode::Sticky => 0,
@@ -196,9 +202,19 @@ pub fn pack_colliders(colliders: &[firn_core::scene::Collider]) -> PackedCollide
                 gpu.reference = center.extend(0.0).into();
                 gpu.extent = [radius, height, 0.0, 0.0];
             }
-            // Refused before packing (`GpuSnow::check_supported`): the
-            // kernels have no deforming meshes yet.
-            ColliderGeometry::MeshSequence(_) => gpu.shape = 5,
+            ColliderGeometry::MeshSequence(ref sequence) => {
+                let region = SequenceRegion::reserve(index, sequence, &mut fields);
+                gpu.shape = 5;
+                gpu.reference = sequence.reference_point().extend(0.0).into();
+                gpu.extent = [sequence.start as f32, sequence.frame_rate as f32, 0.0, 0.0];
+                gpu.sdf_dims = [
+                    sequence.frame_count.saturating_sub(1),
+                    0,
+                    0,
+                    region.offset(),
+                ];
+                sequences.push(region);
+            }
             ColliderGeometry::Mesh(ref mesh) => {
                 // The field is sampled around the time-zero placement; the
                 // collider's motion moves its reference point (the centre).
@@ -207,8 +223,8 @@ pub fn pack_colliders(colliders: &[firn_core::scene::Collider]) -> PackedCollide
                 gpu.reference = mesh.center.extend(0.0).into();
                 gpu.extent = mesh.placement.center.extend(0.0).into();
                 gpu.sdf_origin = field.bounds().0.extend(field.spacing()).into();
-                gpu.sdf_dims = field.dims().extend(distances.len() as u32).into();
-                distances.extend_from_slice(field.values());
+                gpu.sdf_dims = field.dims().extend(fields.len() as u32).into();
+                fields.extend(field.values().iter().map(|d| d.to_bits()));
             }
         }
         match &collider.motion {
@@ -240,6 +256,7 @@ pub fn pack_colliders(colliders: &[firn_core::scene::Collider]) -> PackedCollide
     PackedColliders {
         colliders: packed,
         keys,
-        distances,
+        fields,
+        sequences,
     }
 }

@@ -10,7 +10,9 @@
 //!
 //! 1. `begin_step` (one invocation): Δt = CFL h / (max |v_p| + max c_p)
 //!    from the maxima the last gather reduced, clipped to the frame's end;
-//!    stops the frame when it is done or a particle was in trouble;
+//!    stops the frame when it is done or a particle was in trouble, and the
+//!    batch when a deforming collider needs the bands of its next mesh
+//!    frames (`sequences.rs`), which the host then uploads;
 //! 2. the grid's word planes are cleared;
 //! 3. `binning`: the counting sort of the particles by block, for the
 //!    binned scatter;
@@ -55,6 +57,7 @@ mod layout;
 mod memory;
 mod p2g;
 mod program;
+mod sequences;
 mod spindrift;
 mod substep;
 mod wind;
@@ -62,7 +65,9 @@ mod wind;
 use std::sync::Arc;
 
 use firn_core::Scene;
-use firn_core::scene::{Integrator, Material, SceneKind, TimeStep, Transfer, Wind};
+use firn_core::scene::{
+    ColliderGeometry, Integrator, Material, SceneKind, TimeStep, Transfer, Wind,
+};
 use firn_mpm::grid::GridLayout;
 use firn_mpm::implicit::SolverStats;
 use firn_mpm::snow_model::{MaterialConstants, max_wave_speed_squared};
@@ -200,20 +205,6 @@ impl GpuSnow {
                 fix: "run it through firn_gpu::GpuFlow".into(),
             });
         }
-        if let Some(index) = scene.colliders.iter().position(|collider| {
-            matches!(
-                collider.geometry,
-                firn_core::scene::ColliderGeometry::MeshSequence(_)
-            )
-        }) {
-            return Err(GpuError::Unsupported {
-                what: format!(
-                    "colliders[{index}] is a deforming mesh sequence, which the GPU backend does \
-                     not run yet"
-                ),
-                fix: "run it with --backend cpu (--backend auto does)".into(),
-            });
-        }
         if let Some(wind) = &scene.wind
             && wind.field.obstacles.len() > MAX_WIND_OBSTACLES
         {
@@ -249,6 +240,10 @@ impl GpuSnow {
             self.check_trouble(&state)?;
             self.time = f64::from(self.params.lower[3]) + f64::from(state.elapsed);
             self.check_step_length(&state)?;
+            if state.waiting != 0 {
+                self.resume_with_mesh_frames(&state)?;
+                continue;
+            }
             if state.running == 0 {
                 self.time = until;
                 return Ok(taken);
@@ -272,15 +267,54 @@ impl GpuSnow {
             .write_buffer(&self.buffers.spindrift, 0, bytemuck::bytes_of(&spindrift));
     }
 
-    /// Substeps to record next: enough to reach the frame's end at the last Δt.
+    /// After `begin_step` stopped a batch to wait for mesh frames: uploads
+    /// the ones the deforming colliders' poses ask for and lets the frame
+    /// run on from `state`.
+    fn resume_with_mesh_frames(&mut self, state: &StepState) -> Result<(), GpuError> {
+        if !self
+            .buffers
+            .colliders
+            .load_wanted_mesh_frames(&self.context)?
+        {
+            return Err(GpuError::Device(
+                "the substeps waited for mesh frames that were already uploaded".into(),
+            ));
+        }
+        self.last.running = 1;
+        self.last.waiting = 0;
+        self.substep.resume(&self.context, state);
+        Ok(())
+    }
+
+    /// Substeps to record next: enough to reach the frame's end, or the
+    /// next mesh frame of a deforming collider (where the batch waits for
+    /// its band), at the last Δt.
     fn batch_size(&self, until: f64) -> u32 {
         let dt = match self.scene.time.step {
             TimeStep::Fixed { dt } => dt,
             TimeStep::Adaptive { .. } if self.last.dt > 0.0 => self.last.dt,
             TimeStep::Adaptive { max_dt, .. } => max_dt,
         };
-        let remaining = until - self.time;
+        let remaining = until.min(self.next_mesh_frame()) - self.time;
         ((remaining / f64::from(dt)).ceil() as u32 + 1).clamp(1, MAX_BATCH)
+    }
+
+    /// The time of the first mesh frame of a deforming collider after now
+    /// (infinite when none comes).
+    fn next_mesh_frame(&self) -> f64 {
+        self.scene
+            .colliders
+            .iter()
+            .filter_map(|collider| match &collider.geometry {
+                ColliderGeometry::MeshSequence(sequence) => {
+                    let passed = ((self.time - sequence.start) * sequence.frame_rate).floor();
+                    let next = (passed + 1.0).max(0.0);
+                    (next < f64::from(sequence.frame_count))
+                        .then(|| sequence.time_of(next as usize))
+                }
+                _ => None,
+            })
+            .fold(f64::INFINITY, f64::min)
     }
 
     /// The semi-implicit solves' statistics since this run came to the GPU

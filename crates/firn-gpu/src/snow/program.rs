@@ -19,16 +19,24 @@ pub struct StepProgram<'a> {
     module: wgpu::ShaderModule,
     reflection: Reflection,
     buffers: StepBindings<'a>,
+    deforming: bool,
 }
 
 impl<'a> StepProgram<'a> {
-    /// Compiles the snow step on `device`, to bind `buffers`.
-    pub fn new(device: &'a wgpu::Device, buffers: StepBindings<'a>) -> StepProgram<'a> {
+    /// Compiles the snow step on `device`, to bind `buffers`; its kernels
+    /// run deforming colliders only when `deforming` (the WGSL override
+    /// `DEFORMING` in `common/deforming.wgsl`).
+    pub fn new(
+        device: &'a wgpu::Device,
+        buffers: StepBindings<'a>,
+        deforming: bool,
+    ) -> StepProgram<'a> {
         StepProgram {
             device,
             module: SNOW_STEP.module(device),
             reflection: SNOW_STEP.reflect(),
             buffers,
+            deforming,
         }
     }
 
@@ -45,7 +53,13 @@ impl<'a> StepProgram<'a> {
                 immediate_size: 0,
             });
         Kernel {
-            pipeline: compute_pipeline(self.device, &self.module, &layout, entry),
+            pipeline: compute_pipeline(
+                self.device,
+                &self.module,
+                &layout,
+                entry,
+                &[("DEFORMING", f64::from(u8::from(self.deforming)))],
+            ),
             bind_group: self
                 .buffers
                 .bind_group_of(self.device, &group_layout, &numbers),

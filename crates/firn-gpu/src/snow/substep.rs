@@ -85,7 +85,11 @@ impl Substep {
             },
         );
         let state_buffer = storage_buffer(context, "snow step state", std::slice::from_ref(state));
-        let program = StepProgram::new(device, buffers.bindings(&params_buffer, &state_buffer));
+        let program = StepProgram::new(
+            device,
+            buffers.bindings(&params_buffer, &state_buffer),
+            !buffers.colliders.sequences.is_empty(),
+        );
         let binned = binned_fits(&context.limits).then(|| Binned {
             binning: Binning::new(&program),
             scatter: BinnedP2g::new(&program, transfer),
@@ -145,6 +149,16 @@ impl Substep {
         context
             .queue
             .write_buffer(&self.state, 0, bytemuck::cast_slice(&head));
+    }
+
+    /// Lets a frame that waited for mesh frames (`StepState::waiting`) run
+    /// on from `state`, as it was read back.
+    pub fn resume(&self, context: &GpuContext, state: &StepState) {
+        let head = [state.dt.to_bits(), state.elapsed.to_bits(), 1, state.steps];
+        let queue = &context.queue;
+        queue.write_buffer(&self.state, 0, bytemuck::cast_slice(&head));
+        let waiting = std::mem::offset_of!(StepState, waiting) as u64;
+        queue.write_buffer(&self.state, waiting, bytemuck::bytes_of(&0u32));
     }
 
     /// Sets the largest squared wave speed the next substep's Δt starts from
