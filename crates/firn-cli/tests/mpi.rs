@@ -171,6 +171,43 @@ fn every_rank_count_writes_the_one_process_frames_byte_for_byte() {
     }
 }
 
+/// The boot scene, coarse and without pictures, its sequence shifted so
+/// that the boot is pressing into the snow from the first frame, written
+/// into `dir`.
+fn pressing_boot_scene(dir: &Path) -> PathBuf {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let boot = root.join("assets/meshes/boot/frame_####.ply");
+    let text = fs::read_to_string(root.join("scenes/boot-print.toml"))
+        .unwrap()
+        .replace("cell_size = 0.015", "cell_size = 0.03")
+        .replace(
+            "sequence = \"../assets/meshes/boot/frame_####.ply\"",
+            &format!("sequence = {:?}\nstart = -0.45", boot.to_str().unwrap()),
+        )
+        .replace("styles = [\"points\"]", "enabled = false");
+    let path = dir.join("boot.toml");
+    fs::write(&path, text).unwrap();
+    path
+}
+
+#[test]
+fn a_deforming_collider_on_two_ranks_writes_the_one_process_frames() {
+    if !have_mpirun() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let scene = pressing_boot_scene(dir.path());
+    let scene = scene.to_str().unwrap();
+    let alone = dir.path().join("alone");
+    run_alone(scene, &alone, 3);
+    let reference = frames(&alone);
+    let split = run_split(2, scene, &dir.path().join("split"), 3);
+    assert_eq!(split.len(), reference.len());
+    for ((name, whole), (_, parts)) in reference.iter().zip(&split) {
+        assert!(whole == parts, "{name} differs with 2 ranks");
+    }
+}
+
 #[test]
 fn a_run_stopped_on_two_ranks_resumes_on_three_with_the_same_bytes() {
     if !have_mpirun() {
