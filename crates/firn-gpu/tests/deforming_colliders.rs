@@ -47,25 +47,6 @@ fn pressed_slab(folder: &std::path::Path) -> Scene {
     Scene::from_toml_str(&text, &path).expect("the test scene is valid")
 }
 
-/// The largest difference between the sorted values of each axis of `a`
-/// and of `b`: the marginals' quantiles.
-fn quantile_gap(a: &[Vec3], b: &[Vec3]) -> f32 {
-    (0..3)
-        .map(|axis| {
-            let sorted = |values: &[Vec3]| {
-                let mut sorted: Vec<f32> = values.iter().map(|v| v[axis]).collect();
-                sorted.sort_by(f32::total_cmp);
-                sorted
-            };
-            sorted(a)
-                .iter()
-                .zip(&sorted(b))
-                .map(|(x, y)| (x - y).abs())
-                .fold(0.0, f32::max)
-        })
-        .fold(0.0, f32::max)
-}
-
 #[test]
 fn a_deforming_foot_presses_the_snow_on_the_gpu_as_on_the_cpu() {
     let Some(context) = context_for_tests() else {
@@ -110,8 +91,8 @@ fn a_deforming_foot_presses_the_snow_on_the_gpu_as_on_the_cpu() {
         );
     }
     let on_cpu = cpu.particles();
-    let positions = quantile_gap(&on_cpu.position, &on_gpu.position) / h;
-    let velocities = quantile_gap(&on_cpu.velocity, &on_gpu.velocity) / SINK;
+    let positions = common::quantile_gap(&on_cpu.position, &on_gpu.position) / h;
+    let velocities = common::quantile_gap(&on_cpu.velocity, &on_gpu.velocity) / SINK;
     eprintln!(
         "pressed slab: {} particles, {cpu_steps} CPU / {gpu_steps} GPU substeps; momentum {:?} \
          vs {:?}; quantiles within {positions:.1e} cells and {velocities:.1e} of {SINK} m/s",

@@ -7,6 +7,8 @@
 //! fixed point and its dot products in f32 trees, the CPU in f64, so they
 //! differ by round-off.
 
+mod common;
+
 use firn_core::Scene;
 use firn_core::scene::TimeStep;
 use firn_gpu::{GpuSnow, context_for_tests};
@@ -201,7 +203,7 @@ fn a_run_through_the_impact_follows_the_cpu() {
                 "{transfer}: centre of mass {axis} differs by {shift:e} m"
             );
         }
-        let worst = worst_quantile(&cpu.particles().position, &snapshot.particles.position);
+        let worst = common::quantile_gap(&cpu.particles().position, &snapshot.particles.position);
         assert!(
             worst <= 2e-3 * h,
             "{transfer}: the positions' quantiles differ by {worst:e} m"
@@ -223,24 +225,6 @@ fn a_run_through_the_impact_follows_the_cpu() {
             on_gpu.total_iterations
         );
     }
-}
-
-/// The largest difference of the sorted coordinates along any axis.
-fn worst_quantile(a: &[Vec3], b: &[Vec3]) -> f32 {
-    (0..3)
-        .map(|axis| {
-            let sorted = |positions: &[Vec3]| {
-                let mut values: Vec<f32> = positions.iter().map(|x| x[axis]).collect();
-                values.sort_by(f32::total_cmp);
-                values
-            };
-            sorted(a)
-                .iter()
-                .zip(&sorted(b))
-                .map(|(x, y)| (x - y).abs())
-                .fold(0.0, f32::max)
-        })
-        .fold(0.0, f32::max)
 }
 
 /// The products' fixed-point sums and the ordered reductions do not depend

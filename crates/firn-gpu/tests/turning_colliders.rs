@@ -6,6 +6,8 @@
 //! particles' positions and velocities agree to stated tolerances (the CPU
 //! reorders its particles, so they are compared as distributions).
 
+mod common;
+
 use firn_core::Scene;
 use firn_gpu::{GpuSnow, context_for_tests};
 use firn_mpm::simulation::diagnostics;
@@ -77,25 +79,6 @@ fn spin_about(particles: &Particles, axis: Vec3) -> f32 {
     momentum / inertia
 }
 
-/// The largest difference between the sorted values of `value` (per axis)
-/// over the particles of `a` and of `b`: the marginals' quantiles.
-fn quantile_gap(a: &[Vec3], b: &[Vec3]) -> f32 {
-    (0..3)
-        .map(|axis| {
-            let sorted = |values: &[Vec3]| {
-                let mut sorted: Vec<f32> = values.iter().map(|v| v[axis]).collect();
-                sorted.sort_by(f32::total_cmp);
-                sorted
-            };
-            sorted(a)
-                .iter()
-                .zip(&sorted(b))
-                .map(|(x, y)| (x - y).abs())
-                .fold(0.0, f32::max)
-        })
-        .fold(0.0, f32::max)
-}
-
 /// The CPU's and the GPU's particles of `scene` after `until` seconds, or
 /// `None` without an adapter. Mass, momentum (within 10⁻³ of the mass
 /// times `speed` m/s) and the centre of mass (within 10⁻³ cells) must
@@ -132,8 +115,8 @@ fn compare(scene: Scene, until: f64, speed: f64, share: f32) -> Option<(Particle
         );
     }
     let on_cpu = cpu.particles().clone();
-    let positions = quantile_gap(&on_cpu.position, &on_gpu.position) / h;
-    let velocities = quantile_gap(&on_cpu.velocity, &on_gpu.velocity) / speed as f32;
+    let positions = common::quantile_gap(&on_cpu.position, &on_gpu.position) / h;
+    let velocities = common::quantile_gap(&on_cpu.velocity, &on_gpu.velocity) / speed as f32;
     eprintln!(
         "{name}: {} particles, {cpu_steps} CPU / {gpu_steps} GPU substeps; momentum {:?} vs {:?}; \
          quantiles within {positions:.1e} cells and {velocities:.1e} of {speed} m/s",

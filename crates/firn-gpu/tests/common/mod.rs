@@ -1,4 +1,8 @@
-//! Deforming box sequences for the tests: one OBJ file per mesh frame.
+//! Helpers shared by the GPU tests: deforming box sequences (one OBJ file
+//! per mesh frame) and the comparison of two particle sets as
+//! distributions.
+
+#![allow(dead_code)]
 
 use std::path::Path;
 
@@ -46,4 +50,24 @@ pub fn write_box_sequence(folder: &Path, frames: &[BoxFrame]) -> String {
         std::fs::write(folder.join(format!("box_{:04}.obj", k + 1)), text).unwrap();
     }
     "box_####.obj".into()
+}
+
+/// The largest difference between the sorted values of each axis of `a`
+/// and of `b`: the marginals' quantiles. The CPU reorders its particles,
+/// so the two backends' sets are compared as distributions.
+pub fn quantile_gap(a: &[Vec3], b: &[Vec3]) -> f32 {
+    (0..3)
+        .map(|axis| {
+            let sorted = |values: &[Vec3]| {
+                let mut sorted: Vec<f32> = values.iter().map(|v| v[axis]).collect();
+                sorted.sort_by(f32::total_cmp);
+                sorted
+            };
+            sorted(a)
+                .iter()
+                .zip(&sorted(b))
+                .map(|(x, y)| (x - y).abs())
+                .fold(0.0, f32::max)
+        })
+        .fold(0.0, f32::max)
 }
