@@ -784,6 +784,7 @@ pub fn snowball_drop(particles: u32, grid: u32, transfer: Transfer) -> Scene {
             Body::sphere(Vec3::new(0.5, 0.6, 0.5), radius).particles_per_cell(particles_per_cell),
         ],
         colliders: Vec::new(),
+        rigid_bodies: Vec::new(),
         output: OutputSettings {
             directory: PathBuf::from("out/bench"),
             formats: vec![CacheFormat::Ply],

@@ -106,6 +106,13 @@ pub enum UsdShape {
         /// Length along the axis in metres.
         height: f32,
     },
+    /// A capsule about the y axis.
+    Capsule {
+        /// Radius in metres.
+        radius: f32,
+        /// Whole length along the axis, end to end, in metres.
+        height: f32,
+    },
     /// A triangle mesh (a mesh collider's file, placed).
     Mesh {
         /// Vertex positions in metres, about the reference point.
@@ -288,6 +295,16 @@ fn push_collider(text: &mut String, index: usize, collider: &UsdCollider) {
             format!(
                 "        uniform token axis = \"Y\"\n        double radius = {radius}\n        \
                  double height = {height}\n"
+            ),
+            false,
+        ),
+        // UsdGeomCapsule's height is the straight part between the caps.
+        UsdShape::Capsule { radius, height } => (
+            "Capsule",
+            format!(
+                "        uniform token axis = \"Y\"\n        double radius = {radius}\n        \
+                 double height = {}\n",
+                height - 2.0 * radius
             ),
             false,
         ),

@@ -294,7 +294,8 @@ impl Stage {
                 let steps = mesh_steps(mesh.sdf_spacing);
                 march(distance_to, mesh.bounds(), steps, origin, direction).map(solid_hit)
             }
-            ColliderGeometry::Cylinder { center, .. } => {
+            ColliderGeometry::Cylinder { center, .. }
+            | ColliderGeometry::Capsule { center, .. } => {
                 let reach = Vec3::splat(collider.reach());
                 let bounds = (center - reach, center + reach);
                 let steps = (1e-4 * reach.x, 0.0);

@@ -102,6 +102,7 @@ fn usd_shape(geometry: &ColliderGeometry, half_size: f32) -> UsdShape {
         ColliderGeometry::Sphere { radius, .. } => UsdShape::Sphere { radius },
         ColliderGeometry::Box { size, .. } => UsdShape::Box { size },
         ColliderGeometry::Cylinder { radius, height, .. } => UsdShape::Cylinder { radius, height },
+        ColliderGeometry::Capsule { radius, height, .. } => UsdShape::Capsule { radius, height },
         ColliderGeometry::Mesh(ref mesh) => {
             let placed = mesh.placement.load().map(|placed| placed.mesh);
             let placed = placed.unwrap_or_default();

@@ -39,6 +39,7 @@ use super::model::{
     SolverSettings, TimeSettings, TimeStep, Transfer,
 };
 use super::render::{Camera, RenderSettings};
+use super::rigid_body::RigidBody;
 use super::wind::Wind;
 
 /// Builds a [`Scene`] from its defaults; see the [module docs](self).
@@ -69,6 +70,7 @@ pub struct SceneBuilder {
     materials: Vec<Material>,
     bodies: Vec<Body>,
     colliders: Vec<Collider>,
+    rigid_bodies: Vec<RigidBody>,
     output: OutputSettings,
     /// Whether the attributes are still the default (they depend on the kind).
     default_attributes: bool,
@@ -155,6 +157,7 @@ impl SceneBuilder {
             materials: Vec::new(),
             bodies: Vec::new(),
             colliders: Vec::new(),
+            rigid_bodies: Vec::new(),
             default_attributes: true,
             camera: defaults.camera,
             render: defaults.render,
@@ -309,6 +312,13 @@ impl SceneBuilder {
         self
     }
 
+    /// Adds a rigid body the snow pushes, e.g.
+    /// `RigidBody::cuboid(center, size).density(700.0)`.
+    pub fn rigid_body(mut self, body: RigidBody) -> SceneBuilder {
+        self.rigid_bodies.push(body);
+        self
+    }
+
     // -- flow --------------------------------------------------------------
 
     /// Makes the scene a curl-noise flow with these settings (the obstacles
@@ -457,6 +467,7 @@ impl SceneBuilder {
             materials,
             bodies: self.bodies,
             colliders: self.colliders,
+            rigid_bodies: self.rigid_bodies,
             output,
             camera: self.camera,
             render: self.render,

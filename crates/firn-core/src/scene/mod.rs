@@ -9,7 +9,8 @@
 //! [`mesh`] places triangle meshes as bodies and colliders; [`compute`] says
 //! which backend (CPU or GPU) computes the scene; [`estimate`] says what it
 //! will cost before anything runs; [`wind`] blows a curl-noise field over
-//! the snow (`[wind]`).
+//! the snow (`[wind]`); [`rigid_body`] describes the solids the snow pushes
+//! and that push it (`[[rigid_bodies]]`).
 
 pub mod builder;
 pub mod clumps;
@@ -23,6 +24,7 @@ pub mod mesh_sequence;
 pub mod model;
 pub mod motion;
 pub mod render;
+pub mod rigid_body;
 pub mod sampling;
 pub mod wind;
 
@@ -38,4 +40,5 @@ pub use mesh_sequence::{MeshFrames, MeshSequenceCollider, SequenceInterval};
 pub use model::*;
 pub use motion::{Keyframe, Motion, PathShape, Pose};
 pub use render::*;
+pub use rigid_body::{BodyMass, MeshSolid, RigidBody};
 pub use wind::{Spindrift, Wind};

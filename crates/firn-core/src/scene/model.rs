@@ -22,6 +22,7 @@ use super::mesh::{MeshBody, MeshCollider};
 use super::mesh_sequence::MeshSequenceCollider;
 use super::motion::{Keyframe, Motion, PathShape, Pose};
 use super::render::{Camera, RenderSettings};
+use super::rigid_body::RigidBody;
 use super::wind::{Spindrift, Wind};
 
 /// A complete snow scene, resolved: presets expanded, defaults filled in.
@@ -41,6 +42,11 @@ pub struct Scene {
     pub bodies: Vec<Body>,
     /// Rigid colliders besides the domain walls.
     pub colliders: Vec<Collider>,
+    /// Solids that move under gravity, the snow's push and their contacts
+    /// (`[[rigid_bodies]]`; absent from manifests and checkpoints written
+    /// before they existed).
+    #[serde(default)]
+    pub rigid_bodies: Vec<RigidBody>,
     /// Where and what to write.
     pub output: OutputSettings,
     /// Where the pictures are taken from.
@@ -93,6 +99,7 @@ impl Default for Scene {
             materials: Vec::new(),
             bodies: Vec::new(),
             colliders: Vec::new(),
+            rigid_bodies: Vec::new(),
             output: OutputSettings::for_scene(Scene::DEFAULT_NAME),
             camera: Camera::default(),
             render: RenderSettings::default(),
@@ -763,6 +770,16 @@ pub enum ColliderGeometry {
         /// Length along the axis.
         height: f32,
     },
+    /// A solid capsule (a cylinder with hemispherical ends) whose axis is y
+    /// in the collider's own frame.
+    Capsule {
+        /// Centre (the middle of the axis).
+        center: Vec3,
+        /// Radius of the cylinder and of its ends.
+        radius: f32,
+        /// Whole length along the axis, end to end (at least 2 radius).
+        height: f32,
+    },
     /// A solid triangle mesh, through its signed distance field.
     Mesh(Box<MeshCollider>),
     /// A triangle mesh that deforms, one file per frame; the solver samples
@@ -932,7 +949,8 @@ impl ColliderGeometry {
             ColliderGeometry::HalfPlane { point, .. } => point,
             ColliderGeometry::Sphere { center, .. }
             | ColliderGeometry::Box { center, .. }
-            | ColliderGeometry::Cylinder { center, .. } => center,
+            | ColliderGeometry::Cylinder { center, .. }
+            | ColliderGeometry::Capsule { center, .. } => center,
             ColliderGeometry::Mesh(ref mesh) => mesh.center,
             ColliderGeometry::MeshSequence(ref sequence) => sequence.reference_point(),
         }
@@ -946,6 +964,7 @@ impl ColliderGeometry {
             ColliderGeometry::Sphere { radius, .. } => radius,
             ColliderGeometry::Box { size, .. } => 0.5 * size.length(),
             ColliderGeometry::Cylinder { radius, height, .. } => radius.hypot(0.5 * height),
+            ColliderGeometry::Capsule { height, .. } => 0.5 * height,
             ColliderGeometry::Mesh(ref mesh) => reach_of(mesh.bounds(), mesh.center),
             ColliderGeometry::MeshSequence(ref sequence) => {
                 reach_of(sequence.bounds(), sequence.reference_point())
@@ -960,7 +979,8 @@ impl ColliderGeometry {
             ColliderGeometry::HalfPlane { point, .. } => *point = position,
             ColliderGeometry::Sphere { center, .. }
             | ColliderGeometry::Box { center, .. }
-            | ColliderGeometry::Cylinder { center, .. } => *center = position,
+            | ColliderGeometry::Cylinder { center, .. }
+            | ColliderGeometry::Capsule { center, .. } => *center = position,
             ColliderGeometry::Mesh(mesh) => mesh.center = position,
             // A sequence moves by its files only (the format refuses
             // motion for it), so its reference point never changes.
@@ -995,6 +1015,11 @@ impl ColliderGeometry {
                 radius,
                 height,
             } => cylinder_signed_distance(point - center, radius, 0.5 * height),
+            ColliderGeometry::Capsule {
+                center,
+                radius,
+                height,
+            } => capsule_signed_distance(point - center, radius, 0.5 * height - radius),
             ColliderGeometry::Mesh(ref mesh) => mesh.signed_distance(point),
             // Without a time the deforming surface is nowhere: the solver
             // reads it through the narrow-band fields of its frames.
@@ -1034,6 +1059,19 @@ fn box_signed_distance(p: Vec3, half: Vec3) -> (f32, Vec3) {
 /// Signed distance and outward normal of a cylinder centred at the origin,
 /// its axis along y, of `radius` and half length `half_height`.
 #[inline]
+/// Signed distance and outward normal of a capsule about the origin whose
+/// axis segment runs along y from −`half_segment` to `half_segment`.
+fn capsule_signed_distance(p: Vec3, radius: f32, half_segment: f32) -> (f32, Vec3) {
+    let offset = p - Vec3::new(0.0, p.y.clamp(-half_segment, half_segment), 0.0);
+    let length = offset.length();
+    let normal = if length > 0.0 {
+        offset / length
+    } else {
+        Vec3::X
+    };
+    (length - radius, normal)
+}
+
 fn cylinder_signed_distance(p: Vec3, radius: f32, half_height: f32) -> (f32, Vec3) {
     let across = (p.x * p.x + p.z * p.z).sqrt();
     let outward = if across > 0.0 {

@@ -14,6 +14,7 @@ const SHAPE_BOX: u32 = 2u;
 const SHAPE_MESH: u32 = 3u;
 const SHAPE_CYLINDER: u32 = 4u;
 const SHAPE_SEQUENCE: u32 = 5u;
+const SHAPE_CAPSULE: u32 = 6u;
 
 const CONTACT_STICKY: u32 = 0u;
 const CONTACT_SEPARATE: u32 = 1u;
@@ -417,6 +418,18 @@ fn mesh_surface(collider: Collider, q: vec3<f32>) -> SurfacePoint {
     return SurfacePoint(value + gap, normal);
 }
 
+// A capsule about the origin whose axis segment runs along y from
+// -half_segment to half_segment, as ColliderGeometry::Capsule.
+fn capsule_surface(p: vec3<f32>, radius: f32, half_segment: f32) -> SurfacePoint {
+    let offset = p - vec3<f32>(0.0, clamp(p.y, -half_segment, half_segment), 0.0);
+    let length = length(offset);
+    var normal = vec3<f32>(1.0, 0.0, 0.0);
+    if length > 0.0 {
+        normal = offset / length;
+    }
+    return SurfacePoint(length - radius, normal);
+}
+
 fn surface_point(collider: Collider, at: vec3<f32>, point: vec3<f32>) -> SurfacePoint {
     switch collider.shape {
         case SHAPE_SPHERE: {
@@ -436,6 +449,9 @@ fn surface_point(collider: Collider, at: vec3<f32>, point: vec3<f32>) -> Surface
         }
         case SHAPE_CYLINDER: {
             return cylinder_surface(point - at, collider.extent.x, 0.5 * collider.extent.y);
+        }
+        case SHAPE_CAPSULE: {
+            return capsule_surface(point - at, collider.extent.x, 0.5 * collider.extent.y - collider.extent.x);
         }
         default: {
             return SurfacePoint(dot(point - at, collider.extent.xyz), collider.extent.xyz);

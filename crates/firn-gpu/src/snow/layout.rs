@@ -202,6 +202,15 @@ pub fn pack_colliders(colliders: &[firn_core::scene::Collider]) -> PackedCollide
                 gpu.reference = center.extend(0.0).into();
                 gpu.extent = [radius, height, 0.0, 0.0];
             }
+            ColliderGeometry::Capsule {
+                center,
+                radius,
+                height,
+            } => {
+                gpu.shape = 6;
+                gpu.reference = center.extend(0.0).into();
+                gpu.extent = [radius, height, 0.0, 0.0];
+            }
             ColliderGeometry::MeshSequence(ref sequence) => {
                 let region = SequenceRegion::reserve(index, sequence, &mut fields);
                 gpu.shape = 5;

@@ -46,6 +46,7 @@ pub fn scene_with(body: Shape, velocity: Vec3, transfer: Transfer, cell_size: f3
             clumps: None,
         }],
         colliders: Vec::<Collider>::new(),
+        rigid_bodies: Vec::new(),
         output: OutputSettings {
             directory: PathBuf::from("out/test"),
             formats: vec![CacheFormat::Ply],

@@ -246,7 +246,13 @@ impl Solids {
                 (Triangles::Sphere, solid(center, Vec3::splat(radius)))
             }
             ColliderGeometry::Box { center, size } => (Triangles::Cube, solid(center, size)),
+            // A capsule is drawn as the cylinder around it.
             ColliderGeometry::Cylinder {
+                center,
+                radius,
+                height,
+            }
+            | ColliderGeometry::Capsule {
                 center,
                 radius,
                 height,

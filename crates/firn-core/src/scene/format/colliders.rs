@@ -432,6 +432,20 @@ pub(super) fn check_collider(path: &KeyPath, collider: &Collider) -> Check {
                 "set the length along the axis in metres, e.g. height = 0.2".to_string(),
             )?;
         }
+        ColliderGeometry::Capsule {
+            center,
+            radius,
+            height,
+        } => {
+            check_ball(path, center, radius)?;
+            ensure(
+                height.is_finite() && height >= 2.0 * radius,
+                path.key("height"),
+                "at least twice the radius (the length end to end)",
+                Num(f64::from(height)),
+                format!("set height = {} or more", 2.0 * radius),
+            )?;
+        }
         ColliderGeometry::Mesh(ref mesh) => {
             check_mesh_placement(path, &mesh.placement)?;
             check_sdf_spacing(path, mesh.sdf_spacing)?;

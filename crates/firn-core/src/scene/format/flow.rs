@@ -193,6 +193,7 @@ pub(super) fn resolve_flow_scene(raw: RawScene, origin: &str) -> Result<Scene, I
         materials: Vec::new(),
         bodies: Vec::new(),
         colliders: Vec::new(),
+        rigid_bodies: Vec::new(),
         output,
         camera,
         render,

@@ -263,6 +263,7 @@ fn resolve(raw: RawScene, origin: &str) -> Result<Scene, Issue> {
         materials,
         bodies,
         colliders,
+        rigid_bodies: Vec::new(),
         output,
         camera,
         render,
