@@ -88,9 +88,16 @@ impl Command {
     }
 }
 
-/// Why a scene cannot run split between `ranks` ranks, if it cannot.
+/// Why a scene cannot run split between `ranks` ranks (under MPI, even
+/// one), if it cannot.
 pub fn refusal(scene: &Scene, ranks: usize) -> Option<String> {
     use firn_core::scene::Integrator;
+    if !scene.rigid_bodies.is_empty() {
+        return Some(format!(
+            "scene `{}` has [[rigid_bodies]], whose impulse sums are not traded between MPI ranks yet\n  fix: run it without mpirun (one process uses every core)",
+            scene.name
+        ));
+    }
     if ranks == 1 || scene.kind.flow().is_some() {
         return None;
     }

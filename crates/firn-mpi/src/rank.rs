@@ -249,6 +249,8 @@ impl<E: Exchange> RankSnow<E> {
             // Refused under MPI (`driver::refusal`): no scene split here has drift.
             drift: Default::default(),
             escaped: Default::default(),
+            // Refused under MPI as well.
+            rigid: None,
         })
     }
 
@@ -311,6 +313,8 @@ impl<E: Exchange> RankSnow<E> {
             // Refused under MPI (`driver::refusal`): no scene split here has drift.
             drift: Default::default(),
             escaped: Default::default(),
+            // Refused under MPI as well.
+            rigid: None,
         }
     }
 

@@ -2,13 +2,16 @@
 //! scattered momentum, v_i = p_i / m_i, the forces and gravity,
 //! v_i* = v_i + Δt (f_i / m_i + g), the wind's drag where the scene has one
 //! ([`crate::wind`], equation W3), and the grid-based collisions with the
-//! colliders (Quellcode 12). [`crate::reference::update_grid_velocities`]
-//! is the plain form of this stage.
+//! colliders (Quellcode 12), then the rigid bodies, whose momentum exchange
+//! with each node is summed ([`crate::coupling`]).
+//! [`crate::reference::update_grid_velocities`] is the plain form of this
+//! stage.
 
 use glam::{DVec3, IVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::contact::Colliders;
+use crate::coupling::{BodyContacts, ImpulseSum};
 use crate::grid::{BLOCK_NODES, Grid, GridLayout, Node};
 use crate::wind::{AirDrag, relax};
 
@@ -42,11 +45,20 @@ pub struct WindStep<'a> {
     pub time: f64,
 }
 
+/// What the grid update gave the snow besides its forces.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct GridImpulses {
+    /// The wind's impulse, Σ m_i Δv_i of its drag (zero without wind), N s.
+    pub wind: DVec3,
+    /// Each rigid body's exchange with the snow, in body order.
+    pub bodies: Vec<ImpulseSum>,
+}
+
 /// Steps 4 and 5: v_i = p_i / m_i, v_i* = v_i + Δt (f_i / m_i + g), the
-/// wind's drag, then grid collisions, on every node with mass. Returns the
-/// impulse the wind gave the snow, Σ m_i Δv_i of its drag (zero without
-/// wind), summed block by block in a fixed order so that it is the same for
-/// any thread count.
+/// wind's drag, then grid collisions with the colliders and the rigid
+/// `bodies`, on every node with mass. Returns the wind's impulse, summed
+/// block by block in a fixed order, and the bodies' exchanges, summed in
+/// fixed point, so that both are the same for any thread count.
 pub fn update_grid(
     grid: &mut Grid,
     forces: GridForces,
@@ -54,32 +66,47 @@ pub fn update_grid(
     gravity: Vec3,
     colliders: &Colliders,
     wind: Option<WindStep>,
-) -> DVec3 {
+    bodies: &BodyContacts,
+) -> GridImpulses {
     let step = NodeStep {
         layout: grid.layout,
         forces,
         dt,
         gravity,
         colliders,
+        bodies,
     };
-    match wind {
-        None => {
-            for_each_active_block(grid, |block, nodes| {
-                step.update_block(block, nodes, None);
-            });
-            DVec3::ZERO
-        }
-        Some(wind) => {
-            let air = air_at_nodes(grid, &step, wind);
-            let impulses: Vec<DVec3> = grid
-                .par_blocks_mut()
-                .zip(air.par_chunks(BLOCK_NODES))
-                .with_min_len(MIN_BLOCKS_PER_TASK)
-                .map(|((block, nodes), air)| step.update_block(block, nodes, Some(air)))
-                .collect();
-            impulses.iter().sum()
+    if wind.is_none() && bodies.is_empty() {
+        for_each_active_block(grid, |block, nodes| {
+            step.update_block(block, nodes, None, &mut []);
+        });
+        return GridImpulses::default();
+    }
+    let air = wind.map(|wind| air_at_nodes(grid, &step, wind));
+    let per_block: Vec<(DVec3, Vec<ImpulseSum>)> = grid
+        .par_blocks_mut()
+        .enumerate()
+        .with_min_len(MIN_BLOCKS_PER_TASK)
+        .map(|(index, (block, nodes))| {
+            let air = air
+                .as_ref()
+                .map(|air| &air[index * BLOCK_NODES..(index + 1) * BLOCK_NODES]);
+            let mut sums = vec![ImpulseSum::default(); bodies.len()];
+            let wind = step.update_block(block, nodes, air, &mut sums);
+            (wind, sums)
+        })
+        .collect();
+    let mut impulses = GridImpulses {
+        wind: DVec3::ZERO,
+        bodies: vec![ImpulseSum::default(); bodies.len()],
+    };
+    for (wind, sums) in &per_block {
+        impulses.wind += *wind;
+        for (total, sum) in impulses.bodies.iter_mut().zip(sums) {
+            total.merge(sum);
         }
     }
+    impulses
 }
 
 /// The air at a node: its velocity and the rate of its drag on the node's
@@ -129,6 +156,7 @@ struct NodeStep<'a> {
     dt: f32,
     gravity: Vec3,
     colliders: &'a Colliders<'a>,
+    bodies: &'a BodyContacts,
 }
 
 impl NodeStep<'_> {
@@ -145,8 +173,15 @@ impl NodeStep<'_> {
     }
 
     /// Updates the nodes of one block, blown by `air` where there is wind;
-    /// returns the wind's impulse on them.
-    fn update_block(&self, block: IVec3, nodes: &mut [Node], air: Option<&[NodeAir]>) -> DVec3 {
+    /// returns the wind's impulse on them and adds the rigid bodies'
+    /// exchanges with them to `sums`.
+    fn update_block(
+        &self,
+        block: IVec3,
+        nodes: &mut [Node],
+        air: Option<&[NodeAir]>,
+        sums: &mut [ImpulseSum],
+    ) -> DVec3 {
         let mut impulse = DVec3::ZERO;
         for (local, node) in nodes.iter_mut().enumerate() {
             let mass = node.mass();
@@ -163,7 +198,11 @@ impl NodeStep<'_> {
                 .layout
                 .node_position(GridLayout::node_in_block(block, local));
             node.velocity_mass = velocity.extend(mass);
-            node.set_velocity_new(self.colliders.collide(position, velocity_new));
+            let mut collided = self.colliders.collide(position, velocity_new);
+            if !self.bodies.is_empty() {
+                collided = self.bodies.collide(position, mass, collided, sums);
+            }
+            node.set_velocity_new(collided);
         }
         impulse
     }

@@ -20,6 +20,7 @@
 pub mod binning;
 pub mod block_sums;
 pub mod contact;
+pub mod coupling;
 pub mod diagnostics;
 mod disjoint;
 pub mod g2p;

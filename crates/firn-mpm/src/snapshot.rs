@@ -33,6 +33,9 @@ pub struct Snapshot {
     pub drift: Drift,
     /// Drift the wind carried out of the domain.
     pub escaped: Escaped,
+    /// The rigid bodies' whole state (firn-rigid's saved world), if the
+    /// scene has any and they have moved; `None` starts them afresh.
+    pub rigid: Option<Vec<u8>>,
 }
 
 impl Snapshot {
@@ -77,6 +80,7 @@ impl Snapshot {
             particles,
             drift: Drift::default(),
             escaped: Escaped::default(),
+            rigid: None,
         })
     }
 

@@ -6,6 +6,7 @@
 use firn_core::scene::{ColorBy, Scene};
 use glam::Mat3;
 
+use crate::coupling::RigidBodies;
 use crate::particles::Particles;
 use crate::simulation::{Diagnostics, Simulation, Snapshot, diagnostics};
 use crate::spindrift::{Drift, Escaped};
@@ -21,6 +22,15 @@ pub struct SnowView<'a> {
     particles: &'a Particles,
     drift: &'a Drift,
     escaped: Escaped,
+    rigid: Option<RigidView<'a>>,
+}
+
+/// The rigid bodies of a view: a running simulation's, or a snapshot's
+/// saved world.
+#[derive(Clone, Copy, Debug)]
+enum RigidView<'a> {
+    Live(&'a RigidBodies),
+    Saved(&'a [u8]),
 }
 
 impl Simulation {
@@ -36,6 +46,7 @@ impl Simulation {
             particles: self.particles(),
             drift: self.drift(),
             escaped: self.escaped(),
+            rigid: self.rigid_world().map(RigidView::Live),
         }
     }
 }
@@ -52,6 +63,7 @@ impl Snapshot {
             particles: &self.particles,
             drift: &self.drift,
             escaped: self.escaped,
+            rigid: self.rigid.as_deref().map(RigidView::Saved),
         }
     }
 }
@@ -91,6 +103,26 @@ impl<'a> SnowView<'a> {
     /// The drift the wind carried out of the domain so far.
     pub fn escaped(self) -> Escaped {
         self.escaped
+    }
+
+    /// The rigid bodies' whole state as a checkpoint keeps it
+    /// ([`Snapshot::rigid`]); `None` without bodies.
+    pub fn rigid_bytes(self) -> Option<Vec<u8>> {
+        match self.rigid? {
+            RigidView::Live(bodies) => Some(bodies.to_bytes()),
+            RigidView::Saved(bytes) => Some(bytes.to_vec()),
+        }
+    }
+
+    /// Every rigid body's state, in scene order (none without bodies).
+    pub fn rigid_bodies(self) -> Vec<firn_rigid::BodyState> {
+        match self.rigid {
+            None => Vec::new(),
+            Some(RigidView::Live(bodies)) => bodies.states(),
+            Some(RigidView::Saved(bytes)) => RigidBodies::from_bytes(self.scene, bytes)
+                .map(|bodies| bodies.states())
+                .unwrap_or_default(),
+        }
     }
 
     /// Current density of every particle (kg/m³).

@@ -35,6 +35,7 @@ use firn_core::math::lanes::Simd;
 use firn_core::scene::{Scene, Shape, Transfer, Wind};
 use firn_mpm::binning::Bins;
 use firn_mpm::contact::{ColliderSet, Colliders, PlacedCollider};
+use firn_mpm::coupling::BodyContacts;
 use firn_mpm::g2p::{self, UpdateContext};
 use firn_mpm::grid::{Grid, GridLayout};
 use firn_mpm::grid_update::{self, GridForces, WindStep};
@@ -213,6 +214,7 @@ impl Setup {
             self.scene.solver.gravity,
             &colliders,
             self.wind_step(),
+            &BodyContacts::default(),
         );
     }
 }
@@ -418,6 +420,7 @@ fn whole_substeps_match_the_reference() {
             particles: particles.clone(),
             drift: Default::default(),
             escaped: Default::default(),
+            rigid: None,
         };
         let mut fast = Simulation::from_snapshot(scene, snapshot).unwrap();
         let mut plain = particles;

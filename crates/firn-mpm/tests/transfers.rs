@@ -7,6 +7,7 @@ use firn_core::scene::Transfer;
 use firn_mpm::Particles;
 use firn_mpm::binning::Bins;
 use firn_mpm::contact::Colliders;
+use firn_mpm::coupling::BodyContacts;
 use firn_mpm::g2p::{self, UpdateContext, preferred_simd};
 use firn_mpm::grid::{Grid, GridLayout};
 use firn_mpm::grid_update::{self, GridForces};
@@ -98,6 +99,7 @@ fn round_trip(transfer_scheme: Transfer) {
         Vec3::ZERO,
         &Colliders::new(&[]),
         None,
+        &BodyContacts::default(),
     );
     let (grid_mass, grid_momentum, grid_angular) = grid_totals(&grid);
     let momentum = DVec3::from_array(before.momentum);

@@ -3,11 +3,15 @@
 //! metadata and named raw arrays). A snow checkpoint holds the particle
 //! arrays and the counters as bits, and its spindrift (the drift arrays and
 //! the escaped tally; a checkpoint written before spindrift existed has
-//! none and reads as no drift); a flow checkpoint its snapshot's arrays.
+//! none and reads as no drift), and its rigid bodies' saved world (firn-rigid,
+//! base64 in the metadata) where it has any; a flow checkpoint its snapshot's
+//! arrays.
 //! Either resumes on either backend.
 
 use std::path::{Path, PathBuf};
 
+use base64::Engine;
+use base64::engine::general_purpose::STANDARD as BASE64;
 use firn_core::Scene;
 use firn_core::scene::SceneKind;
 use firn_flow::{FlowSnapshot, FlowView};
@@ -203,6 +207,9 @@ fn snow_checkpoint<'a>(
     checkpoint.push_array("drift_mass", &drift.mass);
     checkpoint.push_array("drift_volume", &drift.volume);
     checkpoint.push_array("drift_material", &drift.material);
+    if let Some(bytes) = snow.rigid_bytes() {
+        checkpoint.meta["rigid_bodies"] = BASE64.encode(bytes).into();
+    }
     checkpoint
 }
 
@@ -268,6 +275,23 @@ fn saved_scene(checkpoint: &Checkpoint) -> serde_json::Value {
     checkpoint.meta.get("scene").cloned().unwrap_or_default()
 }
 
+/// The rigid bodies' saved world of a snow checkpoint, if it has one.
+fn read_rigid_bodies(
+    checkpoint: &Checkpoint,
+    path: &Path,
+) -> Result<Option<Vec<u8>>, CheckpointError> {
+    let Some(text) = checkpoint.meta.get("rigid_bodies") else {
+        return Ok(None);
+    };
+    text.as_str()
+        .and_then(|text| BASE64.decode(text).ok())
+        .map(Some)
+        .ok_or_else(|| CheckpointError::Implausible {
+            path: path.to_path_buf(),
+            reason: "its rigid_bodies are not base64 text".into(),
+        })
+}
+
 /// Reads a checkpoint written by [`snow_checkpoint`].
 fn read_snow(checkpoint: &Checkpoint, path: &Path) -> Result<SavedCheckpoint, CheckpointError> {
     let particles = Particles {
@@ -294,6 +318,7 @@ fn read_snow(checkpoint: &Checkpoint, path: &Path) -> Result<SavedCheckpoint, Ch
             particles,
             drift,
             escaped,
+            rigid: read_rigid_bodies(checkpoint, path)?,
         }),
     })
 }

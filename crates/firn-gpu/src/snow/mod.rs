@@ -205,6 +205,13 @@ impl GpuSnow {
                 fix: "run it through firn_gpu::GpuFlow".into(),
             });
         }
+        if !scene.rigid_bodies.is_empty() {
+            return Err(GpuError::Unsupported {
+                what: "the scene has rigid bodies, which the GPU backend does not couple yet"
+                    .into(),
+                fix: "run with --backend cpu".into(),
+            });
+        }
         if let Some(wind) = &scene.wind
             && wind.field.obstacles.len() > MAX_WIND_OBSTACLES
         {
@@ -360,6 +367,7 @@ impl GpuSnow {
             particles,
             drift,
             escaped,
+            rigid: None,
         })
     }
 

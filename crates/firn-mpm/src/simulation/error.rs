@@ -17,6 +17,9 @@ pub enum SimulationError {
         "the scene has no particles: add a [[bodies]] table or make a body larger than a grid cell"
     )]
     NoParticles,
+    /// The rigid bodies could not be made or restored.
+    #[error("rigid bodies: {0}")]
+    RigidBodies(#[from] firn_rigid::RigidError),
     /// The state went bad during a substep; nothing of that substep is kept.
     #[error("at t = {time:.4} s (substep {step}, Δt = {dt:.3e} s) particle {particle} {what} at ({x:.3}, {y:.3}, {z:.3}).\n  likely cause: {hint}", x = position.x, y = position.y, z = position.z)]
     Unstable {

@@ -13,6 +13,7 @@ use glam::DVec3;
 
 use crate::binning::Bins;
 use crate::contact::ColliderSet;
+use crate::coupling::RigidBodies;
 use crate::g2p::{GatherStats, preferred_simd};
 use crate::grid::{Grid, GridLayout};
 use crate::implicit::{ImplicitSolver, SolverStats};
@@ -64,6 +65,8 @@ pub struct Simulation {
     material_densities: Vec<f32>,
     /// Drift the wind carried out of the domain.
     escaped: Escaped,
+    /// The scene's rigid bodies, if it has any.
+    rigid: Option<RigidBodies>,
 }
 
 impl Simulation {
@@ -80,6 +83,10 @@ impl Simulation {
         let particles = snapshot.particles;
         let mut simulation =
             Simulation::with_particles(scene, particles, snapshot.time, snapshot.steps);
+        simulation.rigid = match &snapshot.rigid {
+            Some(bytes) => Some(RigidBodies::from_bytes(&simulation.scene, bytes)?),
+            None => RigidBodies::new(&simulation.scene)?,
+        };
         simulation.drift = snapshot.drift;
         simulation.escaped = snapshot.escaped;
         simulation.stats = GatherStats {
@@ -115,6 +122,7 @@ impl Simulation {
             wind_impulse: DVec3::ZERO,
             drift: Drift::default(),
             escaped: Escaped::default(),
+            rigid: None,
             material_densities: scene.materials.iter().map(|m| m.density).collect(),
             scene,
         }
@@ -123,8 +131,13 @@ impl Simulation {
     /// A simulation of no particles yet, at simulated time `time` after
     /// `steps` substeps, for a caller that brings its own
     /// ([`Simulation::set_particles`]): one part of a run split between
-    /// processes (firn-mpi), which steps by [`Simulation::step_part`].
+    /// processes (firn-mpi), which steps by [`Simulation::step_part`]. Its
+    /// scene has no rigid bodies (firn-mpi refuses them).
     pub fn empty(scene: Scene, time: f64, steps: u64) -> Simulation {
+        assert!(
+            scene.rigid_bodies.is_empty(),
+            "a part of a split run has no rigid bodies"
+        );
         Simulation::with_particles(scene, Particles::default(), time, steps)
     }
 
@@ -221,7 +234,18 @@ impl Simulation {
             particles: self.particles.clone(),
             drift: self.drift.clone(),
             escaped: self.escaped,
+            rigid: self.rigid.as_ref().map(RigidBodies::to_bytes),
         }
+    }
+
+    /// The rigid bodies, if the scene has any.
+    pub(crate) fn rigid_world(&self) -> Option<&RigidBodies> {
+        self.rigid.as_ref()
+    }
+
+    /// Every rigid body's state, in scene order (none without).
+    pub fn rigid_bodies(&self) -> Vec<firn_rigid::BodyState> {
+        self.view().rigid_bodies()
     }
 
     /// Statistics of the semi-implicit solves since this simulation was

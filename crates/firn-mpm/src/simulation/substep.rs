@@ -5,25 +5,28 @@
 //!    [`REORDER_INTERVAL`] substeps;
 //! 2. scatter mass, momentum and force to the grid, which first gets
 //!    storage for the blocks the particles reach (p2g.rs);
-//! 3. update the grid velocities: forces, gravity, wind and the grid
-//!    collisions (grid_update.rs, contact.rs, wind.rs);
+//! 3. update the grid velocities: forces, gravity, wind, the grid
+//!    collisions and the rigid bodies' push (grid_update.rs, contact.rs,
+//!    wind.rs, coupling.rs);
 //! 4. the semi-implicit solve, with that integrator (implicit.rs);
 //! 5. gather velocities back to the particles, with plasticity and stress
 //!    (snow_model.rs), particle collisions and advection (g2p.rs);
 //! 6. spindrift, with a wind that lifts snow (spindrift.rs);
-//! 7. clear the grid for the next substep (grid_update.rs).
+//! 7. clear the grid for the next substep (grid_update.rs);
+//! 8. step the rigid bodies with what the snow gave them (coupling.rs).
 //!
 //! A part of a run split between processes (MPI ranks, firn-mpi) takes the
 //! same stages, trading block sums in the scatter ([`SumTrade`]).
 
 use firn_core::scene::{Integrator, TimeStep, Transfer};
-use glam::{DVec3, Vec3};
+use glam::Vec3;
 
 use super::{LEAVE_TOLERANCE_CELLS, REORDER_INTERVAL, Simulation, SimulationError};
 use crate::block_sums::SumTrade;
 use crate::contact::{Colliders, PlacedCollider};
+use crate::coupling::{BodyContacts, RigidBodies};
 use crate::g2p::{self, GatherStats, UpdateContext};
-use crate::grid_update::{self, GridForces, WindStep};
+use crate::grid_update::{self, GridForces, GridImpulses, WindStep};
 use crate::implicit::ImplicitStep;
 use crate::p2g;
 use crate::particles::Particles;
@@ -84,8 +87,13 @@ impl Simulation {
         clock.lap(&mut self.profile.scatter);
         let placed = self.colliders.placed_at(self.time + f64::from(dt));
         let colliders = Colliders::new(&placed);
+        let bodies = self
+            .rigid
+            .as_ref()
+            .map(RigidBodies::contacts)
+            .unwrap_or_default();
         clock.lap(&mut self.profile.colliders);
-        let wind_impulse = self.update_grid(dt, &colliders);
+        let impulses = self.update_grid(dt, &colliders, &bodies);
         clock.lap(&mut self.profile.grid_update);
         self.solve_implicit(dt, &placed);
         clock.lap(&mut self.profile.implicit_solve);
@@ -102,7 +110,11 @@ impl Simulation {
         self.time += f64::from(dt);
         self.steps += 1;
         self.stats = stats;
-        self.wind_impulse += wind_impulse;
+        self.wind_impulse += impulses.wind;
+        if let Some(rigid) = self.rigid.as_mut() {
+            rigid.advance(&impulses.bodies, dt, &self.scene.colliders, self.time);
+            clock.lap(&mut self.profile.colliders);
+        }
         Ok(dt)
     }
 
@@ -131,10 +143,17 @@ impl Simulation {
 
     /// Stage 3 (steps 4 and 5): grid velocities with forces, gravity and
     /// the wind's drag, then the grid collisions against `colliders`
-    /// (placed at the end of the substep), except with the semi-implicit
-    /// integrator, whose solve applies them itself to learn which velocity
-    /// components they fix. Returns the wind's impulse on the snow.
-    fn update_grid(&mut self, dt: f32, colliders: &Colliders) -> DVec3 {
+    /// (placed at the end of the substep) and the rigid `bodies`, except
+    /// with the semi-implicit integrator, whose solve applies the colliders
+    /// itself to learn which velocity components they fix (the scene format
+    /// refuses rigid bodies with it). Returns the wind's impulse on the snow
+    /// and the bodies' exchanges with it.
+    fn update_grid(
+        &mut self,
+        dt: f32,
+        colliders: &Colliders,
+        bodies: &BodyContacts,
+    ) -> GridImpulses {
         let forces = match self.scene.solver.transfer {
             Transfer::PicFlip => GridForces::Separate,
             Transfer::Apic => GridForces::InMomentum,
@@ -155,6 +174,7 @@ impl Simulation {
             self.scene.solver.gravity,
             grid_colliders,
             wind,
+            bodies,
         )
     }
 
@@ -242,13 +262,23 @@ impl Simulation {
                     Integrator::Explicit => self.stats.max_wave_speed_squared.sqrt(),
                     Integrator::SemiImplicit(_) => 0.0,
                 };
-                let speed = self.stats.max_speed_squared.sqrt() + wave_speed;
+                let speed = self.fastest_motion() + wave_speed;
                 if speed > 0.0 {
                     (cfl * self.scene.domain.cell_size / speed).min(max_dt)
                 } else {
                     max_dt
                 }
             }
+        }
+    }
+
+    /// The fastest particle's speed, or a rigid body's material if that is
+    /// faster, m/s.
+    fn fastest_motion(&self) -> f32 {
+        let particles = self.stats.max_speed_squared.sqrt();
+        match &self.rigid {
+            Some(rigid) => particles.max(rigid.max_speed()),
+            None => particles,
         }
     }
 

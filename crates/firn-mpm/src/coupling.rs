@@ -1,0 +1,205 @@
+//! Two-way coupling with rigid bodies (`[[rigid_bodies]]`, simulated by
+//! rapier in firn-rigid): the impulse exchange through the grid of Hu et
+//! al. 2018 (MLS-MPM, section 4, two-way rigid coupling).
+//!
+//! In the grid update every body is a collider placed where it is at the
+//! start of the substep, moving at v + ω × (x − c) with its contact mode
+//! and friction ([`crate::contact`]). Where a body changes a node's
+//! velocity from v_i to v_i', the node's snow gains the momentum
+//! Δp_i = m_i (v_i' − v_i); the body gets −Σ Δp_i and the angular impulse
+//! −Σ (x_i − c) × Δp_i about its centre of mass c, and rapier steps it by
+//! the same Δt with them. What the snow gains the body loses, node by node,
+//! so linear and angular momentum are kept exactly by the exchange (the
+//! transfers, APIC, keep them too). The sums are 64-bit fixed point
+//! ([`FIXED_SCALE`]), so they are the same for any thread count, block
+//! order or split between processes.
+
+use firn_core::scene::{Collider, RigidBody, Scene};
+use firn_rigid::{BodyImpulse, BodyState, RigidError, RigidWorld};
+use glam::{DVec3, Vec3};
+
+use crate::contact::{PlacedCollider, Spin};
+
+/// Fixed-point units per N s of the impulse sums: a resolution of
+/// 2.3e-10 N s and a range of ±2.1e9 N s.
+pub const FIXED_SCALE: f64 = 4_294_967_296.0;
+
+/// One body's momentum exchange with the snow in a substep, summed in
+/// fixed point: the snow's Δp and its moment about the body's centre of
+/// mass.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ImpulseSum {
+    /// Σ Δp_i, in units of 1 / [`FIXED_SCALE`] N s.
+    pub linear: [i64; 3],
+    /// Σ (x_i − c) × Δp_i, in units of 1 / [`FIXED_SCALE`] N m s.
+    pub angular: [i64; 3],
+}
+
+impl ImpulseSum {
+    /// Adds a node's Δp at arm `arm` from the centre of mass.
+    fn add(&mut self, momentum: Vec3, arm: Vec3) {
+        let moment = arm.cross(momentum);
+        for axis in 0..3 {
+            self.linear[axis] = self.linear[axis].wrapping_add(to_fixed(momentum[axis]));
+            self.angular[axis] = self.angular[axis].wrapping_add(to_fixed(moment[axis]));
+        }
+    }
+
+    /// Adds another sum (exact and order-free: integers).
+    pub fn merge(&mut self, other: &ImpulseSum) {
+        for axis in 0..3 {
+            self.linear[axis] = self.linear[axis].wrapping_add(other.linear[axis]);
+            self.angular[axis] = self.angular[axis].wrapping_add(other.angular[axis]);
+        }
+    }
+
+    /// The impulse on the body: the opposite of what the snow gained.
+    pub fn on_body(&self) -> BodyImpulse {
+        let value = |words: [i64; 3]| {
+            -Vec3::new(
+                (words[0] as f64 / FIXED_SCALE) as f32,
+                (words[1] as f64 / FIXED_SCALE) as f32,
+                (words[2] as f64 / FIXED_SCALE) as f32,
+            )
+        };
+        BodyImpulse {
+            linear: value(self.linear),
+            angular: value(self.angular),
+        }
+    }
+
+    /// The snow's momentum gain, N s.
+    pub fn snow_momentum(&self) -> DVec3 {
+        DVec3::from_array(self.linear.map(|word| word as f64 / FIXED_SCALE))
+    }
+}
+
+/// A value in fixed point, rounded to nearest.
+fn to_fixed(value: f32) -> i64 {
+    (f64::from(value) * FIXED_SCALE).round() as i64
+}
+
+/// The bodies as the grid meets them in one substep.
+#[derive(Clone, Debug, Default)]
+pub struct BodyContacts {
+    bodies: Vec<(PlacedCollider, Vec3)>,
+}
+
+impl BodyContacts {
+    /// Whether there are no bodies.
+    pub fn is_empty(&self) -> bool {
+        self.bodies.is_empty()
+    }
+
+    /// Number of bodies.
+    pub fn len(&self) -> usize {
+        self.bodies.len()
+    }
+
+    /// Applies every body's contact to the velocity `velocity` of a node at
+    /// `point` with snow mass `mass`, adding each body's exchange to `sums`.
+    #[inline]
+    pub fn collide(
+        &self,
+        point: Vec3,
+        mass: f32,
+        mut velocity: Vec3,
+        sums: &mut [ImpulseSum],
+    ) -> Vec3 {
+        for ((body, center_of_mass), sum) in self.bodies.iter().zip(sums) {
+            let collided = body.collide(point, velocity);
+            if collided != velocity {
+                sum.add(mass * (collided - velocity), point - *center_of_mass);
+                velocity = collided;
+            }
+        }
+        velocity
+    }
+}
+
+/// The scene's rigid bodies: rapier's world, and what the grid needs to
+/// meet each.
+#[derive(Clone, Debug)]
+pub struct RigidBodies {
+    world: RigidWorld,
+    bodies: Vec<RigidBody>,
+}
+
+impl RigidBodies {
+    /// The bodies of `scene` at their start, or `None` if it has none.
+    pub fn new(scene: &Scene) -> Result<Option<RigidBodies>, RigidError> {
+        if scene.rigid_bodies.is_empty() {
+            return Ok(None);
+        }
+        Ok(Some(RigidBodies {
+            world: RigidWorld::new(scene)?,
+            bodies: scene.rigid_bodies.clone(),
+        }))
+    }
+
+    /// The bodies of `scene` as saved by [`RigidBodies::to_bytes`].
+    pub fn from_bytes(scene: &Scene, bytes: &[u8]) -> Result<RigidBodies, RigidError> {
+        Ok(RigidBodies {
+            world: RigidWorld::from_bytes(scene, bytes)?,
+            bodies: scene.rigid_bodies.clone(),
+        })
+    }
+
+    /// The whole state, for a snapshot.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        self.world.to_bytes()
+    }
+
+    /// Every body's state, in scene order.
+    pub fn states(&self) -> Vec<BodyState> {
+        self.world.states()
+    }
+
+    /// The bodies placed where they are now, as the grid meets them.
+    pub fn contacts(&self) -> BodyContacts {
+        let bodies = self
+            .bodies
+            .iter()
+            .zip(self.world.states())
+            .map(|(body, state)| {
+                let rotation = state.rotation * body.baked_rotation().inverse();
+                let placed = PlacedCollider {
+                    geometry: body.geometry.moved_to(state.position),
+                    velocity: state.velocity_at(state.position),
+                    contact: body.contact,
+                    spin: Some(Spin {
+                        center: state.position,
+                        rotation,
+                        inverse: rotation.inverse(),
+                        angular_velocity: state.angular_velocity,
+                    }),
+                    surface: None,
+                };
+                (placed, state.center_of_mass)
+            })
+            .collect();
+        BodyContacts { bodies }
+    }
+
+    /// The fastest any body's material moves: |v| + |ω| times its reach
+    /// from the centre of mass, m/s (what the next Δt must follow too).
+    pub fn max_speed(&self) -> f32 {
+        self.bodies
+            .iter()
+            .zip(self.world.states())
+            .map(|(body, state)| {
+                let reach =
+                    body.geometry.reach() + (state.center_of_mass - state.position).length();
+                state.velocity.length() + state.angular_velocity.length() * reach
+            })
+            .fold(0.0, f32::max)
+    }
+
+    /// Applies what the snow gave each body during a substep of length
+    /// `dt` and steps the bodies (and the moving `colliders`, placed at
+    /// `time_end`) by it.
+    pub fn advance(&mut self, sums: &[ImpulseSum], dt: f32, colliders: &[Collider], time_end: f64) {
+        let impulses: Vec<BodyImpulse> = sums.iter().map(ImpulseSum::on_body).collect();
+        self.world.step(&impulses, dt, colliders, time_end);
+    }
+}
