@@ -275,8 +275,8 @@ impl MeshCollider {
 }
 
 impl crate::Scene {
-    /// Builds the geometry of every mesh body and collider that lacks it,
-    /// as after reading the scene back from JSON.
+    /// Builds the geometry of every mesh body, collider and rigid body that
+    /// lacks it, as after reading the scene back from JSON.
     pub fn load_meshes(&mut self) -> Result<(), MeshError> {
         for body in &mut self.bodies {
             if let crate::scene::Shape::Mesh(mesh) = &mut body.shape
@@ -298,11 +298,19 @@ impl crate::Scene {
                 _ => {}
             }
         }
+        for body in &mut self.rigid_bodies {
+            if let crate::scene::ColliderGeometry::Mesh(mesh) = &mut body.geometry
+                && !mesh.field.is_loaded()
+            {
+                mesh.build()?;
+            }
+        }
         Ok(())
     }
 
     /// What the inspection of the scene's meshes found, each prefixed by the
-    /// body or collider it belongs to, e.g. `bodies[0] (bunny.obj): ...`.
+    /// body, collider or rigid body it belongs to, e.g.
+    /// `bodies[0] (bunny.obj): ...`.
     pub fn mesh_warnings(&self) -> Vec<String> {
         let bodies = self.bodies.iter().enumerate().filter_map(|(index, body)| {
             let crate::scene::Shape::Mesh(mesh) = &body.shape else {
@@ -330,8 +338,21 @@ impl crate::Scene {
                 };
                 Some((format!("colliders[{index}]"), file, warnings))
             });
+        let rigid_bodies = self
+            .rigid_bodies
+            .iter()
+            .enumerate()
+            .filter_map(|(index, body)| match &body.geometry {
+                crate::scene::ColliderGeometry::Mesh(mesh) => Some((
+                    format!("rigid_bodies[{index}]"),
+                    &mesh.placement.file,
+                    &mesh.warnings,
+                )),
+                _ => None,
+            });
         bodies
             .chain(colliders)
+            .chain(rigid_bodies)
             .flat_map(|(owner, file, warnings)| {
                 let file = file.display().to_string();
                 warnings

@@ -1056,11 +1056,9 @@ fn box_signed_distance(p: Vec3, half: Vec3) -> (f32, Vec3) {
     }
 }
 
-/// Signed distance and outward normal of a cylinder centred at the origin,
-/// its axis along y, of `radius` and half length `half_height`.
-#[inline]
 /// Signed distance and outward normal of a capsule about the origin whose
 /// axis segment runs along y from −`half_segment` to `half_segment`.
+#[inline]
 fn capsule_signed_distance(p: Vec3, radius: f32, half_segment: f32) -> (f32, Vec3) {
     let offset = p - Vec3::new(0.0, p.y.clamp(-half_segment, half_segment), 0.0);
     let length = offset.length();
@@ -1072,6 +1070,9 @@ fn capsule_signed_distance(p: Vec3, radius: f32, half_segment: f32) -> (f32, Vec
     (length - radius, normal)
 }
 
+/// Signed distance and outward normal of a cylinder centred at the origin,
+/// its axis along y, of `radius` and half length `half_height`.
+#[inline]
 fn cylinder_signed_distance(p: Vec3, radius: f32, half_height: f32) -> (f32, Vec3) {
     let across = (p.x * p.x + p.z * p.z).sqrt();
     let outward = if across > 0.0 {

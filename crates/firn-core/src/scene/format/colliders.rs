@@ -5,11 +5,11 @@ use serde::Deserialize;
 use super::domain::{RawContact, RawMode, check_contact, contact};
 use super::issue::{Check, Issue, KeyPath};
 use super::shapes::{
-    RawScale, check_ball, check_box, check_mesh_placement, check_sdf_size, check_sdf_spacing,
-    mesh_issue, mesh_placement,
+    RawScale, check_ball, check_box, check_capsule, check_cylinder, check_mesh_placement,
+    check_sdf_size, check_sdf_spacing, mesh_issue, mesh_placement,
 };
 use super::values::{
-    Num, ensure, finite_vec, missing, positive, reject, require, unit_or_zero, unit_vec, vec3,
+    Num, ensure, finite_vec, missing, reject, require, unit_or_zero, unit_vec, vec3,
 };
 use crate::scene::mesh::{MAX_SDF_SAMPLES, MeshCollider};
 use crate::scene::mesh_sequence::MeshSequenceCollider;
@@ -49,6 +49,7 @@ enum RawColliderShape {
     Sphere,
     Box,
     Cylinder,
+    Capsule,
     Mesh,
 }
 
@@ -67,6 +68,7 @@ fn collider_shape_name(shape: RawColliderShape) -> &'static str {
         RawColliderShape::Sphere => "sphere",
         RawColliderShape::Box => "box",
         RawColliderShape::Cylinder => "cylinder",
+        RawColliderShape::Capsule => "capsule",
         RawColliderShape::Mesh => "mesh",
     }
 }
@@ -96,8 +98,8 @@ fn resolve_collider(
 ) -> Result<Collider, Issue> {
     let shape = raw.shape.ok_or_else(|| {
         missing(path.key("shape"), "the collider's shape").with_hint(
-            "add shape = \"plane\", \"sphere\", \"box\", \"cylinder\" or \"mesh\" with its \
-                 dimensions",
+            "add shape = \"plane\", \"sphere\", \"box\", \"cylinder\", \"capsule\" or \"mesh\" \
+                 with its dimensions",
         )
     })?;
     if raw.sequence.is_some() && matches!(shape, RawColliderShape::Mesh) {
@@ -119,7 +121,10 @@ fn resolve_collider(
         reject(&raw.scale, path.key("scale"), name, takes)?;
         reject(&raw.sdf_spacing, path.key("sdf_spacing"), name, takes)?;
     }
-    if !matches!(shape, RawColliderShape::Cylinder) {
+    if !matches!(
+        shape,
+        RawColliderShape::Cylinder | RawColliderShape::Capsule
+    ) {
         let name = collider_shape_name(shape);
         reject(
             &raw.height,
@@ -197,6 +202,22 @@ fn resolve_collider(
                 center: vec3(require(raw.center, path.key("center"), "the centre")?),
                 radius: require(raw.radius, path.key("radius"), "the radius in metres")?,
                 height: require(raw.height, path.key("height"), "the length along its axis")?,
+            }
+        }
+        RawColliderShape::Capsule => {
+            let takes = "center, radius and height (its axis is y, turned by rotation; height is \
+                         the whole length, end to end)";
+            reject(&raw.point, path.key("point"), "capsule", takes)?;
+            reject(&raw.normal, path.key("normal"), "capsule", takes)?;
+            reject(&raw.size, path.key("size"), "capsule", takes)?;
+            ColliderGeometry::Capsule {
+                center: vec3(require(raw.center, path.key("center"), "the centre")?),
+                radius: require(raw.radius, path.key("radius"), "the radius in metres")?,
+                height: require(
+                    raw.height,
+                    path.key("height"),
+                    "the whole length along its axis, end to end",
+                )?,
             }
         }
     };
@@ -425,26 +446,14 @@ pub(super) fn check_collider(path: &KeyPath, collider: &Collider) -> Check {
             radius,
             height,
         } => {
-            check_ball(path, center, radius)?;
-            positive(
-                height,
-                path.key("height"),
-                "set the length along the axis in metres, e.g. height = 0.2".to_string(),
-            )?;
+            check_cylinder(path, center, radius, height)?;
         }
         ColliderGeometry::Capsule {
             center,
             radius,
             height,
         } => {
-            check_ball(path, center, radius)?;
-            ensure(
-                height.is_finite() && height >= 2.0 * radius,
-                path.key("height"),
-                "at least twice the radius (the length end to end)",
-                Num(f64::from(height)),
-                format!("set height = {} or more", 2.0 * radius),
-            )?;
+            check_capsule(path, center, radius, height)?;
         }
         ColliderGeometry::Mesh(ref mesh) => {
             check_mesh_placement(path, &mesh.placement)?;

@@ -72,7 +72,11 @@ pub(super) fn resolve_domain(raw: Option<RawDomain>) -> Result<Domain, Issue> {
 
 /// A contact table over [`Contact::default`].
 pub(super) fn contact(raw: Option<RawContact>) -> Contact {
-    let defaults = Contact::default();
+    contact_over(raw, Contact::default())
+}
+
+/// A contact table over `defaults`.
+pub(super) fn contact_over(raw: Option<RawContact>, defaults: Contact) -> Contact {
     let Some(raw) = raw else {
         return defaults;
     };

@@ -98,6 +98,14 @@ fn reject_snow_keys(raw: &RawScene) -> Check {
              [[flow.obstacles]]",
         ));
     }
+    if raw.rigid_bodies.is_some() {
+        return Err(snow_only(
+            KeyPath::of("rigid_bodies"),
+            "[[rigid_bodies]]",
+            "remove the [[rigid_bodies]] tables: flow particles do not push solids (the \
+             obstacles of a flow are spheres in [[flow.obstacles]])",
+        ));
+    }
     if raw.materials.is_some() {
         return Err(snow_only(
             KeyPath::of("materials"),
@@ -256,6 +264,11 @@ pub(super) fn check_flow_scene(scene: &Scene, flow: &FlowSettings) -> Check {
     let snow_parts = [
         ("bodies", "[[bodies]]", scene.bodies.is_empty()),
         ("colliders", "[[colliders]]", scene.colliders.is_empty()),
+        (
+            "rigid_bodies",
+            "[[rigid_bodies]]",
+            scene.rigid_bodies.is_empty(),
+        ),
         ("materials", "[materials]", scene.materials.is_empty()),
         ("wind", "[wind]", scene.wind.is_none()),
     ];

@@ -122,7 +122,9 @@ fn backticked(message: &str) -> Vec<String> {
 fn describe_expected(expected: &str, path: &KeyPath) -> String {
     if path.is_root() || path.0.len() == 1 && TABLES.contains(&path.leaf().unwrap_or("")) {
         return match path.leaf() {
-            Some("bodies") | Some("colliders") => "an array of tables".to_string(),
+            Some("bodies") | Some("colliders") | Some("rigid_bodies") => {
+                "an array of tables".to_string()
+            }
             _ => "a table".to_string(),
         };
     }
@@ -142,13 +144,14 @@ fn describe_expected(expected: &str, path: &KeyPath) -> String {
 }
 
 /// Top-level tables of the format.
-const TABLES: [&str; 9] = [
+const TABLES: [&str; 10] = [
     "domain",
     "time",
     "solver",
     "materials",
     "bodies",
     "colliders",
+    "rigid_bodies",
     "output",
     "flow",
     "compute",
@@ -169,7 +172,7 @@ fn example_hint(path: &KeyPath, wanted: &str) -> String {
     };
     if path.0.len() == 1 && TABLES.contains(&leaf) {
         return match leaf {
-            "bodies" | "colliders" => {
+            "bodies" | "colliders" | "rigid_bodies" => {
                 format!("write each entry as its own [[{leaf}]] table")
             }
             "materials" => "write each material as a [materials.NAME] table".to_string(),
@@ -228,6 +231,11 @@ pub(super) fn example(leaf: &str) -> Option<&'static str> {
         "scale" => "scale = 2.0",
         "rotation" => "rotation = [0.0, 90.0, 0.0]",
         "sdf_spacing" => "sdf_spacing = 0.01",
+        "solid" => "solid = \"hull\"",
+        "quaternion" => "quaternion = [0.0, 0.0, 0.0, 1.0]",
+        "mass" => "mass = 20.0",
+        "angular_velocity" => "angular_velocity = [0.0, 0.0, 0.0]",
+        "restitution" => "restitution = 0.3",
         "point" => "point = [0.0, 0.0, 0.0]",
         "normal" => "normal = [0.0, 1.0, 0.0]",
         "keyframes" => {

@@ -20,10 +20,11 @@
 //!
 //! Each top-level table has its own file of raw structs, resolution and
 //! checks: `domain.rs`, `time.rs`, `solver.rs`, `materials.rs`, `bodies.rs`,
-//! `colliders.rs`, `wind.rs`, `output.rs`, `camera.rs`, `render.rs`,
-//! `compute.rs` and `flow.rs` (with `field.rs`, the curl-noise keys `[flow]`
-//! and `[wind]` share, and `emitters.rs`). `shapes.rs` holds what bodies and
-//! colliders share, `values.rs` the rules on numbers and vectors, `issue.rs`
+//! `colliders.rs`, `rigid_bodies.rs` (with `rigid_body_overlap.rs`, whether
+//! each body starts clear of the other solids), `wind.rs`, `output.rs`,
+//! `camera.rs`, `render.rs`, `compute.rs` and `flow.rs` (with `field.rs`, the
+//! curl-noise keys `[flow]` and `[wind]` share, and `emitters.rs`).
+//! `shapes.rs` holds what bodies, colliders and rigid bodies share, `values.rs` the rules on numbers and vectors, `issue.rs`
 //! the key paths and their place in the text, `messages.rs` the wording of
 //! the deserializer's errors.
 
@@ -47,6 +48,7 @@ use issue::{Check, Issue, KeyPath, Source};
 use materials::RawMaterial;
 use output::RawOutput;
 use render::RawRender;
+use rigid_bodies::RawRigidBody;
 use solver::RawSolver;
 use time::RawTime;
 
@@ -63,6 +65,8 @@ mod materials;
 mod messages;
 mod output;
 mod render;
+mod rigid_bodies;
+mod rigid_body_overlap;
 mod shapes;
 mod solver;
 mod time;
@@ -73,6 +77,7 @@ pub use super::mesh::MAX_SDF_SAMPLES;
 pub use bodies::{DEFAULT_CLUMP_CONTRAST, MAX_LATTICE_POINTS, MAX_PARTICLES_PER_CELL};
 pub use domain::{MAX_CELLS, MAX_CELLS_PER_AXIS};
 pub use flow::MAX_FLOW_PARTICLES;
+pub use rigid_bodies::MAX_RIGID_BODIES;
 pub use time::MAX_FRAMES;
 
 /// The only scene format version this build reads.
@@ -178,6 +183,7 @@ struct RawScene {
     materials: Option<BTreeMap<String, RawMaterial>>,
     bodies: Option<Vec<RawBody>>,
     colliders: Option<Vec<RawCollider>>,
+    rigid_bodies: Option<Vec<RawRigidBody>>,
     output: Option<RawOutput>,
     camera: Option<RawCamera>,
     render: Option<RawRender>,
@@ -251,6 +257,8 @@ fn resolve(raw: RawScene, origin: &str) -> Result<Scene, Issue> {
         bodies::resolve_bodies(raw.bodies.unwrap_or_default(), &declared, origin)?;
     let colliders =
         colliders::resolve_colliders(raw.colliders.unwrap_or_default(), origin, &domain, &time)?;
+    let rigid_bodies =
+        rigid_bodies::resolve_rigid_bodies(raw.rigid_bodies.unwrap_or_default(), origin, &domain)?;
     let wind = wind::resolve_wind(raw.wind, &domain)?;
     let output = output::resolve_output(raw.output, &name, &SceneKind::Snow);
     let camera = camera::resolve_camera(raw.camera)?;
@@ -263,7 +271,7 @@ fn resolve(raw: RawScene, origin: &str) -> Result<Scene, Issue> {
         materials,
         bodies,
         colliders,
-        rigid_bodies: Vec::new(),
+        rigid_bodies,
         output,
         camera,
         render,
@@ -302,6 +310,7 @@ fn check_scene(scene: &Scene) -> Check {
         colliders::check_collider(&path, collider)?;
         colliders::check_turning_speed(&path, collider, &scene.domain, &scene.time)?;
     }
+    rigid_bodies::check_rigid_bodies(scene)?;
     output::check_output(&scene.output)?;
     output::check_vdb(&scene.output.vdb, scene.domain.cell_size)?;
     output::check_mesh(&scene.output.mesh, scene.domain.cell_size)?;

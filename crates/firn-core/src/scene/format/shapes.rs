@@ -150,3 +150,26 @@ pub(super) fn check_box(path: &KeyPath, center: Vec3, size: Vec3) -> Check {
     )?;
     Ok(())
 }
+
+/// Centre, radius and length of a cylinder along its axis.
+pub(super) fn check_cylinder(path: &KeyPath, center: Vec3, radius: f32, height: f32) -> Check {
+    check_ball(path, center, radius)?;
+    positive(
+        height,
+        path.key("height"),
+        "set the length along the axis in metres, e.g. height = 0.2".to_string(),
+    )
+}
+
+/// Centre and radius of a capsule, and its whole length end to end, which
+/// holds both round ends: at least twice the radius.
+pub(super) fn check_capsule(path: &KeyPath, center: Vec3, radius: f32, height: f32) -> Check {
+    check_ball(path, center, radius)?;
+    ensure(
+        height.is_finite() && height >= 2.0 * radius,
+        path.key("height"),
+        "at least twice the radius (the length end to end)",
+        Num::from(height),
+        format!("set height = {} or more", Num::from(2.0 * radius)),
+    )
+}
