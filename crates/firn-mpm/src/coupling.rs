@@ -123,6 +123,9 @@ impl BodyContacts {
 pub struct RigidBodies {
     world: RigidWorld,
     bodies: Vec<RigidBody>,
+    /// Σ of the linear impulse the snow gave each body since these were
+    /// made (from the scene or a snapshot), N s.
+    pushed: Vec<DVec3>,
 }
 
 impl RigidBodies {
@@ -134,6 +137,7 @@ impl RigidBodies {
         Ok(Some(RigidBodies {
             world: RigidWorld::new(scene)?,
             bodies: scene.rigid_bodies.clone(),
+            pushed: vec![DVec3::ZERO; scene.rigid_bodies.len()],
         }))
     }
 
@@ -142,6 +146,7 @@ impl RigidBodies {
         Ok(RigidBodies {
             world: RigidWorld::from_bytes(scene, bytes)?,
             bodies: scene.rigid_bodies.clone(),
+            pushed: vec![DVec3::ZERO; scene.rigid_bodies.len()],
         })
     }
 
@@ -153,6 +158,12 @@ impl RigidBodies {
     /// Every body's state, in scene order.
     pub fn states(&self) -> Vec<BodyState> {
         self.world.states()
+    }
+
+    /// The linear impulse the snow gave each body since these were made
+    /// (from the scene or a snapshot), N s, in scene order.
+    pub fn pushed(&self) -> &[DVec3] {
+        &self.pushed
     }
 
     /// The bodies placed where they are now, as the grid meets them.
@@ -199,6 +210,9 @@ impl RigidBodies {
     /// `dt` and steps the bodies (and the moving `colliders`, placed at
     /// `time_end`) by it.
     pub fn advance(&mut self, sums: &[ImpulseSum], dt: f32, colliders: &[Collider], time_end: f64) {
+        for (pushed, sum) in self.pushed.iter_mut().zip(sums) {
+            *pushed -= sum.snow_momentum();
+        }
         let impulses: Vec<BodyImpulse> = sums.iter().map(ImpulseSum::on_body).collect();
         self.world.step(&impulses, dt, colliders, time_end);
     }

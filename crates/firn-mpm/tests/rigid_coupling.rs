@@ -3,6 +3,7 @@
 //! bodies kept out of the snow, and the same bits on resume.
 
 use firn_core::Scene;
+use firn_core::math::lanes::Simd;
 use firn_core::scene::{Body, Contact, Material, RigidBody, Transfer};
 use firn_mpm::simulation::{Simulation, diagnostics};
 use firn_rigid::BodyState;
@@ -77,6 +78,74 @@ fn a_snowball_hitting_a_free_box_keeps_the_momentum_of_snow_and_box() {
     );
 }
 
+/// The bits of a run of [`snowball_at_box`] on `threads` threads with
+/// `simd`: the particles and the box.
+fn run_on(threads: usize, simd: Simd) -> String {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
+    pool.install(|| {
+        let mut simulation = Simulation::new(snowball_at_box()).unwrap();
+        simulation.set_simd(simd);
+        simulation.advance_to(0.05).unwrap();
+        let positions: Vec<u32> = simulation
+            .particles()
+            .position
+            .iter()
+            .flat_map(|p| p.to_array().map(f32::to_bits))
+            .collect();
+        format!("{positions:?} {:?}", simulation.rigid_bodies())
+    })
+}
+
+#[test]
+fn a_run_with_a_body_gives_the_same_bits_on_any_thread_count_and_instruction_set() {
+    let one = run_on(1, firn_mpm::g2p::preferred_simd());
+    assert_eq!(one, run_on(3, firn_mpm::g2p::preferred_simd()));
+    assert_eq!(one, run_on(2, Simd::Portable));
+}
+
+#[test]
+fn a_box_resting_on_packed_snow_is_held_up_by_the_snow_alone() {
+    let top = 0.2;
+    let size = Vec3::new(0.16, 0.08, 0.16);
+    let scene = Scene::builder("resting-box")
+        .domain(Vec3::ZERO, Vec3::splat(0.5), 1.0 / 32.0)
+        .duration(0.6)
+        .transfer(Transfer::Apic)
+        .material(Material::preset("icy").unwrap())
+        .body(
+            Body::cuboid(Vec3::new(0.25, 0.5 * top, 0.25), Vec3::new(0.5, top, 0.5))
+                .particles_per_cell(4),
+        )
+        .rigid_body(
+            RigidBody::cuboid(Vec3::new(0.25, top + 0.5 * size.y + 0.01, 0.25), size)
+                .density(600.0),
+        )
+        .build()
+        .unwrap();
+    let mut simulation = Simulation::new(scene).unwrap();
+    simulation.advance_to(0.4).unwrap();
+    let pushed_before = simulation.snow_impulse_on_bodies()[0];
+    simulation.advance_to(0.6).unwrap();
+    let pushed = simulation.snow_impulse_on_bodies()[0] - pushed_before;
+    let body = simulation.rigid_bodies()[0];
+    let force = pushed / 0.2;
+    let weight = f64::from(body.mass) * 9.81;
+    eprintln!("snow's force {force:?} N against a weight of {weight:.3} N; box {body:?}");
+    assert!(
+        body.velocity.length() < 0.02,
+        "the box still moves: {body:?}"
+    );
+    assert!(
+        (force.y - weight).abs() < 0.02 * weight,
+        "the snow holds up {:.3} N of {weight:.3} N",
+        force.y
+    );
+    assert!(force.x.abs().max(force.z.abs()) < 0.02 * weight);
+}
+
 #[test]
 fn a_run_with_a_body_resumes_to_the_same_bits() {
     let scene = snowball_at_box();
@@ -92,7 +161,8 @@ fn a_run_with_a_body_resumes_to_the_same_bits() {
 }
 
 /// A ball of `density` dropped onto a slab of powder; returns how deep its
-/// bottom ends below the slab's top, m.
+/// bottom ends below the slab's top, m. No particle may be more than half
+/// a cell inside the ball at any frame.
 fn sinking(density: f32) -> f32 {
     let top = 0.25;
     let radius = 0.08;
@@ -113,7 +183,22 @@ fn sinking(density: f32) -> f32 {
         .build()
         .unwrap();
     let mut simulation = Simulation::new(scene).unwrap();
-    simulation.advance_to(0.4).unwrap();
+    let cell = simulation.grid_layout().cell_size;
+    for frame in 1..=8 {
+        simulation.advance_to(0.05 * f64::from(frame)).unwrap();
+        let ball = simulation.rigid_bodies()[0];
+        let deepest = simulation
+            .particles()
+            .position
+            .iter()
+            .map(|&x| radius - (x - ball.position).length())
+            .fold(f32::MIN, f32::max);
+        assert!(
+            deepest < 0.5 * cell,
+            "at {:.2} s a particle is {deepest:.4} m inside the ball",
+            0.05 * f64::from(frame)
+        );
+    }
     let ball = simulation.rigid_bodies()[0];
     top - (ball.position.y - radius)
 }

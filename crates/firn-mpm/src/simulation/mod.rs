@@ -243,6 +243,16 @@ impl Simulation {
         self.rigid.as_ref()
     }
 
+    /// The linear impulse the snow gave each rigid body since this
+    /// simulation was made (from [`Simulation::new`] or a snapshot), N s,
+    /// in scene order.
+    pub fn snow_impulse_on_bodies(&self) -> Vec<DVec3> {
+        self.rigid
+            .as_ref()
+            .map(|rigid| rigid.pushed().to_vec())
+            .unwrap_or_default()
+    }
+
     /// Every rigid body's state, in scene order (none without).
     pub fn rigid_bodies(&self) -> Vec<firn_rigid::BodyState> {
         self.view().rigid_bodies()
