@@ -37,7 +37,7 @@ const SOLVE_BYTES_PER_NODE: u64 = (SOLVE_VECTORS + SOLVE_PRODUCTS) * 16 + 1;
 /// Blocks of room the grid gets beyond the `blocks` the snow reaches when
 /// it is sized: half as many again, at least one, at most the domain's
 /// `domain_blocks`.
-pub fn with_headroom(blocks: u64, domain_blocks: u64) -> u64 {
+fn with_headroom(blocks: u64, domain_blocks: u64) -> u64 {
     (blocks + blocks / 2).max(1).min(domain_blocks)
 }
 

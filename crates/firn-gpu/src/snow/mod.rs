@@ -92,12 +92,13 @@ use fixed_point::Scales;
 use layout::{
     GpuMat3, GpuMaterial, GpuPlastic, NO_PARTICLE, Params, StepState, WAITING_FOR_GRID_BLOCKS,
 };
+use memory::body_blocks;
 use spindrift::{PHASE_SNOW, ReadBack, SpindriftParams, joined, split_phases};
 use substep::Substep;
 use wind::{MAX_WIND_OBSTACLES, WindBuffers};
 
 pub use buffers::ColliderBuffers;
-pub use memory::{MemoryEstimate, body_blocks, with_headroom};
+pub use memory::MemoryEstimate;
 pub use p2g::Scatter;
 
 /// How far (in cells) a particle may stray outside the domain before the
@@ -309,7 +310,7 @@ impl GpuSnow {
     }
 
     /// Sizes the grid for `blocks` blocks and half as many again
-    /// ([`with_headroom`]), between substeps, and lets the frame run on:
+    /// ([`MemoryEstimate::for_blocks`]), between substeps, and lets the frame run on:
     /// the substep that found too little room (`StepState::waiting`) had
     /// not begun, so it runs now on the new grid. A run grows its grid this
     /// way whenever the snow reaches more blocks than it has room for;
