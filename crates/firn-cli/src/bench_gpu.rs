@@ -26,8 +26,11 @@ pub struct GpuMemoryRecord {
     pub bytes_per_particle: u64,
     /// Bytes each grid node takes on the GPU.
     pub bytes_per_grid_node: u64,
-    /// Grid nodes of this run (dense, padding included).
+    /// Grid nodes this run allocates: 64 per block of the sparse grid's
+    /// capacity (the blocks its bodies reach and half as many again).
     pub grid_nodes: u64,
+    /// The grid's bytes: its nodes and the block table over the domain.
+    pub grid_bytes: u64,
     /// All of this run's GPU buffers, in bytes.
     pub total_bytes: u64,
     /// This run's largest single buffer, in bytes.
@@ -56,6 +59,7 @@ impl GpuMemoryRecord {
             bytes_per_particle: here.bytes_per_particle,
             bytes_per_grid_node: here.bytes_per_node,
             grid_nodes: here.nodes,
+            grid_bytes: here.grid_bytes(),
             total_bytes: here.total_bytes(),
             largest_buffer_bytes: here.largest_buffer_bytes(),
             budget_gib,
@@ -101,8 +105,9 @@ mod tests {
         let record = GpuMemoryRecord::of(&scene, 2000, 4.0);
         assert_eq!(
             record.total_bytes,
-            2000 * record.bytes_per_particle + record.grid_nodes * record.bytes_per_grid_node
+            2000 * record.bytes_per_particle + record.grid_bytes
         );
+        assert!(record.grid_bytes > record.grid_nodes * record.bytes_per_grid_node);
         assert!(record.max_particles_on_256_grid < record.max_particles_on_this_grid);
         let fits = record.thesis_2_20_particles_on_256_bytes <= 4 << 30;
         assert_eq!(record.thesis_2_20_particles_on_256_fit, fits);

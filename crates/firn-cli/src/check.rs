@@ -216,11 +216,14 @@ fn gpu_line(scene: &Scene, budget: &Budget) -> Result<String, String> {
     }
     let buffers = budget.gpu.as_ref().map_or(String::new(), |estimate| {
         format!(
-            ": {:.1} MiB of GPU buffers ({} bytes per particle, {} per node, {} nodes)",
+            ": {:.1} MiB of GPU buffers ({} bytes per particle, {} per node, {} nodes: \
+             room for {} of the domain's {} blocks, half as many again as the bodies reach)",
             estimate.total_bytes() as f64 / (1024.0 * 1024.0),
             estimate.bytes_per_particle,
             estimate.bytes_per_node,
-            estimate.nodes
+            estimate.nodes,
+            estimate.grid_blocks(),
+            estimate.domain_blocks
         )
     });
     let Some(adapter) = firn_gpu::choose(AdapterPolicy::AllowSoftware) else {

@@ -333,6 +333,33 @@ fn gpu_runs(stdout: &str) -> bool {
         || (!required && stdout.contains("no GPU adapter was found"))
 }
 
+/// `firn check` estimates the GPU's sparse grid: a small ball in a
+/// 1024³-cell domain needs the block table (4 bytes per 4³-node block,
+/// 65.5 MiB) and a few blocks of nodes, not the 34 GiB of a dense grid.
+#[test]
+fn check_estimates_the_sparse_gpu_grid_of_a_big_domain() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write_scene(
+        dir.path(),
+        "big.toml",
+        &SMALL_SCENE.replace("max = [0.5, 0.5, 0.5]", "max = [51.2, 51.2, 51.2]"),
+    );
+    let output = firn(&["check", scene.to_str().unwrap()]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let stdout = text(&output.stdout);
+    let mib: f64 = stdout
+        .split(" MiB of GPU buffers")
+        .next()
+        .and_then(|before| before.rsplit(' ').next())
+        .and_then(|figure| figure.parse().ok())
+        .unwrap_or_else(|| panic!("no GPU figure in: {stdout}"));
+    assert!((65.0..70.0).contains(&mib), "{mib} MiB: {stdout}");
+    assert!(
+        stdout.contains("of the domain's 17173512 blocks"),
+        "{stdout}"
+    );
+}
+
 #[test]
 fn check_says_whether_the_gpu_backend_runs_the_scene() {
     let dir = tempfile::tempdir().unwrap();

@@ -122,11 +122,11 @@ fn usable(adapters: Vec<wgpu::Adapter>) -> Vec<wgpu::Adapter> {
 
 /// The most storage buffers one kernel binds (the binned APIC scatter; each
 /// snow kernel binds only the buffers it uses, `snow/program.rs`).
-pub const MIN_STORAGE_BUFFERS: u32 = 22;
+pub const MIN_STORAGE_BUFFERS: u32 = 23;
 
 /// The most buffers, storage and uniform together, one kernel binds (Metal
 /// offers 29 per shader stage).
-pub const MIN_BUFFERS: u32 = 23;
+pub const MIN_BUFFERS: u32 = 24;
 
 /// Every adapter wgpu finds that can run firn's kernels, best first.
 pub fn adapters() -> Vec<AdapterReport> {

@@ -249,8 +249,9 @@ const SNOW_LIBRARY: [Part; 7] = [
 ];
 
 /// The MPM substep, one file per stage in the order the substep runs them
-/// (`src/snow/substep.rs`): begin (Δt, stop conditions), binning, scatter,
-/// grid update, semi-implicit solve, gather, spindrift.
+/// (`src/snow/substep.rs`): the grid's blocks, begin (Δt, stop
+/// conditions), binning, scatter, grid update, semi-implicit solve, gather,
+/// spindrift; `snow/nodes.wgsl` addresses the sparse grid's nodes.
 pub const SNOW_STEP: Program = Program {
     name: "snow step",
     parts: &[
@@ -264,11 +265,13 @@ pub const SNOW_STEP: Program = Program {
         part!("snow/layout.wgsl"),
         part!("flow/layout.wgsl"),
         Part::Bindings(&StepBindings::TABLE),
+        part!("snow/nodes.wgsl"),
         part!("snow/fixed_point.wgsl"),
         part!("flow/noise.wgsl"),
         part!("flow/random.wgsl"),
         part!("snow/wind.wgsl"),
         part!("flow/field.wgsl"),
+        part!("snow/blocks.wgsl"),
         part!("snow/begin_step.wgsl"),
         part!("snow/binning.wgsl"),
         part!("snow/p2g.wgsl"),

@@ -238,8 +238,9 @@ fn a_fixed_point_overflow_stops_the_run() {
     );
 }
 
-/// A grid whose word planes pass the adapter's storage-binding limit is
-/// refused before anything is allocated, with the numbers.
+/// A domain whose block table (4 bytes per 4³-node block) passes the
+/// adapter's storage-binding limit is refused before anything is
+/// allocated, with the numbers.
 #[test]
 fn a_grid_too_large_for_the_adapter_is_refused_with_the_numbers() {
     let Some(context) = context_for_tests() else {
@@ -247,7 +248,7 @@ fn a_grid_too_large_for_the_adapter_is_refused_with_the_numbers() {
     };
     let mut scene = thrown_ball("apic");
     let limit = context.limits.max_storage_buffer_binding_size;
-    let cells_per_axis = ((limit / 4) as f64).cbrt() as f32 + 16.0;
+    let cells_per_axis = 4.0 * ((limit / 4) as f64).cbrt() as f32 + 16.0;
     scene.domain.max = glam::Vec3::splat(cells_per_axis * scene.domain.cell_size);
     let error = match GpuSnow::new(context, scene) {
         Ok(_) => panic!("a grid past the binding limit was accepted"),
@@ -255,7 +256,7 @@ fn a_grid_too_large_for_the_adapter_is_refused_with_the_numbers() {
     };
     let message = error.to_string();
     assert!(
-        message.contains(&limit.to_string()) && message.contains("word plane"),
+        message.contains(&limit.to_string()) && message.contains("block table"),
         "{message}"
     );
     assert!(message.contains("--backend cpu"), "{message}");

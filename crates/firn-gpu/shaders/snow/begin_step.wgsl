@@ -7,6 +7,10 @@
 
 // Seconds within which a frame counts as reached (the CPU's 1e-9 s).
 const FRAME_END_TOLERANCE: f32 = 1.0e-9;
+// StepState.waiting: for the bands of a deforming collider's mesh frames,
+// or for a grid with room for more blocks.
+const WAITING_FOR_MESH_FRAMES: u32 = 1u;
+const WAITING_FOR_GRID_BLOCKS: u32 = 2u;
 
 // Dt = CFL h / (max |v_p| + max c_p), capped, or the fixed dt; the
 // maxima come from the last gather (as firn_mpm::Simulation::next_dt).
@@ -27,9 +31,10 @@ fn next_dt(speed_squared: f32, wave_speed_squared: f32) -> f32 {
 // One invocation: stops the frame when it is done or a particle is in
 // trouble, else chooses dt, clipped to the frame's end, places the
 // colliders at the substep's end and resets the maxima for this substep's
-// gather. When a deforming collider's pose there wants mesh frames that
-// are not uploaded, it stops the batch before the substep instead, waiting
-// for the host.
+// gather. When the particles reach more grid blocks than the grid has room
+// for (blocks.wgsl), or a deforming collider's pose there wants mesh frames
+// that are not uploaded, it stops the batch before the substep instead,
+// waiting for the host.
 @compute @workgroup_size(1)
 fn begin_step() {
     if state.running == 0u {
@@ -43,6 +48,11 @@ fn begin_step() {
         state.running = 0u;
         return;
     }
+    if state.grid_blocks > params.flags.w {
+        state.running = 0u;
+        state.waiting = WAITING_FOR_GRID_BLOCKS;
+        return;
+    }
     let speed_squared = bitcast<f32>(atomicLoad(&state.max_speed_bits));
     let wave_speed_squared = bitcast<f32>(atomicLoad(&state.max_wave_bits));
     let dt = min(next_dt(speed_squared, wave_speed_squared), remaining);
@@ -54,7 +64,7 @@ fn begin_step() {
     place_colliders(params.lower.w + elapsed);
     if !sequences_ready() {
         state.running = 0u;
-        state.waiting = 1u;
+        state.waiting = WAITING_FOR_MESH_FRAMES;
         return;
     }
     state.dt = dt;

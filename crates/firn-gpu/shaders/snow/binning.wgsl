@@ -4,7 +4,9 @@
 // them, bin_offsets turns the counts into first slots and 64-particle work
 // items (and the binned scatter's indirect dispatch size), and bin_sort puts
 // each particle in its slot. The buffers are bins, particle_bins and work
-// (src/snow/bindings.rs).
+// (src/snow/bindings.rs); bins has one entry per allocated block, at the
+// block's slot in the grid (nodes.wgsl, blocks.wgsl), so the blocks are
+// sorted in block-index order as on a dense grid.
 
 const BLOCK_CELLS: i32 = 4;
 // Particles per work item: one per invocation.
@@ -16,15 +18,6 @@ const SCAN_THREADS: u32 = 256u;
 var<workgroup> scan_particles: array<u32, SCAN_THREADS>;
 var<workgroup> scan_items: array<u32, SCAN_THREADS>;
 
-fn block_dims() -> vec3<u32> {
-    return params.dims.xyz / u32(BLOCK_CELLS);
-}
-
-fn block_count() -> u32 {
-    let dims = block_dims();
-    return dims.x * dims.y * dims.z;
-}
-
 // Counts each block's particles and gives each particle its rank there.
 @compute @workgroup_size(64)
 fn bin_count(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
@@ -35,25 +28,25 @@ fn bin_count(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) g
     }
     let cell = vec3<i32>(floor(grid_coordinate(position_mass[p].xyz)));
     let coord = vec3<u32>(clamp(cell / BLOCK_CELLS, vec3<i32>(0), vec3<i32>(block_dims()) - vec3<i32>(1)));
-    let dims = block_dims();
-    let block = (coord.x * dims.y + coord.y) * dims.z + coord.z;
-    particle_bins[3u * p] = block;
-    particle_bins[3u * p + 1u] = atomicAdd(&bins[2u * block], 1u);
+    // The particle's stencil reaches its own block, so mark_blocks gave it a slot.
+    let slot = atomicLoad(&blocks[block_index(coord)]);
+    particle_bins[3u * p] = slot;
+    particle_bins[3u * p + 1u] = atomicAdd(&bins[3u * slot], 1u);
 }
 
-// One workgroup: exclusive prefix sums of the block counts (first slots)
-// and of their 64-particle chunks (work items), the work items, and the
-// binned scatter's dispatch size.
+// One workgroup: exclusive prefix sums of the allocated blocks' counts
+// (first slots) and of their 64-particle chunks (work items), the work
+// items, and the binned scatter's dispatch size.
 @compute @workgroup_size(256)
 fn bin_offsets(@builtin(local_invocation_index) local: u32) {
-    let blocks = block_count();
-    let per_thread = (blocks + SCAN_THREADS - 1u) / SCAN_THREADS;
-    let first = min(local * per_thread, blocks);
-    let last = min(first + per_thread, blocks);
+    let allocated = min(state.grid_blocks, params.flags.w);
+    let per_thread = (allocated + SCAN_THREADS - 1u) / SCAN_THREADS;
+    let first = min(local * per_thread, allocated);
+    let last = min(first + per_thread, allocated);
     var particles = 0u;
     var items = 0u;
     for (var b = first; b < last; b++) {
-        let count = atomicLoad(&bins[2u * b]);
+        let count = atomicLoad(&bins[3u * b]);
         particles += count;
         items += (count + CHUNK - 1u) / CHUNK;
     }
@@ -81,8 +74,8 @@ fn bin_offsets(@builtin(local_invocation_index) local: u32) {
     var slot = scan_particles[local];
     var item = scan_items[local];
     for (var b = first; b < last; b++) {
-        let count = atomicLoad(&bins[2u * b]);
-        atomicStore(&bins[2u * b + 1u], slot);
+        let count = atomicLoad(&bins[3u * b]);
+        atomicStore(&bins[3u * b + 1u], slot);
         for (var start = 0u; start < count; start += CHUNK) {
             work[WORK_HEADER + 2u * item] = b;
             work[WORK_HEADER + 2u * item + 1u] = slot + start;
@@ -100,7 +93,7 @@ fn bin_sort(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) gr
     if p == NO_PARTICLE {
         return;
     }
-    let block = particle_bins[3u * p];
-    let slot = atomicLoad(&bins[2u * block + 1u]) + particle_bins[3u * p + 1u];
+    let block_slot = particle_bins[3u * p];
+    let slot = atomicLoad(&bins[3u * block_slot + 1u]) + particle_bins[3u * p + 1u];
     particle_bins[3u * slot + 2u] = p;
 }

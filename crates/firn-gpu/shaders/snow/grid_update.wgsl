@@ -5,7 +5,8 @@
 // (wind.wgsl), and the grid-based collisions with the
 // colliders placed at the substep's end (Quellcode 12). The velocities
 // replace the sums in the word planes: v_i in the low words, v_i* in the
-// high words, for the gather.
+// high words, for the gather. One workgroup per allocated block
+// (nodes.wgsl), dispatched indirectly.
 
 fn momentum_at(node: u32) -> vec3<f32> {
     return vec3<f32>(
@@ -41,8 +42,7 @@ fn store_node_velocities(node: u32, velocity: vec3<f32>, velocity_new: vec3<f32>
 // `colliding` as constants, so the scene without wind runs no wind code:
 // lavapipe, for one, runs both sides of a branch it cannot prove uniform.
 fn update_node(node: u32, windy: bool, colliding: bool) {
-    let dims = params.dims.xyz;
-    if node >= dims.x * dims.y * dims.z || state.running == 0u {
+    if node >= allocated_nodes() || state.running == 0u {
         return;
     }
     let mass = from_fixed(atomicLoad(&mass_hi[node]), atomicLoad(&mass_lo[node])) / params.scales.x;
@@ -56,7 +56,7 @@ fn update_node(node: u32, windy: bool, colliding: bool) {
     if params.flags.x == TRANSFER_PIC_FLIP {
         change += impulse_at(node) / params.scales.y * inverse_mass;
     }
-    let cell = vec3<u32>(node / (dims.y * dims.z), node / dims.z % dims.y, node % dims.z);
+    let cell = node_cell(node);
     let position = params.origin.xyz + vec3<f32>(cell) * params.origin.w;
     var velocity_star = velocity + change;
     if windy {

@@ -25,7 +25,8 @@
 // gamma, the residual, the stopping test) in `solve`. Nothing is read back
 // per iteration; the host records a few iterations at a time and reads
 // `solve.running` between them. Once the solve stops, every kernel of it
-// returns at once.
+// returns at once. The node kernels run one workgroup per allocated block
+// of the sparse grid (nodes.wgsl), so a workgroup's partial is its block's.
 
 // The node vectors, one plane of nodes each: the first four in
 // solve_vectors, the rest in solve_products.
@@ -72,21 +73,21 @@ struct SolveState {
 }
 
 fn node_count() -> u32 {
-    return params.dims.x * params.dims.y * params.dims.z;
+    return allocated_nodes();
 }
 
 fn node_word(vector: u32, node: u32) -> vec4<f32> {
     if vector < VECTORS_IN_FIRST_BUFFER {
-        return solve_vectors[vector * node_count() + node];
+        return solve_vectors[vector * node_capacity() + node];
     }
-    return solve_products[(vector - VECTORS_IN_FIRST_BUFFER) * node_count() + node];
+    return solve_products[(vector - VECTORS_IN_FIRST_BUFFER) * node_capacity() + node];
 }
 
 fn set_node_word(vector: u32, node: u32, value: vec4<f32>) {
     if vector < VECTORS_IN_FIRST_BUFFER {
-        solve_vectors[vector * node_count() + node] = value;
+        solve_vectors[vector * node_capacity() + node] = value;
     } else {
-        solve_products[(vector - VECTORS_IN_FIRST_BUFFER) * node_count() + node] = value;
+        solve_products[(vector - VECTORS_IN_FIRST_BUFFER) * node_capacity() + node] = value;
     }
 }
 
@@ -113,9 +114,7 @@ fn inverse_node_mass(node: u32) -> f32 {
 }
 
 fn node_position(node: u32) -> vec3<f32> {
-    let dims = params.dims.xyz;
-    let cell = vec3<u32>(node / (dims.y * dims.z), node / dims.z % dims.y, node % dims.z);
-    return params.origin.xyz + vec3<f32>(cell) * params.origin.w;
+    return params.origin.xyz + vec3<f32>(node_cell(node)) * params.origin.w;
 }
 
 fn solve_running() -> bool {
@@ -295,7 +294,7 @@ fn workgroup_sum(term: f32, local: u32) -> f32 {
 }
 
 fn node_groups() -> u32 {
-    return (node_count() + 63u) / 64u;
+    return state.grid_blocks;
 }
 
 // Stores the workgroup's sum of `term` as its partial.

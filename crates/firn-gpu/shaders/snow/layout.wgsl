@@ -1,10 +1,10 @@
 // The structs and constants every snow kernel shares, mirrored by the
 // #[repr(C)] structs of src/snow/layout.rs, and the helpers for indexing
 // particles and nodes. The bindings are declared by the table in
-// src/snow/bindings.rs; the grid is dense, one buffer per 32-bit word plane
-// (low and high word of each 64-bit fixed-point sum), so no single buffer
-// grows past the adapter's storage-binding limit as fast as a packed layout
-// would.
+// src/snow/bindings.rs; the grid is sparse (nodes.wgsl), one buffer per
+// 32-bit word plane (low and high word of each 64-bit fixed-point sum), so
+// no single buffer grows past the adapter's storage-binding limit as fast as
+// a packed layout would.
 
 const TRANSFER_APIC: u32 = 0u;
 const TRANSFER_PIC_FLIP: u32 = 1u;
@@ -26,7 +26,8 @@ struct Params {
     // x: mass scale; y: momentum scale (fixed-point units per kg, per kg m/s).
     scales: vec4<f32>,
     // x: transfer scheme; y: the adapter's workgroups per dispatch
-    // dimension; z: 1 with the semi-implicit integrator (implicit.wgsl).
+    // dimension; z: 1 with the semi-implicit integrator (implicit.wgsl);
+    // w: the grid's capacity in blocks (nodes.wgsl).
     flags: vec4<u32>,
     // The semi-implicit solve: x: beta; y: tolerance; z: iteration limit.
     implicit: vec4<f32>,
@@ -56,8 +57,11 @@ struct StepState {
     wave_speed_squared: f32,
     // 1 when begin_step stopped the batch to wait for the fields of a
     // deforming collider's next mesh frames (deforming.wgsl), which the
-    // host uploads before it resumes.
+    // host uploads before it resumes; 2 when the grid's blocks did not fit
+    // its capacity (blocks.wgsl), which the host then grows.
     waiting: u32,
+    // Blocks the grid allocated for the current substep (blocks.wgsl).
+    grid_blocks: u32,
 }
 
 struct PlasticState {
@@ -68,11 +72,6 @@ struct PlasticState {
 // The linear invocation index of a dispatch split over two dimensions.
 fn linear_index(group: vec3<u32>, groups: vec3<u32>, local: u32) -> u32 {
     return (group.y * groups.x + group.x) * 64u + local;
-}
-
-fn node_index(node: vec3<i32>) -> u32 {
-    let dims = params.dims.xyz;
-    return (u32(node.x) * dims.y + u32(node.y)) * dims.z + u32(node.z);
 }
 
 fn grid_coordinate(position: vec3<f32>) -> vec3<f32> {
@@ -100,8 +99,4 @@ fn snow_particle_index(group: vec3<u32>, groups: vec3<u32>, local: u32) -> u32 {
         return NO_PARTICLE;
     }
     return p;
-}
-
-fn inside_grid(node: vec3<i32>) -> bool {
-    return all(node >= vec3<i32>(0)) && all(node < vec3<i32>(params.dims.xyz));
 }

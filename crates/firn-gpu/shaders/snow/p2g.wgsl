@@ -123,10 +123,10 @@ const MAX_LOCAL_WORDS: u32 = 4802u;
 var<workgroup> local_sums: array<atomic<u32>, MAX_LOCAL_WORDS>;
 var<workgroup> chunk_header: vec3<u32>;
 
-// The first node of the 7^3 a block's particles reach: one before the block.
-fn block_first_node(block: u32) -> vec3<i32> {
-    let dims = block_dims();
-    let coord = vec3<u32>(block / (dims.y * dims.z), block / dims.z % dims.y, block % dims.z);
+// The first node of the 7^3 the particles of the block in `slot` reach:
+// one before the block.
+fn block_first_node(slot: u32) -> vec3<i32> {
+    let coord = block_coord(atomicLoad(&bins[3u * slot + 2u]));
     return vec3<i32>(coord) * BLOCK_CELLS - vec3<i32>(1);
 }
 
@@ -189,23 +189,25 @@ fn scatter_local_pic_flip(p: u32, first: vec3<i32>) {
     }
 }
 
-// The work item of this workgroup: (block, first slot, particles), with
-// zero particles past the last item. Uniform across the workgroup.
+// The work item of this workgroup: (the block's grid slot, first sorted
+// slot, particles), with zero particles past the last item. Uniform across
+// the workgroup.
 fn load_chunk(group: vec3<u32>, groups: vec3<u32>, local: u32) -> vec3<u32> {
     if local == 0u {
         let item = group.y * groups.x + group.x;
         chunk_header = vec3<u32>(0u);
         if item < work[3] {
-            let block = work[WORK_HEADER + 2u * item];
+            let slot = work[WORK_HEADER + 2u * item];
             let first = work[WORK_HEADER + 2u * item + 1u];
-            let end = atomicLoad(&bins[2u * block + 1u]) + atomicLoad(&bins[2u * block]);
-            chunk_header = vec3<u32>(block, first, min(CHUNK, end - first));
+            let end = atomicLoad(&bins[3u * slot + 1u]) + atomicLoad(&bins[3u * slot]);
+            chunk_header = vec3<u32>(slot, first, min(CHUNK, end - first));
         }
     }
     return workgroupUniformLoad(&chunk_header);
 }
 
-// Adds the workgroup's non-zero sums into the grid.
+// Adds the workgroup's non-zero sums into the grid (their nodes are in the
+// particles' stencils, so in allocated blocks).
 fn flush_local(first: vec3<i32>, quantities: u32, local: u32) {
     workgroupBarrier();
     for (var n = local; n < LOCAL_NODES; n += 64u) {

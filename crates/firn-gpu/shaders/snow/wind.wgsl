@@ -29,12 +29,15 @@ fn noise_point(x: vec3<f32>, stage: u32, c: u32) -> vec3<f32> {
     return x * field_constants.inv_length + wind.offsets[c].xyz + time * wind.drift[c].xyz;
 }
 
-// The mass of the node at `cell`, 0 outside the grid.
+// The mass of the node at `cell`, 0 outside the grid or its allocated blocks.
 fn node_mass_at(cell: vec3<i32>) -> f32 {
     if !inside_grid(cell) {
         return 0.0;
     }
     let node = node_index(cell);
+    if node == NO_NODE {
+        return 0.0;
+    }
     return from_fixed(atomicLoad(&mass_hi[node]), atomicLoad(&mass_lo[node])) / params.scales.x;
 }
 

@@ -62,14 +62,15 @@ bind_group! {
         23 => fz_lo: ReadWrite "array<atomic<u32>>",
         /// The force impulse z's high words.
         24 => fz_hi: ReadWrite "array<atomic<u32>>",
-        /// `[2b]`: particles in block b; `[2b + 1]`: the block's first slot
-        /// in sorted order.
+        /// Per allocated block of the grid, at its slot s: `[3s]`: its
+        /// particles; `[3s + 1]`: its first slot in sorted order; `[3s + 2]`:
+        /// the block's index in the domain (`snow/nodes.wgsl`).
         25 => bins: ReadWrite "array<atomic<u32>>",
-        /// `[3p]`: block of particle p; `[3p + 1]`: its rank in the block;
-        /// `[3s + 2]`: the particle in slot s.
+        /// `[3p]`: the grid slot of particle p's block; `[3p + 1]`: its rank
+        /// in the block; `[3s + 2]`: the particle in sorted slot s.
         26 => particle_bins: ReadWrite "array<u32>",
         /// `[0..3)`: dispatch size of the binned scatter; `[3]`: work items;
-        /// then per item its block and first slot.
+        /// then per item its block's grid slot and first sorted slot.
         27 => work: ReadWrite "array<u32>",
         /// The mesh colliders' fields, one after another: a rigid mesh's
         /// grid of signed distances (f32 bits), a deforming one's region
@@ -102,6 +103,14 @@ bind_group! {
         /// Each collider's pose at the end of the substep, which
         /// `begin_step` writes for the contacts of the substep.
         37 => collider_poses: ReadWrite "array<ColliderPose>",
+        /// The sparse grid's block table: per block of the domain, its
+        /// slot this substep or `NO_SLOT` (`snow/nodes.wgsl`, built by
+        /// `snow/blocks.wgsl`).
+        38 => blocks: ReadWrite "array<atomic<u32>>",
+        /// `[0..3)`: the node kernels' dispatch size, one workgroup per
+        /// allocated block; from `[4]` on: per chunk of 1024 blocks, its
+        /// marked blocks, then its first slot.
+        39 => block_chunks: ReadWrite "array<u32>",
     }
 }
 

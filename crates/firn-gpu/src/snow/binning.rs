@@ -4,8 +4,9 @@
 //! CPU. `bin_count` counts each block's particles and ranks them,
 //! `bin_offsets` (one workgroup) turns the counts into first slots and
 //! 64-particle work items, and the binned scatter's dispatch size, and
-//! `bin_sort` puts each particle in its slot. The binned scatter itself is
-//! in `p2g.rs`.
+//! `bin_sort` puts each particle in its slot. The bins are the grid's
+//! allocated blocks, at their slots (`blocks.rs`, which also zeroes them).
+//! The binned scatter itself is in `p2g.rs`.
 
 use super::program::{Kernel, StepProgram, compute_pass};
 use crate::buffers::zeroed_storage_buffer;
@@ -14,7 +15,8 @@ use crate::context::GpuContext;
 /// The counting sort's buffers and the binned scatter's indirect dispatch
 /// arguments.
 pub struct BinningBuffers {
-    /// Per block: its particle count and first slot.
+    /// Per allocated block: its particle count, first slot and index in
+    /// the domain.
     pub bins: wgpu::Buffer,
     /// Per particle: its block and rank; per slot: its particle.
     pub particle_bins: wgpu::Buffer,
@@ -25,12 +27,12 @@ pub struct BinningBuffers {
 }
 
 impl BinningBuffers {
-    /// Buffers for `particles` particles on a grid of `nodes` nodes.
-    pub fn new(context: &GpuContext, particles: u64, nodes: u64) -> BinningBuffers {
-        let blocks = nodes / 64;
+    /// Buffers for `particles` particles on a grid with room for `blocks`
+    /// blocks.
+    pub fn new(context: &GpuContext, particles: u64, blocks: u64) -> BinningBuffers {
         let items = particles.div_ceil(64) + particles.min(blocks);
         BinningBuffers {
-            bins: zeroed_storage_buffer(context, "bins", blocks * 8),
+            bins: zeroed_storage_buffer(context, "bins", blocks * 12),
             particle_bins: zeroed_storage_buffer(context, "particle bins", particles * 12),
             work: zeroed_storage_buffer(context, "binned scatter work", (4 + 2 * items) * 4),
             indirect: context.device.create_buffer(&wgpu::BufferDescriptor {
@@ -60,15 +62,15 @@ impl Binning {
         }
     }
 
-    /// Records the sort: the counts cleared, the three kernels, and the
-    /// binned scatter's dispatch size copied to its indirect arguments.
+    /// Records the sort: the three kernels (`blocks.rs` zeroed the counts),
+    /// and the binned scatter's dispatch size copied to its indirect
+    /// arguments.
     pub fn record(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         buffers: &BinningBuffers,
         groups: (u32, u32, u32),
     ) {
-        encoder.clear_buffer(&buffers.bins, 0, None);
         {
             let mut pass = compute_pass(encoder, "snow substep");
             self.count.dispatch(&mut pass, groups);

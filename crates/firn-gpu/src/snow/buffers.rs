@@ -1,12 +1,15 @@
-//! The snow run's GPU buffers: materials, colliders, particles, the dense
-//! grid's word planes and the binning's buffers, and how they fill the
-//! step's bind group by name ([`SnowBuffers::bindings`]).
+//! The snow run's GPU buffers: materials, colliders, particles, the sparse
+//! grid's block table and word planes and the binning's buffers, and how
+//! they fill the step's bind group by name ([`SnowBuffers::bindings`]).
+//! The grid's buffers hold 64 nodes per block of its capacity
+//! (`shaders/snow/nodes.wgsl`).
 
 use firn_core::scene::{Collider, Transfer};
 use firn_mpm::Particles;
 
 use super::bindings::StepBindings;
 use super::binning::BinningBuffers;
+use super::blocks::BlockBuffers;
 use super::layout::{GpuMat3, GpuPlastic, SolveHeader, pack_colliders};
 use super::sequences::SequenceRegion;
 use super::wind::WindBuffers;
@@ -78,8 +81,6 @@ const PLANES: usize = 14;
 pub struct GridBuffers {
     planes: [wgpu::Buffer; PLANES],
     used: usize,
-    /// Grid nodes, padding included.
-    pub nodes: u64,
 }
 
 impl GridBuffers {
@@ -100,11 +101,7 @@ impl GridBuffers {
             let bytes = if plane < used { nodes * 4 } else { 16 };
             zeroed_storage_buffer(context, "grid word plane", bytes)
         });
-        GridBuffers {
-            planes,
-            used,
-            nodes,
-        }
+        GridBuffers { planes, used }
     }
 
     /// Zeroes the planes the substep sums into, before its scatter.
@@ -211,6 +208,8 @@ pub struct SnowBuffers {
     pub colliders: ColliderBuffers,
     /// The particles.
     pub particles: ParticleBuffers,
+    /// The grid's block table.
+    pub blocks: BlockBuffers,
     /// The grid.
     pub grid: GridBuffers,
     /// The counting sort's buffers.
@@ -256,6 +255,8 @@ impl SnowBuffers {
             collider_keys: &self.colliders.keys,
             collider_fields: &self.colliders.fields,
             collider_poses: &self.colliders.poses,
+            blocks: &self.blocks.table,
+            block_chunks: &self.blocks.chunks,
             position_mass: &particles.position_mass,
             velocity_volume: &particles.velocity_volume,
             elastic: &particles.elastic,

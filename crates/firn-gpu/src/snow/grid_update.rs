@@ -6,8 +6,9 @@
 //! wind's drag in scenes with a `[wind]` (`shaders/snow/wind.wgsl`), and the
 //! grid-based collisions with the colliders placed at the substep's end
 //! (Quellcode 12), which the semi-implicit integrator leaves to its solve
-//! ([`super::implicit`]). One invocation per node; v_i and v_i* replace the
-//! momentum sums in the word planes for the gather.
+//! ([`super::implicit`]). One invocation per node, one workgroup per
+//! allocated block of the grid; v_i and v_i* replace the momentum sums in
+//! the word planes for the gather.
 
 use super::program::{Kernel, StepProgram};
 
@@ -44,13 +45,14 @@ impl GridUpdate {
         self.windy = windy;
     }
 
-    /// Records the update, one invocation per node.
-    pub fn record(&self, pass: &mut wgpu::ComputePass, groups: (u32, u32, u32)) {
+    /// Records the update, one workgroup per allocated block, as many as
+    /// the block table's `indirect` arguments say.
+    pub fn record(&self, pass: &mut wgpu::ComputePass, indirect: &wgpu::Buffer) {
         let kernel = if self.windy {
             &self.in_wind
         } else {
             &self.calm
         };
-        kernel.dispatch(pass, groups);
+        kernel.dispatch_indirect(pass, indirect, 0);
     }
 }

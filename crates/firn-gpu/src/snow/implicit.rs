@@ -54,11 +54,12 @@ pub struct ImplicitSolve {
 
 /// The workgroup counts of a dispatch over the particles and over the nodes.
 #[derive(Clone, Copy, Debug)]
-pub struct SolveGroups {
+pub struct SolveGroups<'a> {
     /// One invocation per particle.
     pub particles: (u32, u32, u32),
-    /// One invocation per node.
-    pub nodes: (u32, u32, u32),
+    /// One workgroup per allocated block of the grid: the indirect
+    /// arguments the block table wrote (`blocks.rs`).
+    pub nodes: &'a wgpu::Buffer,
 }
 
 impl ImplicitSolve {
@@ -88,41 +89,47 @@ impl ImplicitSolve {
         &self,
         encoder: &mut wgpu::CommandEncoder,
         state: &wgpu::Buffer,
-        groups: SolveGroups,
+        groups: SolveGroups<'_>,
     ) {
         encoder.clear_buffer(state, 0, Some(RESET_BYTES));
         let mut pass = compute_pass(encoder, "semi-implicit solve");
         self.linearize.dispatch(&mut pass, groups.particles);
-        self.load.dispatch(&mut pass, groups.nodes);
+        self.load.dispatch_indirect(&mut pass, groups.nodes, 0);
         self.begin.dispatch(&mut pass, (1, 1, 1));
         self.hessian_of_x.dispatch(&mut pass, groups.particles);
-        self.initial_residual.dispatch(&mut pass, groups.nodes);
+        self.initial_residual
+            .dispatch_indirect(&mut pass, groups.nodes, 0);
         self.start.dispatch(&mut pass, (1, 1, 1));
         self.record_direction(&mut pass, groups);
     }
 
     /// The product S z, then the next direction and its step length.
-    fn record_direction(&self, pass: &mut wgpu::ComputePass, groups: SolveGroups) {
+    fn record_direction(&self, pass: &mut wgpu::ComputePass, groups: SolveGroups<'_>) {
         self.hessian_of_z.dispatch(pass, groups.particles);
-        self.finish_product.dispatch(pass, groups.nodes);
+        self.finish_product.dispatch_indirect(pass, groups.nodes, 0);
         self.curvature.dispatch(pass, (1, 1, 1));
-        self.next_direction.dispatch(pass, groups.nodes);
+        self.next_direction.dispatch_indirect(pass, groups.nodes, 0);
         self.step_length.dispatch(pass, (1, 1, 1));
     }
 
     /// Records `count` iterations: the step along the direction, the
     /// residual and the stopping test, then the next direction.
-    pub fn record_iterations(&self, pass: &mut wgpu::ComputePass, count: u32, groups: SolveGroups) {
+    pub fn record_iterations(
+        &self,
+        pass: &mut wgpu::ComputePass,
+        count: u32,
+        groups: SolveGroups<'_>,
+    ) {
         for _ in 0..count {
-            self.advance.dispatch(pass, groups.nodes);
+            self.advance.dispatch_indirect(pass, groups.nodes, 0);
             self.residual.dispatch(pass, (1, 1, 1));
             self.record_direction(pass, groups);
         }
     }
 
     /// Records the final velocities: the iterate through the colliders.
-    pub fn record_store(&self, pass: &mut wgpu::ComputePass, node_groups: (u32, u32, u32)) {
-        self.store.dispatch(pass, node_groups);
+    pub fn record_store(&self, pass: &mut wgpu::ComputePass, nodes: &wgpu::Buffer) {
+        self.store.dispatch_indirect(pass, nodes, 0);
     }
 }
 

@@ -39,6 +39,7 @@ pub struct StepState {
     pub speed_squared: f32,
     pub wave_speed_squared: f32,
     pub waiting: u32,
+    pub grid_blocks: u32,
 }
 
 /// The head of `SolveState` (`shaders/snow/implicit.wgsl`), before its
@@ -62,6 +63,10 @@ pub struct SolveHeader {
     pub gamma: f32,
     pub pad: [u32; 2],
 }
+
+/// `StepState::waiting` when the particles reached more grid blocks than the
+/// grid has room for (`WAITING_FOR_GRID_BLOCKS` in `begin_step.wgsl`).
+pub const WAITING_FOR_GRID_BLOCKS: u32 = 2;
 
 /// No particle: the "none" value of the trouble indices.
 pub const NO_PARTICLE: u32 = u32::MAX;

@@ -2,8 +2,10 @@
 
 use firn_core::Scene;
 use firn_core::scene::{Integrator, Transfer};
-use firn_mpm::grid::GridLayout;
+use firn_mpm::grid::{BLOCK_WIDTH, GridLayout};
+use glam::IVec3;
 
+use super::blocks::table_bytes;
 use super::buffers::{LINEARIZED_BYTES, SOLVE_PRODUCTS, SOLVE_VECTORS};
 use crate::context::{AdapterReport, GpuContext, largest_binding};
 use crate::error::GpuError;
@@ -14,8 +16,8 @@ use crate::error::GpuError;
 /// slot (12) and at most one 8-byte work item per particle plus one per 64.
 pub const BYTES_PER_PARTICLE: u64 = 16 + 16 + 3 * 48 + 8 + 12 + 9;
 
-/// Bytes per node besides the sums: a block's particle count and first
-/// slot (8 bytes per 64 nodes), rounded up.
+/// Bytes per node besides the sums: an allocated block's particle count,
+/// first slot and index (12 bytes per 64 nodes), rounded up.
 const BINNING_BYTES_PER_NODE: u64 = 1;
 
 /// Grid quantities summed by the scatter: mass and momentum, plus the force
@@ -32,13 +34,46 @@ fn grid_quantities(transfer: Transfer, implicit: bool) -> u64 {
 /// each) and a partial sum per 64 nodes, rounded up.
 const SOLVE_BYTES_PER_NODE: u64 = (SOLVE_VECTORS + SOLVE_PRODUCTS) * 16 + 1;
 
-/// The GPU memory a snow scene needs: dense grid plus particles.
+/// Blocks of room the grid gets beyond the `blocks` the snow reaches when
+/// it is sized: half as many again, at least one, at most the domain's
+/// `domain_blocks`.
+fn with_headroom(blocks: u64, domain_blocks: u64) -> u64 {
+    (blocks + blocks / 2).max(1).min(domain_blocks)
+}
+
+/// The blocks the scene's bodies reach before the run: per body, the
+/// blocks of its bounding box widened by the stencil's two nodes, summed
+/// (bodies that overlap count twice), at most the domain's. The snow's own
+/// blocks are at most these while it fills its bodies.
+pub fn body_blocks(scene: &Scene, layout: &GridLayout) -> u64 {
+    let top = layout.node_dims().as_ivec3() - IVec3::ONE;
+    let reached: u64 = scene
+        .bodies
+        .iter()
+        .map(|body| {
+            let (min, max) = body.shape.bounds();
+            let first = layout.to_grid(min).floor().as_ivec3() - IVec3::splat(2);
+            let last = layout.to_grid(max).ceil().as_ivec3() + IVec3::splat(2);
+            let first = first.clamp(IVec3::ZERO, top) / BLOCK_WIDTH;
+            let last = last.clamp(IVec3::ZERO, top) / BLOCK_WIDTH;
+            let blocks = (last - first + IVec3::ONE).as_u64vec3();
+            blocks.x * blocks.y * blocks.z
+        })
+        .sum();
+    reached.min(layout.block_count() as u64)
+}
+
+/// The GPU memory a snow scene needs: particles, the sparse grid's nodes
+/// for its capacity in blocks, and the block table over the domain.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct MemoryEstimate {
     /// Number of particles.
     pub particles: u64,
-    /// Grid nodes, padding included.
+    /// Grid nodes the run allocates: 64 per block of the grid's capacity.
     pub nodes: u64,
+    /// Blocks of 4³ nodes in the domain, padding included: one word each in
+    /// the block table.
+    pub domain_blocks: u64,
     /// Bytes per particle.
     pub bytes_per_particle: u64,
     /// Bytes per grid node (8 per summed quantity, and the semi-implicit
@@ -49,11 +84,23 @@ pub struct MemoryEstimate {
 }
 
 impl MemoryEstimate {
-    /// The estimate for `particles` particles in `scene`'s domain.
+    /// The estimate for `particles` particles in `scene`'s domain, with the
+    /// blocks its bodies reach ([`body_blocks`]) and half as many again as
+    /// the grid's capacity. The run starts with this capacity, or more
+    /// where its particles reach more blocks, and grows it when the snow
+    /// reaches more than that.
     pub fn of(scene: &Scene, particles: u64) -> MemoryEstimate {
         let domain = &scene.domain;
         let layout = GridLayout::new(domain.min, domain.max, domain.cell_size);
-        let dims = layout.node_dims();
+        MemoryEstimate::for_blocks(scene, particles, body_blocks(scene, &layout))
+    }
+
+    /// The estimate for `particles` particles in `scene`'s domain on a
+    /// grid with room for `blocks` blocks and half as many again.
+    pub fn for_blocks(scene: &Scene, particles: u64, blocks: u64) -> MemoryEstimate {
+        let domain = &scene.domain;
+        let layout = GridLayout::new(domain.min, domain.max, domain.cell_size);
+        let domain_blocks = layout.block_count() as u64;
         let implicit = matches!(scene.solver.integrator, Integrator::SemiImplicit(_));
         let (solve_per_particle, solve_per_node) = if implicit {
             (LINEARIZED_BYTES, SOLVE_BYTES_PER_NODE)
@@ -62,7 +109,8 @@ impl MemoryEstimate {
         };
         MemoryEstimate {
             particles,
-            nodes: u64::from(dims.x) * u64::from(dims.y) * u64::from(dims.z),
+            nodes: with_headroom(blocks, domain_blocks) * 64,
+            domain_blocks,
             bytes_per_particle: BYTES_PER_PARTICLE + solve_per_particle,
             bytes_per_node: 8 * grid_quantities(scene.solver.transfer, implicit)
                 + BINNING_BYTES_PER_NODE
@@ -71,17 +119,30 @@ impl MemoryEstimate {
         }
     }
 
+    /// The grid's capacity in blocks.
+    pub fn grid_blocks(&self) -> u64 {
+        self.nodes / 64
+    }
+
+    /// The grid's bytes: its nodes and the block table.
+    pub fn grid_bytes(&self) -> u64 {
+        self.nodes * self.bytes_per_node + table_bytes(self.domain_blocks)
+    }
+
     /// All buffers together, in bytes.
     pub fn total_bytes(&self) -> u64 {
-        self.particles * self.bytes_per_particle + self.nodes * self.bytes_per_node
+        self.particles * self.bytes_per_particle + self.grid_bytes()
     }
 
     /// The largest single buffer: one grid quantity's word (4 bytes per
-    /// node) or one particle matrix array (48 bytes per particle; the work
-    /// items take at most 8 bytes and a fraction); with the semi-implicit
-    /// solve, its larger buffer of node vectors or its stress differentials.
+    /// node), the block table (4 bytes per block of the domain) or one
+    /// particle matrix array (48 bytes per particle; the work items take at
+    /// most 8 bytes and a fraction); with the semi-implicit solve, its
+    /// larger buffer of node vectors or its stress differentials.
     pub fn largest_buffer_bytes(&self) -> u64 {
-        let explicit = (self.nodes * 4).max(self.particles * 48);
+        let explicit = (self.nodes * 4)
+            .max(self.domain_blocks * 4)
+            .max(self.particles * 48);
         if self.implicit {
             explicit
                 .max(self.nodes * SOLVE_VECTORS * 16)
@@ -93,7 +154,7 @@ impl MemoryEstimate {
 
     /// How many particles fit in `budget` bytes beside this grid.
     pub fn particles_within(&self, budget: u64) -> u64 {
-        budget.saturating_sub(self.nodes * self.bytes_per_node) / self.bytes_per_particle
+        budget.saturating_sub(self.grid_bytes()) / self.bytes_per_particle
     }
 }
 
@@ -116,10 +177,18 @@ impl MemoryEstimate {
         if largest <= limit && self.particles <= u64::from(u32::MAX) {
             return Ok(());
         }
-        let (what, fix) = if self.nodes * 4 >= self.particles * 48 {
+        let (what, fix) = if self.domain_blocks >= self.nodes.max(self.particles * 12) {
             (
-                format!("one word plane of the dense {}-node grid", self.nodes),
-                "use a larger cell_size or a smaller [domain], or run with --backend cpu (its grid is sparse)",
+                format!(
+                    "the block table of the domain's {} blocks",
+                    self.domain_blocks
+                ),
+                "use a larger cell_size or a smaller [domain], or run with --backend cpu",
+            )
+        } else if self.nodes * 4 >= self.particles * 48 {
+            (
+                format!("one word plane of the grid's {} nodes", self.nodes),
+                "use a larger cell_size or smaller bodies, or run with --backend cpu",
             )
         } else {
             (
@@ -153,7 +222,11 @@ mod tests {
             );
             let scene = Scene::from_toml_str(&text, "thesis-256.toml").unwrap();
             let estimate = MemoryEstimate::of(&scene, 1 << 20);
-            assert!(estimate.nodes >= 257u64.pow(3), "{estimate:?}");
+            assert!(estimate.domain_blocks >= 65u64.pow(3), "{estimate:?}");
+            assert!(
+                estimate.nodes < estimate.domain_blocks * 64 / 4,
+                "{estimate:?}"
+            );
             let four_gib = 4u64 << 30;
             assert!(
                 estimate.total_bytes() < four_gib,

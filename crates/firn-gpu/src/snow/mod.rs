@@ -8,11 +8,14 @@
 //! Per substep, with no host round trip (`substep.rs` records them in
 //! order):
 //!
+//! 0. `blocks`: the sparse grid's block table, every block a particle's
+//!    stencil reaches given a slot in block-index order;
 //! 1. `begin_step` (one invocation): Δt = CFL h / (max |v_p| + max c_p)
 //!    from the maxima the last gather reduced, clipped to the frame's end;
 //!    stops the frame when it is done or a particle was in trouble, and the
 //!    batch when a deforming collider needs the bands of its next mesh
-//!    frames (`sequences.rs`), which the host then uploads;
+//!    frames (`sequences.rs`), which the host then uploads, or when the
+//!    grid has no room for the blocks, which the host then grows;
 //! 2. the grid's word planes are cleared;
 //! 3. `binning`: the counting sort of the particles by block, for the
 //!    binned scatter;
@@ -41,12 +44,16 @@
 //! the semi-implicit integrator, also the solve's state every few
 //! iterations: `implicit.rs`); the
 //! particles come back only when a frame is written ([`GpuSnow::snapshot`]).
-//! The grid is dense; [`MemoryEstimate`] says what a scene needs before
+//! The grid is sparse: its nodes are stored by 4³-node block, only for the
+//! blocks the particles reach, so GPU memory follows the snow, not the
+//! domain; the fixed-point sums make the results independent of where a
+//! block is stored. [`MemoryEstimate`] says what a scene needs before
 //! anything is allocated.
 
 mod begin_step;
 pub mod bindings;
 mod binning;
+mod blocks;
 mod buffers;
 mod failures;
 pub mod fixed_point;
@@ -79,9 +86,13 @@ use crate::context::GpuContext;
 use crate::draw::{ParticleArrays, SnowArrays, StridedArray};
 use crate::error::GpuError;
 use binning::BinningBuffers;
+use blocks::{BlockBuffers, reached_blocks};
 use buffers::{GridBuffers, ParticleBuffers, SnowBuffers, SolveBuffers};
 use fixed_point::Scales;
-use layout::{GpuMat3, GpuMaterial, GpuPlastic, NO_PARTICLE, Params, StepState};
+use layout::{
+    GpuMat3, GpuMaterial, GpuPlastic, NO_PARTICLE, Params, StepState, WAITING_FOR_GRID_BLOCKS,
+};
+use memory::body_blocks;
 use spindrift::{PHASE_SNOW, ReadBack, SpindriftParams, joined, split_phases};
 use substep::Substep;
 use wind::{MAX_WIND_OBSTACLES, WindBuffers};
@@ -115,6 +126,8 @@ pub struct GpuSnow {
     steps: u64,
     /// The last Δt and the maxima it came from, read back per batch.
     last: StepState,
+    /// What the buffers were sized for, the grid's capacity included.
+    memory: MemoryEstimate,
 }
 
 impl GpuSnow {
@@ -136,7 +149,12 @@ impl GpuSnow {
         GpuSnow::check_supported(&scene)?;
         snapshot.check(&scene)?;
         let (particles, material_words) = joined(&snapshot.particles, &snapshot.drift);
-        let estimate = MemoryEstimate::of(&scene, particles.len() as u64);
+        let domain = &scene.domain;
+        let layout = GridLayout::new(domain.min, domain.max, domain.cell_size);
+        let cubic = scene.solver.transfer == Transfer::PicFlip;
+        let blocks =
+            reached_blocks(&layout, &particles.position, cubic).max(body_blocks(&scene, &layout));
+        let estimate = MemoryEstimate::for_blocks(&scene, particles.len() as u64, blocks);
         estimate.check_fits(&context)?;
         let constants = MaterialConstants::of_each(&scene.materials);
         let materials = storage_buffer(
@@ -145,18 +163,18 @@ impl GpuSnow {
             &gpu_materials(&constants, &scene.materials),
         );
         let scales = Scales::of(&scene);
-        let domain = &scene.domain;
-        let layout = GridLayout::new(domain.min, domain.max, domain.cell_size);
         let mut params = run_params(&scene, &layout, &scales, particles.len());
         params.flags[1] = context.limits.max_compute_workgroups_per_dimension;
+        params.flags[3] = estimate.grid_blocks() as u32;
         let implicit = is_implicit(&scene);
         let all_colliders = firn_mpm::contact::ColliderSet::new(domain, &scene.colliders);
         let buffers = SnowBuffers {
             materials,
             colliders: ColliderBuffers::of(&context, all_colliders.colliders()),
             particles: ParticleBuffers::upload(&context, &particles, &material_words),
+            blocks: BlockBuffers::new(&context, estimate.domain_blocks),
             grid: GridBuffers::new(&context, estimate.nodes, scene.solver.transfer, implicit),
-            binning: BinningBuffers::new(&context, estimate.particles, estimate.nodes),
+            binning: BinningBuffers::new(&context, estimate.particles, estimate.grid_blocks()),
             wind: WindBuffers::upload(&context, &scene),
             spindrift: spindrift::params_buffer(&context, &scene),
             solve: SolveBuffers::new(&context, estimate.particles, estimate.nodes, implicit),
@@ -192,6 +210,7 @@ impl GpuSnow {
                 wave_speed_squared: snapshot.max_wave_speed_squared,
                 ..state
             },
+            memory: estimate,
             scene,
         })
     }
@@ -247,6 +266,10 @@ impl GpuSnow {
             self.check_trouble(&state)?;
             self.time = f64::from(self.params.lower[3]) + f64::from(state.elapsed);
             self.check_step_length(&state)?;
+            if state.waiting == WAITING_FOR_GRID_BLOCKS {
+                self.resize_grid(u64::from(state.grid_blocks))?;
+                continue;
+            }
             if state.waiting != 0 {
                 self.resume_with_mesh_frames(&state)?;
                 continue;
@@ -291,6 +314,40 @@ impl GpuSnow {
         self.last.waiting = 0;
         self.substep.resume(&self.context, state);
         Ok(())
+    }
+
+    /// Sizes the grid for `blocks` blocks and half as many again
+    /// ([`MemoryEstimate::for_blocks`]), between substeps, and lets the frame run on:
+    /// the substep that found too little room (`StepState::waiting`) had
+    /// not begun, so it runs now on the new grid. A run grows its grid this
+    /// way whenever the snow reaches more blocks than it has room for;
+    /// sized below that, it grows again at the next substep. Fails, with
+    /// nothing changed, when a buffer would pass the adapter's limits.
+    pub fn resize_grid(&mut self, blocks: u64) -> Result<(), GpuError> {
+        let particles = self.particle_count as u64;
+        let estimate = MemoryEstimate::for_blocks(&self.scene, particles, blocks);
+        estimate.check_fits(&self.context)?;
+        let context = &self.context;
+        let transfer = self.scene.solver.transfer;
+        let implicit = is_implicit(&self.scene);
+        let buffers = &mut self.buffers;
+        buffers.grid = GridBuffers::new(context, estimate.nodes, transfer, implicit);
+        buffers.binning = BinningBuffers::new(context, particles, estimate.grid_blocks());
+        buffers.solve = SolveBuffers::new(context, particles, estimate.nodes, implicit);
+        self.params.flags[3] = estimate.grid_blocks() as u32;
+        self.memory = estimate;
+        self.last.running = u32::from(self.last.waiting != 0 || self.last.running != 0);
+        self.last.waiting = 0;
+        let stages = (transfer, stages_of(&self.scene), implicit);
+        self.substep
+            .rebuild(context, stages, &self.params, &self.last, &self.buffers);
+        Ok(())
+    }
+
+    /// What the run's GPU buffers were sized for: the particles and the
+    /// grid's capacity, which grows with the snow ([`GpuSnow::resize_grid`]).
+    pub fn memory(&self) -> MemoryEstimate {
+        self.memory
     }
 
     /// Substeps to record next: enough to reach the frame's end, or the

@@ -2,14 +2,15 @@
 //! run, each from its own file, each kernel binding the buffers it uses of
 //! [`StepBindings`](super::bindings::StepBindings) (`program.rs`):
 //!
-//! 1. `begin_step.rs`: Δt and the stop conditions;
-//! 2. the grid's word planes cleared;
-//! 3. `binning.rs` (binned scatter only): the counting sort;
-//! 4. `p2g.rs`: the scatter, thesis steps 1 and 3;
-//! 5. `grid_update.rs`: steps 4 and 5;
-//! 6. `implicit.rs` (semi-implicit integrator only): step 6, the solve;
-//! 7. `g2p.rs`: the gather, steps 7 to 10;
-//! 8. `spindrift.rs` (`[wind.spindrift]` only): snow lifts, drift moves.
+//! 1. `blocks.rs`: the sparse grid's block table, from the particles;
+//! 2. `begin_step.rs`: Δt and the stop conditions;
+//! 3. the grid's word planes cleared;
+//! 4. `binning.rs` (binned scatter only): the counting sort;
+//! 5. `p2g.rs`: the scatter, thesis steps 1 and 3;
+//! 6. `grid_update.rs`: steps 4 and 5;
+//! 7. `implicit.rs` (semi-implicit integrator only): step 6, the solve;
+//! 8. `g2p.rs`: the gather, steps 7 to 10;
+//! 9. `spindrift.rs` (`[wind.spindrift]` only): snow lifts, drift moves.
 //!
 //! [`Substep::run_batch`] records a batch of substeps in one submission and
 //! reads back the step state. With the semi-implicit integrator each
@@ -23,6 +24,7 @@ use firn_mpm::implicit::{SolveReport, SolverStats};
 
 use super::begin_step::BeginStep;
 use super::binning::Binning;
+use super::blocks::Blocks;
 use super::buffers::SnowBuffers;
 use super::g2p::G2p;
 use super::grid_update::GridUpdate;
@@ -47,6 +49,7 @@ struct Binned {
 pub struct Substep {
     params: wgpu::Buffer,
     state: wgpu::Buffer,
+    blocks: Blocks,
     begin_step: BeginStep,
     binned: Option<Binned>,
     p2g: P2g,
@@ -59,7 +62,6 @@ pub struct Substep {
     solver_stats: SolverStats,
     mode: Scatter,
     particle_groups: (u32, u32, u32),
-    node_groups: (u32, u32, u32),
 }
 
 impl Substep {
@@ -96,6 +98,7 @@ impl Substep {
         });
         let limit = context.limits.max_compute_workgroups_per_dimension;
         Substep {
+            blocks: Blocks::new(&program, &buffers.blocks, limit),
             begin_step: BeginStep::new(&program),
             p2g: P2g::new(&program, transfer),
             mode: if binned.is_some() {
@@ -110,7 +113,6 @@ impl Substep {
             implicit: implicit.then(|| ImplicitSolve::new(&program)),
             solver_stats: SolverStats::default(),
             particle_groups: workgroups(params.dims[3], limit),
-            node_groups: workgroups(buffers.grid.nodes as u32, limit),
             params: params_buffer,
             state: state_buffer,
         }
@@ -149,6 +151,23 @@ impl Substep {
         context
             .queue
             .write_buffer(&self.state, 0, bytemuck::cast_slice(&head));
+    }
+
+    /// The stages built again over `buffers` (after the grid grew), from
+    /// `state` as it was read back, keeping the scatter in use and the
+    /// solves' statistics; arguments as for [`Substep::new`].
+    pub fn rebuild(
+        &mut self,
+        context: &GpuContext,
+        (transfer, stages, implicit): (Transfer, (bool, bool), bool),
+        params: &Params,
+        state: &StepState,
+        buffers: &SnowBuffers,
+    ) {
+        let mut rebuilt = Substep::new(context, transfer, stages, implicit, params, state, buffers);
+        rebuilt.mode = self.mode;
+        rebuilt.solver_stats = self.solver_stats;
+        *self = rebuilt;
     }
 
     /// Lets a frame that waited for mesh frames (`StepState::waiting`) run
@@ -218,7 +237,7 @@ impl Substep {
     ) -> Result<Option<(SolveReport, u64)>, GpuError> {
         let groups = SolveGroups {
             particles: self.particle_groups,
-            nodes: self.node_groups,
+            nodes: &buffers.blocks.indirect,
         };
         let state = &buffers.solve.state;
         let mut encoder = command_encoder(context);
@@ -237,7 +256,7 @@ impl Substep {
             }
             if header.running == 0 {
                 let mut pass = compute_pass(&mut encoder, "snow substep");
-                solve.record_store(&mut pass, self.node_groups);
+                solve.record_store(&mut pass, &buffers.blocks.indirect);
                 self.record_after_grid(&mut pass);
                 drop(pass);
                 context.queue.submit([encoder.finish()]);
@@ -266,6 +285,8 @@ impl Substep {
 
     /// Records a substep up to and including the grid update.
     fn record_until_solve(&self, encoder: &mut wgpu::CommandEncoder, buffers: &SnowBuffers) {
+        self.blocks
+            .record(encoder, &buffers.blocks, self.particle_groups);
         self.begin_step
             .record(&mut compute_pass(encoder, "snow substep"));
         buffers.grid.clear(encoder);
@@ -282,8 +303,10 @@ impl Substep {
                 self.particle_groups,
             ),
         }
-        self.grid_update
-            .record(&mut compute_pass(encoder, "snow substep"), self.node_groups);
+        self.grid_update.record(
+            &mut compute_pass(encoder, "snow substep"),
+            &buffers.blocks.indirect,
+        );
     }
 
     /// Records the gather and spindrift, after the grid's new velocities.
