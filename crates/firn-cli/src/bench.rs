@@ -99,7 +99,8 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 3)]
     pub repeats: u32,
     /// Print where the time of each substep goes, phase by phase (binning,
-    /// scatter, colliders, grid update, implicit solve, gather, clear); the JSON record
+    /// scatter, colliders, grid update, implicit solve, gather, clear, rigid
+    /// bodies); the JSON record
     /// holds the phases either way.
     #[arg(long)]
     pub phases: bool,

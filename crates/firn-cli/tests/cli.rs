@@ -595,6 +595,7 @@ fn bench_phases_split_each_substep_into_the_steps_of_the_algorithm() {
         "implicit_solve",
         "gather",
         "clear",
+        "rigid_bodies",
     ] {
         assert!(stdout.contains(phase), "{phase} missing from\n{stdout}");
     }

@@ -16,7 +16,10 @@
 //! - `gather`: grid-to-particle transfer, deformation gradient update,
 //!   plasticity and stress, particle collisions and advection (steps 7 to
 //!   10);
-//! - `clear`: zeroing the grid blocks the substep touched.
+//! - `clear`: zeroing the grid blocks the substep touched;
+//! - `rigid_bodies`: placing the rigid bodies for the grid and stepping
+//!   them in rapier with what the snow gave them (their contacts with the
+//!   nodes are in `grid_update`), zero without bodies.
 
 use std::time::Instant;
 
@@ -37,11 +40,13 @@ pub struct PhaseTimes {
     pub gather: f64,
     /// Clearing the touched grid blocks.
     pub clear: f64,
+    /// Placing and stepping the rigid bodies.
+    pub rigid_bodies: f64,
 }
 
 impl PhaseTimes {
     /// Each phase's name and seconds, in the order a substep runs them.
-    pub fn entries(&self) -> [(&'static str, f64); 7] {
+    pub fn entries(&self) -> [(&'static str, f64); 8] {
         [
             ("binning", self.binning),
             ("scatter", self.scatter),
@@ -50,6 +55,7 @@ impl PhaseTimes {
             ("implicit_solve", self.implicit_solve),
             ("gather", self.gather),
             ("clear", self.clear),
+            ("rigid_bodies", self.rigid_bodies),
         ]
     }
 

@@ -87,12 +87,13 @@ impl Simulation {
         clock.lap(&mut self.profile.scatter);
         let placed = self.colliders.placed_at(self.time + f64::from(dt));
         let colliders = Colliders::new(&placed);
+        clock.lap(&mut self.profile.colliders);
         let bodies = self
             .rigid
             .as_ref()
             .map(RigidBodies::contacts)
             .unwrap_or_default();
-        clock.lap(&mut self.profile.colliders);
+        clock.lap(&mut self.profile.rigid_bodies);
         let impulses = self.update_grid(dt, &colliders, &bodies);
         clock.lap(&mut self.profile.grid_update);
         self.solve_implicit(dt, &placed);
@@ -113,7 +114,7 @@ impl Simulation {
         self.wind_impulse += impulses.wind;
         if let Some(rigid) = self.rigid.as_mut() {
             rigid.advance(&impulses.bodies, dt, &self.scene.colliders, self.time);
-            clock.lap(&mut self.profile.colliders);
+            clock.lap(&mut self.profile.rigid_bodies);
         }
         Ok(dt)
     }
