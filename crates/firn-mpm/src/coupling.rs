@@ -79,10 +79,20 @@ fn to_fixed(value: f32) -> i64 {
     (f64::from(value) * FIXED_SCALE).round() as i64
 }
 
+/// A body as the grid meets it in one substep.
+#[derive(Clone, Debug)]
+struct PlacedBody {
+    collider: PlacedCollider,
+    center_of_mass: Vec3,
+    /// The ball around the reference point that holds the whole body:
+    /// nodes outside it are never touched.
+    reach: f32,
+}
+
 /// The bodies as the grid meets them in one substep.
 #[derive(Clone, Debug, Default)]
 pub struct BodyContacts {
-    bodies: Vec<(PlacedCollider, Vec3)>,
+    bodies: Vec<PlacedBody>,
 }
 
 impl BodyContacts {
@@ -96,20 +106,36 @@ impl BodyContacts {
         self.bodies.len()
     }
 
-    /// Applies every body's contact to the velocity `velocity` of a node at
-    /// `point` with snow mass `mass`, adding each body's exchange to `sums`.
+    /// The bodies that may touch a node in the box from `low` to `high`
+    /// (a grid block's nodes), in body order.
+    pub fn near(&self, low: Vec3, high: Vec3) -> Vec<usize> {
+        (0..self.bodies.len())
+            .filter(|&index| {
+                let body = &self.bodies[index];
+                let center = body.collider.geometry.reference_point();
+                let nearest = center.clamp(low, high);
+                (nearest - center).length_squared() <= body.reach * body.reach
+            })
+            .collect()
+    }
+
+    /// Applies the contact of the bodies `near` (from [`BodyContacts::near`])
+    /// to the velocity `velocity` of a node at `point` with snow mass
+    /// `mass`, adding each body's exchange to its sum in `sums`.
     #[inline]
     pub fn collide(
         &self,
+        near: &[usize],
         point: Vec3,
         mass: f32,
         mut velocity: Vec3,
         sums: &mut [ImpulseSum],
     ) -> Vec3 {
-        for ((body, center_of_mass), sum) in self.bodies.iter().zip(sums) {
-            let collided = body.collide(point, velocity);
+        for &index in near {
+            let body = &self.bodies[index];
+            let collided = body.collider.collide(point, velocity);
             if collided != velocity {
-                sum.add(mass * (collided - velocity), point - *center_of_mass);
+                sums[index].add(mass * (collided - velocity), point - body.center_of_mass);
                 velocity = collided;
             }
         }
@@ -186,7 +212,11 @@ impl RigidBodies {
                     }),
                     surface: None,
                 };
-                (placed, state.center_of_mass)
+                PlacedBody {
+                    collider: placed,
+                    center_of_mass: state.center_of_mass,
+                    reach: body.geometry.reach(),
+                }
             })
             .collect();
         BodyContacts { bodies }

@@ -12,7 +12,7 @@ use rayon::prelude::*;
 
 use crate::contact::Colliders;
 use crate::coupling::{BodyContacts, ImpulseSum};
-use crate::grid::{BLOCK_NODES, Grid, GridLayout, Node};
+use crate::grid::{BLOCK_NODES, BLOCK_WIDTH, Grid, GridLayout, Node};
 use crate::wind::{AirDrag, relax};
 
 /// Smallest number of blocks a worker thread takes at once.
@@ -183,6 +183,18 @@ impl NodeStep<'_> {
         sums: &mut [ImpulseSum],
     ) -> DVec3 {
         let mut impulse = DVec3::ZERO;
+        let near = match self.bodies.is_empty() {
+            true => Vec::new(),
+            false => {
+                let first = GridLayout::node_in_block(block, 0);
+                let last = first + IVec3::splat(BLOCK_WIDTH - 1);
+                let (low, high) = (
+                    self.layout.node_position(first),
+                    self.layout.node_position(last),
+                );
+                self.bodies.near(low, high)
+            }
+        };
         for (local, node) in nodes.iter_mut().enumerate() {
             let mass = node.mass();
             if mass <= 0.0 {
@@ -199,8 +211,8 @@ impl NodeStep<'_> {
                 .node_position(GridLayout::node_in_block(block, local));
             node.velocity_mass = velocity.extend(mass);
             let mut collided = self.colliders.collide(position, velocity_new);
-            if !self.bodies.is_empty() {
-                collided = self.bodies.collide(position, mass, collided, sums);
+            if !near.is_empty() {
+                collided = self.bodies.collide(&near, position, mass, collided, sums);
             }
             node.set_velocity_new(collided);
         }
