@@ -14,10 +14,11 @@ use std::time::{Duration, Instant};
 
 use firn_core::Scene;
 use firn_io::{
-    ColliderPose, FrameRecord, Manifest, MassBalance, PvdCollection, RunStatus, SolverFrameStats,
+    BodyPose, ColliderPose, FrameRecord, Manifest, MassBalance, PvdCollection, RunStatus,
+    SolverFrameStats,
 };
 use firn_mesh::TriangleMesh;
-use firn_mpm::SolverStats;
+use firn_mpm::{SnowView, SolverStats};
 
 use crate::backend::Placement;
 use crate::caches;
@@ -385,6 +386,7 @@ impl Recording {
         let wall_seconds = wall.as_secs_f64();
         let solver = self.frame_solver_stats();
         let mass = self.mass_balance().map_err(|error| self.fail(error))?;
+        let rigid_bodies = self.body_poses().map_err(|error| self.fail(error))?;
         self.manifest.record_frame(FrameRecord {
             index,
             time: self.solver.time(),
@@ -400,6 +402,7 @@ impl Recording {
             solver,
             mass,
             colliders: collider_poses(self.solver.scene(), self.solver.time()),
+            rigid_bodies,
         });
         self.frame = index;
         let every = self.solver.scene().output.checkpoint_every;
@@ -462,6 +465,14 @@ impl Recording {
             drift_particles: drift.len() as u64,
             escaped_particles: escaped.count,
         }))
+    }
+
+    /// The pose of each of the scene's rigid bodies now.
+    fn body_poses(&mut self) -> Result<Vec<BodyPose>, RunError> {
+        Ok(match self.solver.host()? {
+            HostState::Snow(simulation) => body_poses(simulation),
+            HostState::Flow(_) => Vec::new(),
+        })
     }
 
     /// The solver's work since the previous frame, if it runs a
@@ -551,6 +562,20 @@ pub fn collider_poses(scene: &Scene, time: f64) -> Vec<ColliderPose> {
                 position: pose.position.to_array(),
                 rotation: pose.rotation.to_array(),
             }
+        })
+        .collect()
+}
+
+/// The pose and motion of each of the rigid bodies of `snow`, in scene
+/// order, for the manifest.
+pub fn body_poses(snow: SnowView<'_>) -> Vec<BodyPose> {
+    snow.rigid_bodies()
+        .iter()
+        .map(|body| BodyPose {
+            position: body.position.to_array(),
+            rotation: body.rotation.to_array(),
+            velocity: body.velocity.to_array(),
+            angular_velocity: body.angular_velocity.to_array(),
         })
         .collect()
 }
