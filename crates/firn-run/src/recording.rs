@@ -18,7 +18,7 @@ use firn_io::{
     SolverFrameStats,
 };
 use firn_mesh::TriangleMesh;
-use firn_mpm::{SnowView, SolverStats};
+use firn_mpm::SolverStats;
 
 use crate::backend::Placement;
 use crate::caches;
@@ -469,10 +469,7 @@ impl Recording {
 
     /// The pose of each of the scene's rigid bodies now.
     fn body_poses(&mut self) -> Result<Vec<BodyPose>, RunError> {
-        Ok(match self.solver.host()? {
-            HostState::Snow(simulation) => body_poses(simulation),
-            HostState::Flow(_) => Vec::new(),
-        })
+        Ok(self.solver.host()?.body_poses())
     }
 
     /// The solver's work since the previous frame, if it runs a
@@ -562,20 +559,6 @@ pub fn collider_poses(scene: &Scene, time: f64) -> Vec<ColliderPose> {
                 position: pose.position.to_array(),
                 rotation: pose.rotation.to_array(),
             }
-        })
-        .collect()
-}
-
-/// The pose and motion of each of the rigid bodies of `snow`, in scene
-/// order, for the manifest.
-pub fn body_poses(snow: SnowView<'_>) -> Vec<BodyPose> {
-    snow.rigid_bodies()
-        .iter()
-        .map(|body| BodyPose {
-            position: body.position.to_array(),
-            rotation: body.rotation.to_array(),
-            velocity: body.velocity.to_array(),
-            angular_velocity: body.angular_velocity.to_array(),
         })
         .collect()
 }

@@ -192,6 +192,7 @@ fn a_surface_picture_shows_the_snow_where_the_points_picture_does() {
         trails: None,
         surface: None,
         drift: None,
+        rigid_bodies: &[],
     };
     let names = firn_run::pictures::render_frame(&scene, folder.path(), 0, 0.0, frame).unwrap();
     let empty = firn_render::scene_view::FrameParticles {
@@ -201,6 +202,7 @@ fn a_surface_picture_shows_the_snow_where_the_points_picture_does() {
         trails: None,
         surface: None,
         drift: None,
+        rigid_bodies: &[],
     };
     firn_run::pictures::render_frame(&scene, bare.path(), 0, 0.0, empty).unwrap();
     let covered = |name: &String| -> Vec<bool> {
