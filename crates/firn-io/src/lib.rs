@@ -40,6 +40,8 @@ pub use manifest::{
 };
 pub use mesh::{MeshData, write_mesh_obj, write_mesh_ply};
 pub use ply::{PlyCloud, PlyColumn, PlyValues, parse_ply, read_ply, write_ply};
-pub use usd::{UsdCollider, UsdColliderSample, UsdPoints, UsdShape, UsdStage, write_usd_frame};
+pub use usd::{
+    UsdCollider, UsdColliderSample, UsdPoints, UsdShape, UsdSolids, UsdStage, write_usd_frame,
+};
 pub use vdb::{FloatGrid, GridClass, Leaf, write_vdb};
 pub use vtk::{PvdCollection, PvdEntry, write_vtp};
