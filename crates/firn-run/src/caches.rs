@@ -2,7 +2,8 @@
 //! `[output] formats` (binary PLY, VTK PolyData), the ParaView collection
 //! (PVD) that lists the VTK frames by time, a snow frame's OpenVDB
 //! volumes (`vdb`, see [`crate::volumes`]), a snow frame's surface mesh
-//! (`mesh`, PLY and OBJ, see [`crate::surface`]) and the run's USD stage
+//! (`mesh`, PLY and OBJ, see [`crate::surface`], and its rigid bodies in
+//! one OBJ beside it, see [`crate::body_meshes`]) and the run's USD stage
 //! (`usd`, see [`crate::usd_stage`]). A snow scene with spindrift writes its drift
 //! particles beside the snow, in `drift/` (PLY and VTK), as a `drift` grid
 //! in the snow's OpenVDB file and as a `Drift` prim in the USD stage.
@@ -19,6 +20,7 @@ use firn_mesh::TriangleMesh;
 use firn_mpm::{Particles, SnowView};
 use glam::Vec3;
 
+use crate::body_meshes::bodies_mesh;
 use crate::run_dir::RunDirectory;
 use crate::simulation::{HostState, body_poses};
 use crate::surface::scene_surface;
@@ -437,6 +439,9 @@ fn write_caches(
                 let obj = RunDirectory::mesh_obj_name(frame.index);
                 write_mesh_obj(&run.path().join(&obj), surface)?;
                 files.extend([name, obj]);
+                if !bodies.is_empty() {
+                    files.push(write_bodies_mesh(scene, frame.index, bodies, run)?);
+                }
                 continue;
             }
             CacheFormat::Usd => write_usd_frame(
@@ -455,6 +460,24 @@ fn write_caches(
         files.push(name);
     }
     Ok(files)
+}
+
+/// Writes frame `index`'s rigid bodies at `poses` as one OBJ mesh beside
+/// the snow's surface; returns its path relative to the run directory.
+fn write_bodies_mesh(
+    scene: &Scene,
+    index: u32,
+    poses: &[BodyPose],
+    run: &RunDirectory,
+) -> Result<String, IoError> {
+    let mesh = bodies_mesh(scene, poses);
+    let name = RunDirectory::bodies_obj_name(index);
+    let data = MeshData {
+        vertices: &mesh.vertices,
+        triangles: &mesh.triangles,
+    };
+    write_mesh_obj(&run.path().join(&name), data)?;
+    Ok(name)
 }
 
 /// The values of one cached attribute, of the first `count` particles.
