@@ -10,6 +10,7 @@ use firn_core::scene::{RenderStyle, Transfer};
 use firn_mpm::Simulation;
 use firn_render::scene_view::{FrameParticles, scene_picture};
 use firn_run::run_dir::style_name;
+use firn_run::simulation::body_poses;
 use serde::Serialize;
 
 use crate::Failure;
@@ -78,6 +79,7 @@ fn measure(
     let scene = simulation.scene();
     let particles = simulation.particles();
     let densities = simulation.densities();
+    let bodies = body_poses(simulation.view());
     let frame = FrameParticles {
         positions: &particles.position,
         masses: Some(&particles.mass),
@@ -85,6 +87,7 @@ fn measure(
         trails: None,
         surface: None,
         drift: None,
+        rigid_bodies: &bodies,
     };
     let picture = scene_picture(scene, simulation.time(), style, frame, Some(size));
     firn_render::render(&picture);

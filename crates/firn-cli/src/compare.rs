@@ -536,6 +536,7 @@ mod tests {
             trails: None,
             surface: None,
             drift: None,
+            rigid_bodies: &[],
         };
         let measures = Measures::of(frame);
         assert_eq!(measures.particles, 2);

@@ -246,6 +246,7 @@ fn render_cached_frame(
         trails: None,
         surface: None,
         drift: drift.as_deref(),
+        rigid_bodies: &record.rigid_bodies,
     };
     render_frame(scene, run.path(), record.index, record.time, frame)
         .map_err(|error| Failure::Failed(format!("error: {error}")))

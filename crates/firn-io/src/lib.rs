@@ -35,10 +35,13 @@ pub use checkpoint::{Checkpoint, CheckpointView};
 pub use error::IoError;
 pub use frame::{Attribute, AttributeValues, CHUNK_VALUES, FrameData, FrameError, Values};
 pub use manifest::{
-    ColliderPose, FrameRecord, MANIFEST_FILE, Manifest, MassBalance, RunStatus, SolverFrameStats,
+    BodyPose, ColliderPose, FrameRecord, MANIFEST_FILE, Manifest, MassBalance, RunStatus,
+    SolverFrameStats,
 };
 pub use mesh::{MeshData, write_mesh_obj, write_mesh_ply};
 pub use ply::{PlyCloud, PlyColumn, PlyValues, parse_ply, read_ply, write_ply};
-pub use usd::{UsdCollider, UsdColliderSample, UsdPoints, UsdShape, UsdStage, write_usd_frame};
+pub use usd::{
+    UsdCollider, UsdColliderSample, UsdPoints, UsdShape, UsdSolids, UsdStage, write_usd_frame,
+};
 pub use vdb::{FloatGrid, GridClass, Leaf, write_vdb};
 pub use vtk::{PvdCollection, PvdEntry, write_vtp};

@@ -76,6 +76,11 @@ pub struct FrameRecord {
     /// turned, in the scene's order (absent without colliders).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub colliders: Vec<ColliderPose>,
+    /// Where each of the scene's rigid bodies is at the frame, how it is
+    /// turned and how it moves, in the scene's order (absent without
+    /// bodies).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub rigid_bodies: Vec<BodyPose>,
 }
 
 /// A collider's pose at a frame: a point p of its scene-file geometry is
@@ -86,6 +91,23 @@ pub struct ColliderPose {
     pub position: [f32; 3],
     /// Its orientation, a unit quaternion [x, y, z, w].
     pub rotation: [f32; 4],
+}
+
+/// A rigid body's pose and motion at a frame: a point p of its scene-file
+/// shape (a sphere, box, cylinder or capsule in its own frame) is at
+/// `position` + `rotation` (p − its reference point); a mesh body's placed
+/// vertices carry its starting rotation already, so they turn by
+/// `rotation` times the inverse of that.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BodyPose {
+    /// Where its reference point (the centre of its shape) is, m.
+    pub position: [f32; 3],
+    /// Its orientation, a unit quaternion [x, y, z, w].
+    pub rotation: [f32; 4],
+    /// Velocity of its centre of mass, m/s.
+    pub velocity: [f32; 3],
+    /// Angular velocity, rad/s.
+    pub angular_velocity: [f32; 3],
 }
 
 /// Where a snow scene's mass is, with spindrift: in the snow, in the air
@@ -205,6 +227,12 @@ mod tests {
                 position: [0.5, 0.25, 0.5],
                 rotation: [0.0, 0.38268343, 0.0, 0.9238795],
             }],
+            rigid_bodies: vec![BodyPose {
+                position: [0.25, 0.5, 0.75],
+                rotation: [0.0, 0.0, 0.38268343, 0.9238795],
+                velocity: [0.0, -1.5, 0.25],
+                angular_velocity: [0.5, 0.0, -2.0],
+            }],
         }
     }
 
@@ -280,6 +308,16 @@ mod tests {
         };
         let written = serde_json::to_value(&cpu).unwrap();
         assert!(written.get("adapter").is_none(), "{written}");
+    }
+
+    #[test]
+    fn frames_without_rigid_bodies_leave_them_out() {
+        let mut record = frame(0);
+        record.rigid_bodies.clear();
+        let written = serde_json::to_value(&record).unwrap();
+        assert!(written.get("rigid_bodies").is_none(), "{written}");
+        let read: FrameRecord = serde_json::from_value(written).unwrap();
+        assert_eq!(read, record);
     }
 
     #[test]

@@ -14,7 +14,8 @@
 //! and, where they turn, turned by a time-sampled `xformOp:orient` (the
 //! rotation about the reference point, applied before the translate); a
 //! deforming mesh collider's `points` are time-sampled too, its triangles
-//! written once.
+//! written once. Its rigid bodies are prims of the same shapes,
+//! `/World/Body<i>`, each with a time-sampled translate and orient.
 //! Rewriting one file with every frame
 //! would cost the whole run's data at each frame, so the samples are split
 //! into USD *value clips*, one layer per frame ([`clip_name`]), which the
@@ -58,6 +59,9 @@ pub struct UsdStage {
     pub last_frame: u32,
     /// The colliders, in the scene's order.
     pub colliders: Vec<UsdCollider>,
+    /// The rigid bodies' shapes about their reference points, in the
+    /// scene's order (never a deforming mesh).
+    pub bodies: Vec<UsdShape>,
 }
 
 /// One collider prim of the stage.
@@ -141,17 +145,27 @@ pub struct UsdColliderSample {
     pub points: Vec<Vec3>,
 }
 
+/// A frame's samples of the stage's solids.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UsdSolids<'a> {
+    /// Each collider's samples, in the stage's order.
+    pub colliders: &'a [UsdColliderSample],
+    /// Where each rigid body's shape is and how it is turned about its
+    /// reference point, in the stage's order.
+    pub bodies: &'a [ColliderPose],
+}
+
 /// Writes a frame's clip into `folder` (the run folder), with `frames`
 /// the particle sets of the stage's points prims in their order (of one
-/// frame index) and the colliders' samples at that frame in `colliders`,
-/// then the clip manifest and the stage, each atomically. Panics if
-/// `frames` and the stage's points prims, or `colliders` and its collider
-/// prims, differ in number.
+/// frame index) and the samples of the colliders and rigid bodies at that
+/// frame in `solids`, then the clip manifest and the stage, each
+/// atomically. Panics if `frames` and the stage's points prims, or the
+/// solids' samples and its solid prims, differ in number.
 pub fn write_usd_frame(
     folder: &Path,
     stage: &UsdStage,
     frames: &[&FrameData],
-    colliders: &[UsdColliderSample],
+    solids: UsdSolids<'_>,
 ) -> Result<(), IoError> {
     let index = frames.first().map_or(0, |frame| frame.index);
     let path = folder.join(clip_name(index));
@@ -161,9 +175,14 @@ pub fn write_usd_frame(
         "one particle set per points prim"
     );
     assert_eq!(
-        colliders.len(),
+        solids.colliders.len(),
         stage.colliders.len(),
         "one sample per collider prim"
+    );
+    assert_eq!(
+        solids.bodies.len(),
+        stage.bodies.len(),
+        "one pose per body prim"
     );
     for frame in frames {
         frame.validate().map_err(|problem| IoError::InvalidFrame {
@@ -171,7 +190,7 @@ pub fn write_usd_frame(
             problem,
         })?;
     }
-    write_atomically(&path, |out| write_usd_clip(out, stage, frames, colliders))?;
+    write_atomically(&path, |out| write_usd_clip(out, stage, frames, solids))?;
     let files = [
         (
             MANIFEST_FILE.to_string(),
@@ -248,7 +267,11 @@ pub fn encode_usd_stage(stage: &UsdStage, frames: &[&FrameData]) -> String {
         push_points(&mut text, points, frame);
     }
     for (index, collider) in stage.colliders.iter().enumerate() {
-        push_collider(&mut text, index, collider);
+        let name = format!("Collider{index}");
+        push_solid(&mut text, &name, &collider.shape, collider.turns);
+    }
+    for (index, shape) in stage.bodies.iter().enumerate() {
+        push_solid(&mut text, &format!("Body{index}"), shape, true);
     }
     text.push_str("}\n");
     text
@@ -276,10 +299,10 @@ fn push_points(text: &mut String, points: &UsdPoints, frame: &FrameData) {
     text.push_str("    }\n");
 }
 
-/// A collider prim, its translate (and orient, where it turns, and points,
-/// where it deforms) left to the clips.
-fn push_collider(text: &mut String, index: usize, collider: &UsdCollider) {
-    let shape = &collider.shape;
+/// A collider's or rigid body's prim named `name` of `shape`, its
+/// translate (and orient, where it `turns`, and points, where it deforms)
+/// left to the clips.
+fn push_solid(text: &mut String, name: &str, shape: &UsdShape, turns: bool) {
     let (kind, body, scaled) = match shape {
         UsdShape::Plane { normal, half_size } => ("Mesh", plane_mesh(*normal, *half_size), false),
         UsdShape::Mesh { points, triangles } => ("Mesh", triangle_mesh(points, triangles), false),
@@ -309,10 +332,10 @@ fn push_collider(text: &mut String, index: usize, collider: &UsdCollider) {
             false,
         ),
     };
-    let _ = write!(text, "    def {kind} \"Collider{index}\"\n    {{\n{body}");
+    let _ = write!(text, "    def {kind} \"{name}\"\n    {{\n{body}");
     let mut order = vec!["\"xformOp:translate\""];
     text.push_str("        double3 xformOp:translate\n");
-    if collider.turns {
+    if turns {
         text.push_str("        quatf xformOp:orient\n");
         order.push("\"xformOp:orient\"");
     }
@@ -383,23 +406,33 @@ pub fn encode_usd_manifest(stage: &UsdStage, frames: &[&FrameData]) -> String {
         text.push_str("    }\n");
     }
     for (index, collider) in stage.colliders.iter().enumerate() {
-        let orient = if collider.turns {
-            "        quatf xformOp:orient\n"
-        } else {
-            ""
-        };
-        let points = if deforms(collider) {
-            "        point3f[] points\n"
-        } else {
-            ""
-        };
-        let _ = write!(
-            text,
-            "    over \"Collider{index}\"\n    {{\n        double3 xformOp:translate\n{orient}{points}    }}\n"
-        );
+        let name = format!("Collider{index}");
+        push_solid_over(&mut text, &name, collider.turns, deforms(collider));
+    }
+    for index in 0..stage.bodies.len() {
+        push_solid_over(&mut text, &format!("Body{index}"), true, false);
     }
     text.push_str("}\n");
     text
+}
+
+/// The clip manifest's declarations of a solid prim named `name`: its
+/// translate, its orient where it `turns`, its points where it `deforms`.
+fn push_solid_over(text: &mut String, name: &str, turns: bool, deforms: bool) {
+    let orient = if turns {
+        "        quatf xformOp:orient\n"
+    } else {
+        ""
+    };
+    let points = if deforms {
+        "        point3f[] points\n"
+    } else {
+        ""
+    };
+    let _ = write!(
+        text,
+        "    over \"{name}\"\n    {{\n        double3 xformOp:translate\n{orient}{points}    }}\n"
+    );
 }
 
 /// Whether `collider` is a deforming mesh, whose clips carry its points.
@@ -408,13 +441,9 @@ fn deforms(collider: &UsdCollider) -> bool {
 }
 
 /// A frame's clip: the samples of its particle sets `frames` (one per points
-/// prim) and of the colliders `colliders` at its time code.
-pub fn encode_usd_clip(
-    stage: &UsdStage,
-    frames: &[&FrameData],
-    colliders: &[UsdColliderSample],
-) -> String {
-    text_of(|out| write_usd_clip(out, stage, frames, colliders))
+/// prim) and of the colliders and rigid bodies `solids` at its time code.
+pub fn encode_usd_clip(stage: &UsdStage, frames: &[&FrameData], solids: UsdSolids<'_>) -> String {
+    text_of(|out| write_usd_clip(out, stage, frames, solids))
 }
 
 /// Writes the clip of [`encode_usd_clip`] into `out`, a value at a time:
@@ -423,29 +452,17 @@ fn write_usd_clip(
     out: &mut dyn io::Write,
     stage: &UsdStage,
     frames: &[&FrameData],
-    colliders: &[UsdColliderSample],
+    solids: UsdSolids<'_>,
 ) -> io::Result<()> {
     let code = frames.first().map_or(0, |frame| frame.index);
     out.write_all(b"#usda 1.0\n\nover \"World\"\n{\n")?;
     for (points, frame) in stage.points.iter().zip(frames) {
         write_samples(out, points, frame)?;
     }
-    for (index, (collider, sample)) in stage.colliders.iter().zip(colliders).enumerate() {
-        let pose = &sample.pose;
-        write!(
-            out,
-            "    over \"Collider{index}\"\n    {{\n        \
-             double3 xformOp:translate.timeSamples = {{ {code}: {} }}\n",
-            tuple(Vec3::from_array(pose.position))
-        )?;
-        if collider.turns {
-            // USD writes a quaternion real part first: (w, x, y, z).
-            let [x, y, z, w] = pose.rotation;
-            writeln!(
-                out,
-                "        quatf xformOp:orient.timeSamples = {{ {code}: ({w}, {x}, {y}, {z}) }}"
-            )?;
-        }
+    let colliders = stage.colliders.iter().zip(solids.colliders);
+    for (index, (collider, sample)) in colliders.enumerate() {
+        let name = format!("Collider{index}");
+        write_pose(out, &name, code, &sample.pose, collider.turns)?;
         if deforms(collider) {
             write!(out, "        point3f[] points.timeSamples = {{ {code}: ")?;
             write_vectors(out, sample.points.iter().copied())?;
@@ -453,7 +470,38 @@ fn write_usd_clip(
         }
         out.write_all(b"    }\n")?;
     }
+    for (index, pose) in solids.bodies.iter().enumerate() {
+        write_pose(out, &format!("Body{index}"), code, pose, true)?;
+        out.write_all(b"    }\n")?;
+    }
     out.write_all(b"}\n")
+}
+
+/// Opens the clip's `over` of the solid prim `name` with its translate at
+/// time code `code` and, where it `turns`, its orient (the caller closes
+/// it).
+fn write_pose(
+    out: &mut dyn io::Write,
+    name: &str,
+    code: u32,
+    pose: &ColliderPose,
+    turns: bool,
+) -> io::Result<()> {
+    write!(
+        out,
+        "    over \"{name}\"\n    {{\n        \
+         double3 xformOp:translate.timeSamples = {{ {code}: {} }}\n",
+        tuple(Vec3::from_array(pose.position))
+    )?;
+    if turns {
+        // USD writes a quaternion real part first: (w, x, y, z).
+        let [x, y, z, w] = pose.rotation;
+        writeln!(
+            out,
+            "        quatf xformOp:orient.timeSamples = {{ {code}: ({w}, {x}, {y}, {z}) }}"
+        )?;
+    }
+    Ok(())
 }
 
 /// A points prim's samples of `frame` at its time code.
@@ -600,6 +648,7 @@ mod tests {
                     turns: true,
                 },
             ],
+            bodies: vec![UsdShape::Sphere { radius: 0.25 }],
         }
     }
 
@@ -627,7 +676,15 @@ mod tests {
             pose(Vec3::ZERO, glam::Quat::IDENTITY),
             pose(Vec3::X, quarter),
         ];
-        let clip = encode_usd_clip(&stage(), &[&frame, &drift], &poses);
+        let body = ColliderPose {
+            position: [0.5, 2.0, 0.0],
+            rotation: quarter.to_array(),
+        };
+        let solids = UsdSolids {
+            colliders: &poses,
+            bodies: &[body],
+        };
+        let clip = encode_usd_clip(&stage(), &[&frame, &drift], solids);
         assert!(
             clip.contains("point3f[] points.timeSamples = { 3: [(0.5, 1, 0.25), (0, 0.1, 2)] }")
         );
@@ -646,6 +703,13 @@ mod tests {
             !plane[..plane.find('}').unwrap()].contains("orient"),
             "an unturned collider has no orient: {plane}"
         );
+        let body = &clip[clip.find("over \"Body0\"").expect("the body's samples")..];
+        let body = &body[..body.find("    }\n").unwrap()];
+        assert!(
+            body.contains("double3 xformOp:translate.timeSamples = { 3: (0.5, 2, 0) }"),
+            "{body}"
+        );
+        assert!(body.contains(&orient), "{orient} missing from\n{body}");
         let drift = &clip[clip.find("over \"Drift\"").expect("the drift's samples")..];
         assert!(drift.contains("point3f[] points.timeSamples = { 3: [(0.5, 1, 0.25)] }"));
         assert!(drift.contains("float3[] extent.timeSamples = { 3: [(0.495, 0.995, 0.245), "));
@@ -672,6 +736,7 @@ mod tests {
             "float[] widths = [0.01] (interpolation = \"constant\")",
             "def Mesh \"Collider0\"",
             "def Cube \"Collider1\"",
+            "def Sphere \"Body0\"",
             "float3 xformOp:scale = (1, 2, 3)",
             "uniform token[] xformOpOrder = [\"xformOp:translate\"]",
             "quatf xformOp:orient\n",
@@ -683,7 +748,9 @@ mod tests {
         let manifest = encode_usd_manifest(&stage(), &[&snow, &drift]);
         let turning = &manifest[manifest.find("over \"Collider1\"").expect("the box")..];
         assert!(turning.contains("quatf xformOp:orient\n"), "{manifest}");
-        assert_eq!(manifest.matches("xformOp:orient").count(), 1, "{manifest}");
+        let body = &manifest[manifest.find("over \"Body0\"").expect("the body")..];
+        assert!(body.contains("quatf xformOp:orient\n"), "{manifest}");
+        assert_eq!(manifest.matches("xformOp:orient").count(), 2, "{manifest}");
         assert_eq!(clip_name(3), "usd/frame.00003.usda");
     }
 
@@ -712,6 +779,7 @@ mod tests {
                     turns: false,
                 },
             ],
+            bodies: Vec::new(),
         };
         let clip = |index: u32, lift: f32| {
             let frame = FrameData::new(index, index as f64 / 24.0, &[]);
@@ -720,7 +788,11 @@ mod tests {
                 pose(Vec3::ONE, glam::Quat::IDENTITY),
             ];
             samples[1].points = vec![Vec3::ZERO, Vec3::X, Vec3::new(0.0, lift, 0.0)];
-            encode_usd_clip(&stage, &[&frame], &samples)
+            let solids = UsdSolids {
+                colliders: &samples,
+                bodies: &[],
+            };
+            encode_usd_clip(&stage, &[&frame], solids)
         };
         for (index, lift, points) in [
             (1, 1.0, "[(0, 0, 0), (1, 0, 0), (0, 1, 0)]"),

@@ -5,8 +5,9 @@ use std::borrow::Cow;
 
 use firn_core::Scene;
 use firn_core::scene::{ColliderGeometry, ColorBy, RenderStyle};
+use firn_io::BodyPose;
 use firn_mesh::TriangleMesh;
-use glam::Vec3;
+use glam::{Quat, Vec3};
 
 use crate::camera::{CameraView, automatic_framing};
 use crate::legend::Legend;
@@ -46,6 +47,9 @@ pub struct FrameParticles<'a> {
     /// A snow scene's drift particles (`[wind.spindrift]`), drawn in the
     /// flow's look over the snow.
     pub drift: Option<&'a [Vec3]>,
+    /// Where the scene's rigid bodies are and how they are turned, in
+    /// scene order (empty without bodies).
+    pub rigid_bodies: &'a [BodyPose],
 }
 
 /// The picture of `scene` at simulated time `time` in `style`, at the
@@ -78,7 +82,10 @@ pub fn scene_picture<'a>(
     Picture {
         camera,
         style,
-        stage: scene_stage(scene, time),
+        stage: Stage {
+            bodies: stage_bodies(scene, particles.rigid_bodies),
+            ..scene_stage(scene, time)
+        },
         particles: ParticleLayer {
             positions: particles.positions,
             masses,
@@ -153,6 +160,22 @@ pub fn scene_stage(scene: &Scene, t: f64) -> Stage {
         colliders,
         ..Stage::default()
     }
+}
+
+/// The scene's rigid bodies at their `poses` (in scene order): each body's
+/// geometry at its reference point, turned by its rotation less the one
+/// its placed mesh already carries.
+pub fn stage_bodies(scene: &Scene, poses: &[BodyPose]) -> Vec<StageCollider> {
+    scene
+        .rigid_bodies
+        .iter()
+        .zip(poses)
+        .map(|(body, pose)| StageCollider {
+            geometry: body.geometry.moved_to(Vec3::from_array(pose.position)),
+            rotation: Quat::from_array(pose.rotation) * body.baked_rotation().inverse(),
+            deformed: None,
+        })
+        .collect()
 }
 
 /// The radius particles are drawn with: the scene's `point_radius`, or a

@@ -1,5 +1,6 @@
 //! Everything in a picture that is not particles: the sky, the ground plane,
-//! the colliders (Blinn-Phong shaded, thesis section 5.7) and the light.
+//! the colliders and rigid bodies (Blinn-Phong shaded, thesis section 5.7)
+//! and the light.
 //! These are ray-cast per sample; the particles are drawn over them with a
 //! depth test.
 
@@ -48,6 +49,9 @@ pub struct Stage {
     pub container: Option<(Vec3, Vec3)>,
     /// Colliders, placed and turned as they are at the picture's time.
     pub colliders: Vec<StageCollider>,
+    /// Rigid bodies, placed and turned as they are at the picture's time,
+    /// drawn like colliders in a colour of their own ([`BODY_ALBEDO`]).
+    pub bodies: Vec<StageCollider>,
     /// The lighting.
     pub light: Light,
 }
@@ -139,6 +143,7 @@ impl Default for Stage {
             ground: None,
             container: None,
             colliders: Vec::new(),
+            bodies: Vec::new(),
             light: Light::default(),
         }
     }
@@ -146,6 +151,8 @@ impl Default for Stage {
 
 /// Albedo of sphere and box colliders.
 pub const COLLIDER_ALBEDO: Vec3 = Vec3::new(0.55, 0.24, 0.18);
+/// Albedo of rigid bodies: a warm wood, apart from the colliders' red.
+pub const BODY_ALBEDO: Vec3 = Vec3::new(0.62, 0.46, 0.27);
 /// Albedo of plane colliders (walls).
 pub const WALL_ALBEDO: Vec3 = Vec3::new(0.42, 0.45, 0.50);
 /// Albedo of the two tones of the ground's checkerboard.
@@ -219,6 +226,13 @@ impl Stage {
         }
         for collider in &self.colliders {
             consider(self.hit_collider(collider, origin, direction));
+        }
+        for body in &self.bodies {
+            let hit = self.hit_collider(body, origin, direction);
+            consider(hit.map(|hit| SurfaceHit {
+                albedo: BODY_ALBEDO,
+                ..hit
+            }));
         }
         best
     }

@@ -531,3 +531,73 @@ fn a_deforming_mesh_collider_is_drawn_where_its_mesh_is_at_the_picture_time() {
         }
     }
 }
+
+/// A bar 0.6 m long along x, 0.1 m thick, centred at the origin, as an OBJ.
+fn bar_obj() -> String {
+    let mut text = String::new();
+    for corner in 0..8 {
+        let pick = |bit: u32, half: f32| if corner & bit == 0 { -half } else { half };
+        text += &format!("v {} {} {}\n", pick(1, 0.3), pick(2, 0.05), pick(4, 0.05));
+    }
+    text + "f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n"
+}
+
+#[test]
+fn rigid_bodies_are_drawn_in_their_own_colour_where_their_pose_puts_them() {
+    use firn_io::BodyPose;
+    use glam::Quat;
+    let folder = tempfile::tempdir().unwrap();
+    std::fs::write(folder.path().join("bar.obj"), bar_obj()).unwrap();
+    // A box bar along x and the same bar as a mesh, placed standing up
+    // (turned 90° about z at the start: its vertices carry that turn).
+    let toml = "format = 1\nname = \"bars\"\n[domain]\nmin = [-1.0, -1.0, -1.0]\n\
+        max = [1.0, 1.0, 1.0]\ncell_size = 0.1\n[time]\nduration = 1.0\n[[bodies]]\n\
+        shape = \"sphere\"\ncenter = [0.0, -0.8, 0.0]\nradius = 0.1\n[[rigid_bodies]]\n\
+        shape = \"box\"\ncenter = [-0.4, 0.0, 0.0]\nsize = [0.6, 0.1, 0.1]\n\
+        [[rigid_bodies]]\nshape = \"mesh\"\nmesh = \"bar.obj\"\ncenter = [0.4, 0.0, 0.0]\n\
+        rotation = [0.0, 0.0, 90.0]\nsdf_spacing = 0.02\n";
+    let path = folder.path().join("scene.toml");
+    std::fs::write(&path, toml).unwrap();
+    let scene = firn_core::Scene::load(&path).expect("the scene loads");
+    let upright = Quat::from_rotation_z(std::f32::consts::FRAC_PI_2);
+    let pose = |position: Vec3, rotation: Quat| BodyPose {
+        position: position.to_array(),
+        rotation: rotation.to_array(),
+        velocity: [0.0; 3],
+        angular_velocity: [0.0; 3],
+    };
+    let drawn = |poses: &[BodyPose]| {
+        let mut shown = picture(&[], Coloring::Uniform(Vec3::ONE), RenderStyle::Points);
+        shown.stage.bodies = firn_render::scene_view::stage_bodies(&scene, poses);
+        render(&shown)
+    };
+    let colour_at = |image: &RgbImage, point: Vec3| {
+        let pixel = camera().project(point).expect("in front").pixel;
+        image.get_pixel(pixel.x as u32, pixel.y as u32).0
+    };
+    // The wood tone: red over green over blue, green well above the
+    // colliders' brick red.
+    let is_body = |[r, g, b]: [u8; 3]| r > g && g > b.saturating_add(20) && g > r / 2 + r / 5;
+    // The box turned upright and moved up; the mesh at its starting turn,
+    // moved down: both stand.
+    let image = drawn(&[
+        pose(Vec3::new(-0.4, 0.1, 0.0), upright),
+        pose(Vec3::new(0.4, -0.1, 0.0), upright),
+    ]);
+    for (x, y) in [(-0.4, 0.1), (-0.4, 0.32), (0.4, -0.1), (0.4, -0.32)] {
+        let colour = colour_at(&image, Vec3::new(x, y, 0.05));
+        assert!(is_body(colour), "({x}, {y}) is {colour:?}, not a body");
+    }
+    for (x, y) in [(-0.6, 0.1), (-0.4, -0.2), (0.6, -0.1), (0.4, 0.2)] {
+        let colour = colour_at(&image, Vec3::new(x, y, 0.05));
+        assert!(!is_body(colour), "({x}, {y}) is {colour:?}, a body");
+    }
+    // The same bodies at their starting poses: the box lies along x.
+    let start = drawn(&[
+        pose(Vec3::new(-0.4, 0.0, 0.0), Quat::IDENTITY),
+        pose(Vec3::new(0.4, 0.0, 0.0), upright),
+    ]);
+    assert!(is_body(colour_at(&start, Vec3::new(-0.6, 0.0, 0.05))));
+    assert!(!is_body(colour_at(&start, Vec3::new(-0.4, 0.2, 0.05))));
+    assert!(is_body(colour_at(&start, Vec3::new(0.4, 0.2, 0.05))));
+}

@@ -2,7 +2,8 @@
 //! `[output] formats` (binary PLY, VTK PolyData), the ParaView collection
 //! (PVD) that lists the VTK frames by time, a snow frame's OpenVDB
 //! volumes (`vdb`, see [`crate::volumes`]), a snow frame's surface mesh
-//! (`mesh`, PLY and OBJ, see [`crate::surface`]) and the run's USD stage
+//! (`mesh`, PLY and OBJ, see [`crate::surface`], and its rigid bodies in
+//! one OBJ beside it, see [`crate::body_meshes`]) and the run's USD stage
 //! (`usd`, see [`crate::usd_stage`]). A snow scene with spindrift writes its drift
 //! particles beside the snow, in `drift/` (PLY and VTK), as a `drift` grid
 //! in the snow's OpenVDB file and as a `Drift` prim in the USD stage.
@@ -12,17 +13,18 @@ use std::path::Path;
 use firn_core::scene::{Attribute as SceneAttribute, CacheFormat, Scene, WorkEstimate};
 use firn_io::atomic::WRITE_BUFFER_BYTES;
 use firn_io::{
-    Attribute, CHUNK_VALUES, FloatGrid, FrameData, IoError, MeshData, PvdCollection,
-    write_mesh_obj, write_mesh_ply, write_ply, write_usd_frame, write_vdb, write_vtp,
+    Attribute, BodyPose, CHUNK_VALUES, FloatGrid, FrameData, IoError, MeshData, PvdCollection,
+    UsdSolids, write_mesh_obj, write_mesh_ply, write_ply, write_usd_frame, write_vdb, write_vtp,
 };
 use firn_mesh::TriangleMesh;
 use firn_mpm::{Particles, SnowView};
 use glam::Vec3;
 
+use crate::body_meshes::bodies_mesh;
 use crate::run_dir::RunDirectory;
-use crate::simulation::HostState;
+use crate::simulation::{HostState, body_poses};
 use crate::surface::scene_surface;
-use crate::usd_stage::{usd_collider_samples, usd_stage};
+use crate::usd_stage::{usd_body_samples, usd_collider_samples, usd_stage};
 use crate::volumes::{density_grid, snow_volumes};
 
 /// Bytes a `vdb` cache holds per voxel of snow while a frame is written:
@@ -138,10 +140,14 @@ pub fn write_frame_with_pieces(
             let frame = FrameData::new(index, flow.time(), flow.positions())
                 .with_attribute(Attribute::vector("velocity", flow.velocities()))
                 .with_attribute(Attribute::scalar("age", flow.ages()));
+            let written = FrameContents {
+                frame: &frame,
+                drift: None,
+                bodies: &[],
+            };
             let files = write_caches(
                 flow.scene(),
-                &frame,
-                None,
+                written,
                 &Volumes::default(),
                 run,
                 &mut collection,
@@ -260,7 +266,13 @@ fn write_snow_frame(
             .contains(&CacheFormat::Mesh)
             .then(|| scene_surface(scene, &particles.position, &particles.mass)),
     };
-    let mut files = write_caches(scene, &frame, drift.as_ref(), &volumes, run, collection)?;
+    let bodies = body_poses(snow);
+    let written = FrameContents {
+        frame: &frame,
+        drift: drift.as_ref(),
+        bodies: &bodies,
+    };
+    let mut files = write_caches(scene, written, &volumes, run, collection)?;
     if let Some(drift) = &drift {
         files.extend(write_drift_frame(scene, drift, run)?);
     }
@@ -376,17 +388,31 @@ fn scene_volumes(scene: &Scene, particles: &Particles) -> Vec<FloatGrid> {
     )
 }
 
-/// Writes `frame` in each of `scene`'s formats into `run` (`volumes` for
-/// `vdb` and `mesh`, and a spindrift scene's `drift` for `usd`); returns
-/// the files' paths relative to the run directory.
+/// What a frame's caches hold besides the volumes: its particles, a
+/// spindrift scene's drift and the rigid bodies' poses.
+#[derive(Clone, Copy)]
+struct FrameContents<'a> {
+    frame: &'a FrameData<'a>,
+    drift: Option<&'a FrameData<'a>>,
+    bodies: &'a [BodyPose],
+}
+
+/// Writes `written.frame` in each of `scene`'s formats into `run`
+/// (`volumes` for `vdb` and `mesh`, and a spindrift scene's drift and the
+/// bodies for `usd`); returns the files' paths relative to the run
+/// directory.
 fn write_caches(
     scene: &Scene,
-    frame: &FrameData,
-    drift: Option<&FrameData>,
+    written: FrameContents<'_>,
     volumes: &Volumes,
     run: &RunDirectory,
     collection: &mut Collection<'_>,
 ) -> Result<Vec<String>, IoError> {
+    let FrameContents {
+        frame,
+        drift,
+        bodies,
+    } = written;
     let mut files = Vec::new();
     for &format in &scene.output.formats {
         let name = RunDirectory::cache_name(format, frame.index);
@@ -413,6 +439,9 @@ fn write_caches(
                 let obj = RunDirectory::mesh_obj_name(frame.index);
                 write_mesh_obj(&run.path().join(&obj), surface)?;
                 files.extend([name, obj]);
+                if !bodies.is_empty() {
+                    files.push(write_bodies_mesh(scene, frame.index, bodies, run)?);
+                }
                 continue;
             }
             CacheFormat::Usd => write_usd_frame(
@@ -422,12 +451,33 @@ fn write_caches(
                     .into_iter()
                     .flatten()
                     .collect::<Vec<_>>(),
-                &usd_collider_samples(scene, frame.time),
+                UsdSolids {
+                    colliders: &usd_collider_samples(scene, frame.time),
+                    bodies: &usd_body_samples(scene, bodies),
+                },
             )?,
         }
         files.push(name);
     }
     Ok(files)
+}
+
+/// Writes frame `index`'s rigid bodies at `poses` as one OBJ mesh beside
+/// the snow's surface; returns its path relative to the run directory.
+fn write_bodies_mesh(
+    scene: &Scene,
+    index: u32,
+    poses: &[BodyPose],
+    run: &RunDirectory,
+) -> Result<String, IoError> {
+    let mesh = bodies_mesh(scene, poses);
+    let name = RunDirectory::bodies_obj_name(index);
+    let data = MeshData {
+        vertices: &mesh.vertices,
+        triangles: &mesh.triangles,
+    };
+    write_mesh_obj(&run.path().join(&name), data)?;
+    Ok(name)
 }
 
 /// The values of one cached attribute, of the first `count` particles.

@@ -26,6 +26,7 @@
 //! - [`error`]: what can go wrong, as [`RunError`].
 
 pub mod backend;
+pub mod body_meshes;
 pub mod budget;
 pub mod caches;
 pub mod checkpoint;

@@ -31,6 +31,7 @@ pub fn frame_particles<'a>(particles: &'a HostParticles<'a>) -> FrameParticles<'
         }),
         surface: None,
         drift: particles.drift,
+        rigid_bodies: &particles.rigid_bodies,
     }
 }
 

@@ -14,7 +14,8 @@ use std::time::{Duration, Instant};
 
 use firn_core::Scene;
 use firn_io::{
-    ColliderPose, FrameRecord, Manifest, MassBalance, PvdCollection, RunStatus, SolverFrameStats,
+    BodyPose, ColliderPose, FrameRecord, Manifest, MassBalance, PvdCollection, RunStatus,
+    SolverFrameStats,
 };
 use firn_mesh::TriangleMesh;
 use firn_mpm::SolverStats;
@@ -385,6 +386,7 @@ impl Recording {
         let wall_seconds = wall.as_secs_f64();
         let solver = self.frame_solver_stats();
         let mass = self.mass_balance().map_err(|error| self.fail(error))?;
+        let rigid_bodies = self.body_poses().map_err(|error| self.fail(error))?;
         self.manifest.record_frame(FrameRecord {
             index,
             time: self.solver.time(),
@@ -400,6 +402,7 @@ impl Recording {
             solver,
             mass,
             colliders: collider_poses(self.solver.scene(), self.solver.time()),
+            rigid_bodies,
         });
         self.frame = index;
         let every = self.solver.scene().output.checkpoint_every;
@@ -462,6 +465,11 @@ impl Recording {
             drift_particles: drift.len() as u64,
             escaped_particles: escaped.count,
         }))
+    }
+
+    /// The pose of each of the scene's rigid bodies now.
+    fn body_poses(&mut self) -> Result<Vec<BodyPose>, RunError> {
+        Ok(self.solver.host()?.body_poses())
     }
 
     /// The solver's work since the previous frame, if it runs a

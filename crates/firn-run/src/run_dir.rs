@@ -138,6 +138,13 @@ impl RunDirectory {
         format!("{}/frame_{index:05}.obj", cache_folder(CacheFormat::Mesh))
     }
 
+    /// Path of frame `index`'s rigid bodies as one OBJ mesh (written with
+    /// the `mesh` format where the scene has bodies), relative to the
+    /// folder.
+    pub fn bodies_obj_name(index: u32) -> String {
+        format!("{}/bodies_{index:05}.obj", cache_folder(CacheFormat::Mesh))
+    }
+
     /// Path of frame `index`'s drift particles (`[wind.spindrift]`) in
     /// `format` (`ply` or `vtk`), relative to the folder:
     /// `drift/frame_NNNNN.ply` or `.vtp`.

@@ -27,6 +27,7 @@ use firn_core::scene::{ColorBy, FlowSettings, Material, SceneKind, Wind};
 use firn_flow::{FlowSimulation, FlowSnapshot, FlowView};
 use firn_gpu::draw::ParticleArrays;
 use firn_gpu::snow::Scatter;
+use firn_io::BodyPose;
 use firn_mpm::{PhaseTimes, Simulation, Snapshot, SnowView, SolverStats};
 use glam::Vec3;
 
@@ -90,6 +91,8 @@ pub struct HostParticles<'a> {
     pub trails: Option<TrailRings>,
     /// Snow's drift particles, with spindrift (`[wind.spindrift]`).
     pub drift: Option<&'a [Vec3]>,
+    /// Where snow's rigid bodies are, in scene order (none for a flow).
+    pub rigid_bodies: Vec<BodyPose>,
 }
 
 /// A flow's trails, flattened: per particle a ring of `capacity` recent
@@ -371,6 +374,7 @@ impl<'a> HostState<'a> {
                     .scene()
                     .spindrift()
                     .map(|_| snow.drift().position.as_slice()),
+                rigid_bodies: body_poses(snow),
             },
             HostState::Flow(flow) => HostParticles {
                 positions: flow.positions(),
@@ -386,7 +390,31 @@ impl<'a> HostState<'a> {
                     }
                 }),
                 drift: None,
+                rigid_bodies: Vec::new(),
             },
         }
     }
+
+    /// The pose and motion of each of the scene's rigid bodies, in scene
+    /// order (none for a flow).
+    pub fn body_poses(self) -> Vec<BodyPose> {
+        match self {
+            HostState::Snow(snow) => body_poses(snow),
+            HostState::Flow(_) => Vec::new(),
+        }
+    }
+}
+
+/// The pose and motion of each of the rigid bodies of `snow`, in scene
+/// order, as the manifest records them and pictures draw them.
+pub fn body_poses(snow: SnowView<'_>) -> Vec<BodyPose> {
+    snow.rigid_bodies()
+        .iter()
+        .map(|body| BodyPose {
+            position: body.position.to_array(),
+            rotation: body.rotation.to_array(),
+            velocity: body.velocity.to_array(),
+            angular_velocity: body.angular_velocity.to_array(),
+        })
+        .collect()
 }

@@ -1,19 +1,25 @@
 //! What a run's USD stage says besides the particles: the points prims'
 //! names and widths (the snow, or a flow's particles, and a spindrift
-//! scene's drift), the frame rate and the colliders (see [`firn_io::usd`]);
-//! each frame's collider samples are [`usd_collider_samples`].
+//! scene's drift), the frame rate, the colliders and the rigid bodies (see
+//! [`firn_io::usd`]); each frame's collider samples are
+//! [`usd_collider_samples`], its bodies' [`usd_body_samples`].
 //!
 //! Planes are drawn as squares as wide as the domain's longest edge; mesh
 //! colliders as their file's triangles, placed as at time zero about the
 //! centre of their bounding box (read again from the file each time the
 //! stage is written, since the scene keeps only their distance field; a
 //! file that no longer reads gives an empty mesh); a deforming mesh as its
-//! triangles, its points those of each frame's time.
+//! triangles, its points those of each frame's time. Rigid bodies are
+//! drawn as colliders of their shapes are, a mesh body as its file placed
+//! with its starting rotation, which its orient then leaves out.
 
 use firn_core::Scene;
 use firn_core::scene::ColliderGeometry;
 use firn_core::scene::sampling::particle_spacing;
-use firn_io::{UsdCollider, UsdColliderSample, UsdPoints, UsdShape, UsdStage};
+use firn_io::{
+    BodyPose, ColliderPose, UsdCollider, UsdColliderSample, UsdPoints, UsdShape, UsdStage,
+};
+use glam::Quat;
 
 use crate::recording::collider_poses;
 
@@ -42,7 +48,30 @@ pub fn usd_stage(scene: &Scene, last_frame: u32) -> UsdStage {
                 turns: collider.turns(),
             })
             .collect(),
+        bodies: scene
+            .rigid_bodies
+            .iter()
+            .map(|body| usd_shape(&body.geometry, plane_half_size(scene)))
+            .collect(),
     }
+}
+
+/// Where each of `scene`'s rigid bodies at `poses` (in scene order) has
+/// its shape: at its reference point, turned by its rotation less the one
+/// a mesh body's placed points already carry.
+pub fn usd_body_samples(scene: &Scene, poses: &[BodyPose]) -> Vec<ColliderPose> {
+    scene
+        .rigid_bodies
+        .iter()
+        .zip(poses)
+        .map(|(body, pose)| {
+            let turn = Quat::from_array(pose.rotation) * body.baked_rotation().inverse();
+            ColliderPose {
+                position: pose.position,
+                rotation: turn.to_array(),
+            }
+        })
+        .collect()
 }
 
 /// Each of `scene`'s colliders at `time`: its pose, and a deforming mesh's

@@ -93,7 +93,10 @@ fn usd_cost_per_frame() {
             folder.path(),
             &stage,
             &[&frame],
-            &usd_collider_samples(&scene, 0.0),
+            firn_io::UsdSolids {
+                colliders: &usd_collider_samples(&scene, 0.0),
+                bodies: &[],
+            },
         )
         .unwrap();
         let clip = folder.path().join(firn_io::usd::clip_name(index));

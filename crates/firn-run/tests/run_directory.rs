@@ -540,3 +540,43 @@ fn the_manifest_records_each_colliders_pose_per_frame() {
         );
     }
 }
+
+#[test]
+fn the_manifest_records_each_rigid_bodys_pose_per_frame() {
+    let folder = tempfile::tempdir().unwrap();
+    let scene = common::box_on_slab();
+    let start_rotation = scene.rigid_bodies[0].rotation;
+    // The same scene stepped frame by frame outside a recording.
+    let mut alone = firn_mpm::Simulation::new(scene.clone()).unwrap();
+    let mut notes = Notes::default();
+    let mut recording = start(scene, folder.path(), &mut notes);
+    recording.run_to(2, &mut notes).expect("the run goes on");
+    let read = RunDirectory::new(folder.path()).read().unwrap();
+    let frames = &read.manifest.frames;
+    assert_eq!(frames.len(), 3);
+    for frame in frames {
+        if frame.index > 0 {
+            alone.advance_to(f64::from(frame.index) / 24.0).unwrap();
+        }
+        let [pose] = frame.rigid_bodies[..] else {
+            panic!("one pose per body: {:?}", frame.rigid_bodies);
+        };
+        let [body] = alone.rigid_bodies()[..] else {
+            panic!("one body")
+        };
+        assert_eq!(pose.position, body.position.to_array());
+        assert_eq!(pose.rotation, body.rotation.to_array());
+        assert_eq!(pose.velocity, body.velocity.to_array());
+        assert_eq!(pose.angular_velocity, body.angular_velocity.to_array());
+    }
+    let (first, last) = (&frames[0].rigid_bodies[0], &frames[2].rigid_bodies[0]);
+    assert_eq!(first.position, [0.45, 0.4, 0.5]);
+    assert_eq!(first.rotation, start_rotation.to_array());
+    assert!(last.position[1] < first.position[1] - 0.05, "{last:?}");
+    let turned = glam::Quat::from_array(last.rotation).angle_between(start_rotation);
+    assert!(turned > 0.1, "turned by {turned} rad: {last:?}");
+    assert!(
+        read.manifest.frames.iter().all(|f| f.colliders.is_empty()),
+        "no colliders"
+    );
+}

@@ -2,7 +2,10 @@
 //! mesh is closed and outward (every edge used once in each direction), it
 //! encloses the snow's volume (mass over rest density), both files read
 //! back as the same mesh, and a run writes the same bytes every time and on
-//! any number of threads.
+//! any number of threads. A scene's rigid bodies are written beside it,
+//! one OBJ a frame, each body at its pose.
+
+mod common;
 
 use std::path::Path;
 
@@ -192,6 +195,7 @@ fn a_surface_picture_shows_the_snow_where_the_points_picture_does() {
         trails: None,
         surface: None,
         drift: None,
+        rigid_bodies: &[],
     };
     let names = firn_run::pictures::render_frame(&scene, folder.path(), 0, 0.0, frame).unwrap();
     let empty = firn_render::scene_view::FrameParticles {
@@ -201,6 +205,7 @@ fn a_surface_picture_shows_the_snow_where_the_points_picture_does() {
         trails: None,
         surface: None,
         drift: None,
+        rigid_bodies: &[],
     };
     firn_run::pictures::render_frame(&scene, bare.path(), 0, 0.0, empty).unwrap();
     let covered = |name: &String| -> Vec<bool> {
@@ -226,4 +231,42 @@ fn a_surface_picture_shows_the_snow_where_the_points_picture_does() {
     let overlap = both as f64 / either as f64;
     assert!(both > 100, "the snow covers {both} pixels in both pictures");
     assert!(overlap > 0.8, "points and surface overlap by {overlap:.3}");
+}
+
+#[test]
+fn the_rigid_bodies_are_written_beside_the_surface_at_their_poses() {
+    let mut scene = common::box_on_slab();
+    scene.output.formats = vec![CacheFormat::Mesh];
+    let size = match scene.rigid_bodies[0].geometry {
+        firn_core::scene::ColliderGeometry::Box { size, .. } => size,
+        _ => unreachable!("the body is a box"),
+    };
+    let folder = tempfile::tempdir().unwrap();
+    let run = RunDirectory::new(folder.path());
+    run.create(&scene).unwrap();
+    let mut solver = Solver::new(scene, &Placement::Cpu).unwrap();
+    solver.advance_frame().unwrap();
+    let host = solver.host().unwrap();
+    let files = write_frame(host, 1, &run, &mut PvdCollection::new())
+        .unwrap()
+        .files;
+    let name = RunDirectory::bodies_obj_name(1);
+    assert_eq!(name, "mesh/bodies_00001.obj");
+    assert!(files.contains(&name), "{files:?}");
+    let [pose] = host.body_poses()[..] else {
+        panic!("one body")
+    };
+    let (position, rotation) = (
+        glam::Vec3::from_array(pose.position),
+        glam::Quat::from_array(pose.rotation),
+    );
+    assert!(position.y < 0.39, "the box has fallen: {pose:?}");
+    let mesh = load_mesh(&run.path().join(&name)).unwrap().mesh;
+    assert_closed(&mesh, "the box");
+    assert_eq!(mesh.vertices.len(), 8);
+    for vertex in &mesh.vertices {
+        let local = rotation.inverse() * (*vertex - position);
+        let corner = (local.abs() - 0.5 * size).abs().max_element();
+        assert!(corner < 1e-5, "{vertex} is no corner of the posed box");
+    }
 }

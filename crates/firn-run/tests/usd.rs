@@ -483,3 +483,144 @@ fn pixar_usd_reads_the_drift_beside_the_snow() {
     assert!(lifted > 0, "the wind lifts drift");
     eprintln!("pxr read up to {lifted} drift points equal to the drift PLY's");
 }
+
+/// A bar 0.1 m thick and 0.3 m long along x, centred at the origin, as OBJ
+/// quads (the mesh body's file).
+const BAR_OBJ: &str = "v -0.15 -0.05 -0.05\nv 0.15 -0.05 -0.05\nv 0.15 0.05 -0.05\n\
+     v -0.15 0.05 -0.05\nv -0.15 -0.05 0.05\nv 0.15 -0.05 0.05\nv 0.15 0.05 0.05\n\
+     v -0.15 0.05 0.05\nf 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 4 8 7 3\nf 1 5 8 4\nf 2 3 7 6\n";
+
+/// A turned, spinning box and the bar above stood upright, both dropped
+/// onto a thin slab of snow: two frames.
+const BODIES_SCENE: &str = r#"
+format = 1
+name = "usd-bodies"
+
+[domain]
+max = [1.0, 1.0, 1.0]
+cell_size = 0.0625
+
+[time]
+duration = 0.0834
+fps = 24
+
+[[bodies]]
+shape = "box"
+center = [0.5, 0.1, 0.5]
+size = [0.8, 0.08, 0.8]
+
+[[rigid_bodies]]
+shape = "box"
+center = [0.4, 0.4, 0.5]
+size = [0.3, 0.16, 0.2]
+rotation = [0.0, 0.0, 30.0]
+velocity = [0.4, -1.0, 0.0]
+angular_velocity = [0.0, 4.0, 0.0]
+
+[[rigid_bodies]]
+shape = "mesh"
+mesh = "bar.obj"
+center = [0.8, 0.4, 0.25]
+rotation = [0.0, 0.0, 90.0]
+
+[render]
+enabled = false
+
+[output]
+formats = ["usd"]
+"#;
+
+/// Prints per body prim its type and transform ops, its local-to-world
+/// matrix at each time code of `sys.argv[2:]` (row by row), then the
+/// second body's world bounds at time code 0.
+const READ_BODIES: &str = "
+import sys
+from pxr import Usd, UsdGeom
+stage = Usd.Stage.Open(sys.argv[1])
+for name in ['Body0', 'Body1']:
+    body = UsdGeom.Xformable(stage.GetPrimAtPath('/World/' + name))
+    ops = ','.join(op.GetOpName() for op in body.GetOrderedXformOps())
+    print(body.GetPrim().GetTypeName(), ops)
+    for code in sys.argv[2:]:
+        matrix = body.ComputeLocalToWorldTransform(float(code))
+        print(*(matrix[i][j] for i in range(4) for j in range(4)))
+prim = stage.GetPrimAtPath('/World/Body1')
+bounds = UsdGeom.BBoxCache(0, ['default']).ComputeWorldBound(prim).ComputeAlignedRange()
+print(*bounds.GetMin(), *bounds.GetMax())
+";
+
+#[test]
+fn pixar_usd_reads_the_rigid_bodies_moved_and_turned_as_the_manifest_says() {
+    if !usd_available() {
+        return;
+    }
+    let folder = tempfile::tempdir().unwrap();
+    std::fs::write(folder.path().join("bar.obj"), BAR_OBJ).unwrap();
+    let scene_file = folder.path().join("scene.toml").display().to_string();
+    let scene = Scene::from_toml_str(BODIES_SCENE, &scene_file).expect("the scene is valid");
+    let run = folder.path().join("run");
+    record(&scene, &run, 2);
+    let output = Command::new(python())
+        .args(["-c", READ_BODIES])
+        .arg(run.join("particles.usda"))
+        .args(["0", "1", "2"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "pxr failed:\n{stderr}");
+    assert!(stderr.is_empty(), "pxr warned:\n{stderr}");
+    let text = String::from_utf8(output.stdout).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 9, "{text}");
+    assert_eq!(
+        lines[0],
+        "Cube xformOp:translate,xformOp:orient,xformOp:scale"
+    );
+    assert_eq!(lines[4], "Mesh xformOp:translate,xformOp:orient");
+    let manifest = RunDirectory::new(&run).read().unwrap().manifest;
+    let numbers =
+        |line: &str| -> Vec<f32> { line.split(' ').map(|f| f.parse().unwrap()).collect() };
+    for (body, first_line) in [(0, 1), (1, 5)] {
+        // The mesh's placed points carry its starting rotation already.
+        let baked = scene.rigid_bodies[body].baked_rotation();
+        for (frame, line) in manifest
+            .frames
+            .iter()
+            .zip(&lines[first_line..first_line + 3])
+        {
+            let pose = frame.rigid_bodies[body];
+            let turn = glam::Quat::from_array(pose.rotation) * baked.inverse();
+            let placed =
+                glam::Mat4::from_rotation_translation(turn, glam::Vec3::from_array(pose.position));
+            // The box prim is a unit cube scaled to the body's size.
+            let scale = if body == 0 {
+                glam::Vec3::new(0.3, 0.16, 0.2)
+            } else {
+                glam::Vec3::ONE
+            };
+            let expected = placed * glam::Mat4::from_scale(scale);
+            let matrix = numbers(line);
+            // pxr takes a quatf's angle from acos of its real part, which
+            // drops turns below some 1e-4 rad (w rounds to 1 in f32).
+            for (got, want) in matrix.iter().zip(expected.to_cols_array()) {
+                assert!(
+                    (got - want).abs() < 1e-4,
+                    "body {body} at frame {}: pxr's {matrix:?}, its pose {expected:?}",
+                    frame.index
+                );
+            }
+        }
+        let moved = manifest.frames[2].rigid_bodies[body].position[1]
+            < manifest.frames[0].rigid_bodies[body].position[1] - 0.02;
+        assert!(moved, "body {body} falls: {:?}", manifest.frames);
+    }
+    // Standing upright at the start, as the scene placed it.
+    let bounds = numbers(lines[8]);
+    let expected = [0.75, 0.25, 0.2, 0.85, 0.55, 0.3];
+    for (got, want) in bounds.iter().zip(expected) {
+        assert!(
+            (got - want).abs() < 1e-5,
+            "bounds {bounds:?}, expected {expected:?}"
+        );
+    }
+}

@@ -8,7 +8,8 @@ use std::time::Instant;
 
 use firn_core::scene::Backend;
 use firn_gpu::GpuContext;
-use firn_render::scene_view::{ramp_range, scene_stage, sprite_radius};
+use firn_render::scene_view::{ramp_range, scene_stage, sprite_radius, stage_bodies};
+use firn_render::stage::Stage;
 use firn_render::trails::Trails;
 use firn_run::backend::{auto_takes, gpu_supports};
 use firn_run::simulation::HostParticles;
@@ -386,7 +387,15 @@ impl Running {
             (Content::Playback(playback), None) => playback.drift(),
             (Content::Live(_), None) => None,
         };
-        let stage = scene_stage(scene, time);
+        let bodies = match (self.session.content(), &host) {
+            (_, Some(host)) => host.rigid_bodies.as_slice(),
+            (Content::Playback(playback), None) => playback.rigid_bodies(),
+            (Content::Live(_), None) => &[],
+        };
+        let stage = Stage {
+            bodies: stage_bodies(scene, bodies),
+            ..scene_stage(scene, time)
+        };
         let frame = DrawFrame {
             view: self.camera.view_setup(
                 [self.graphics.config.width, self.graphics.config.height],

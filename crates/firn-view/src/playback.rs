@@ -7,7 +7,7 @@ use std::path::Path;
 
 use firn_core::Scene;
 use firn_core::scene::ColorBy;
-use firn_io::FrameRecord;
+use firn_io::{BodyPose, FrameRecord};
 use firn_run::RunDirectory;
 use firn_run::run_dir::RecordedRun;
 use glam::Vec3;
@@ -112,6 +112,14 @@ impl Playback {
         self.loaded
             .as_ref()
             .map_or(0, |frame| frame.positions.len())
+    }
+
+    /// Where the rigid bodies are in the loaded frame (none before one is
+    /// loaded, or without bodies).
+    pub fn rigid_bodies(&self) -> &[BodyPose] {
+        self.loaded
+            .as_ref()
+            .map_or(&[], |frame| &self.frames[frame.index].rigid_bodies)
     }
 
     /// The loaded frame's drift particles (`[wind.spindrift]`), if it has

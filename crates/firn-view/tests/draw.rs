@@ -862,3 +862,57 @@ fn drift_glows_over_the_snow_as_billboards() {
     let snow_at = FRONT.pixel(Vec3::new(0.35, 0.5, 0.5));
     assert_eq!(rgb_at(&after, snow_at), rgb_at(&before, snow_at));
 }
+
+#[test]
+fn rigid_bodies_are_drawn_in_their_colour_turned_as_their_pose_says() {
+    let Some(context) = context() else { return };
+    let folder = tempfile::tempdir().expect("a temporary folder");
+    std::fs::write(folder.path().join("cube.obj"), CUBE_OBJ).expect("the mesh is written");
+    // A box bar along x, and a mesh bar placed standing (its file's cube
+    // scaled long along x, turned 90° about z at the start).
+    let toml = format!(
+        "{SCENE_TOML}[[rigid_bodies]]\nshape = \"box\"\ncenter = [0.3, 0.8, 0.5]\n\
+         size = [0.4, 0.08, 0.08]\n[[rigid_bodies]]\nshape = \"mesh\"\nmesh = \"cube.obj\"\n\
+         scale = [0.4, 0.08, 0.08]\ncenter = [0.8, 0.3, 0.5]\nrotation = [0.0, 0.0, 90.0]\n\
+         sdf_spacing = 0.02\n"
+    );
+    let path = folder.path().join("scene.toml");
+    std::fs::write(&path, toml).expect("the scene is written");
+    let scene = Scene::load(&path).expect("the scene with bodies loads");
+    let upright = glam::Quat::from_rotation_z(std::f32::consts::FRAC_PI_2);
+    let pose = |position: Vec3| firn_io::BodyPose {
+        position: position.to_array(),
+        rotation: upright.to_array(),
+        velocity: [0.0; 3],
+        angular_velocity: [0.0; 3],
+    };
+    // Both stand: the box turned upright, the mesh at its starting turn.
+    let (box_at, mesh_at) = (Vec3::new(0.25, 0.5, 0.5), Vec3::new(0.75, 0.5, 0.5));
+    let mut stage = stage(Vec::new());
+    stage.bodies = firn_render::scene_view::stage_bodies(&scene, &[pose(box_at), pose(mesh_at)]);
+    let particles = ParticleSource::Host {
+        positions: &[],
+        values: None,
+        trails: None,
+    };
+    let image = render_as(
+        &context,
+        &scene,
+        FORMAT,
+        &frame(&stage, DrawStyle::Points, ColorBy::Uniform, particles),
+    );
+    save(&image, "bodies");
+    let is_body = |point: Vec3| {
+        let [r, g, b] = rgb_at(&image, FRONT.pixel(point + Vec3::new(0.0, 0.0, 0.04)));
+        r > g && g > b.saturating_add(20) && g > r / 2 + r / 5
+    };
+    for centre in [box_at, mesh_at] {
+        for offset in [Vec3::ZERO, Vec3::new(0.0, 0.15, 0.0)] {
+            assert!(is_body(centre + offset), "a body at {}", centre + offset);
+        }
+        assert!(
+            !is_body(centre + Vec3::new(0.15, 0.0, 0.0)),
+            "{centre} stands"
+        );
+    }
+}

@@ -1,15 +1,16 @@
-//! Colliders as shaded triangles (`solids.wgsl`): spheres (a flow's
-//! obstacles too) and boxes scale a unit shape, mesh colliders keep the
-//! triangles loaded once and move with their centre, and planes (clipped to
-//! the container) and deforming meshes (their triangles of the instant,
-//! without a distance field) are uploaded afresh each frame.
+//! Colliders and rigid bodies as shaded triangles (`solids.wgsl`): spheres
+//! (a flow's obstacles too) and boxes scale a unit shape, mesh colliders
+//! and bodies keep the triangles loaded once and move with their centre,
+//! and planes (clipped to the container) and deforming meshes (their
+//! triangles of the instant, without a distance field) are uploaded afresh
+//! each frame. Bodies are drawn in their own colour (`BODY_ALBEDO`).
 
 use std::ops::Range;
 
 use bytemuck::{Pod, Zeroable};
 use firn_core::Scene;
 use firn_core::scene::{ColliderGeometry, MeshCollider, MeshPlacement};
-use firn_render::stage::{COLLIDER_ALBEDO, Stage, StageCollider, WALL_ALBEDO};
+use firn_render::stage::{BODY_ALBEDO, COLLIDER_ALBEDO, Stage, StageCollider, WALL_ALBEDO};
 use glam::{Quat, Vec3};
 
 use super::geometry::{
@@ -182,17 +183,22 @@ impl Solids {
         }
     }
 
-    /// Uploads where the stage's colliders are now.
+    /// Uploads where the stage's colliders and bodies are now.
     pub(super) fn prepare(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, stage: &Stage) {
         let mut instances = Vec::new();
         let mut frame_vertices = Vec::new();
         self.draws.clear();
-        for collider in &stage.colliders {
-            let Some((triangles, instance)) =
-                self.placed(collider, stage.container, &mut frame_vertices)
+        let colliders = stage.colliders.iter().map(|collider| (collider, None));
+        let bodies = stage.bodies.iter().map(|body| (body, Some(BODY_ALBEDO)));
+        for (solid, albedo) in colliders.chain(bodies) {
+            let Some((triangles, mut instance)) =
+                self.placed(solid, stage.container, &mut frame_vertices)
             else {
                 continue;
             };
+            if let Some(albedo) = albedo {
+                instance.albedo = albedo.to_array();
+            }
             self.draws.push(SolidDraw {
                 triangles,
                 instance: instances.len() as u32,
@@ -303,12 +309,14 @@ impl Solids {
     }
 }
 
-/// The triangles of the scene's mesh colliders at their time-zero placement.
+/// The triangles of the scene's mesh colliders and mesh bodies at their
+/// time-zero placement.
 fn load_meshes(device: &wgpu::Device, scene: &Scene) -> Vec<PlacedShape> {
-    scene
-        .colliders
-        .iter()
-        .filter_map(|collider| match &collider.geometry {
+    let colliders = scene.colliders.iter().map(|collider| &collider.geometry);
+    let bodies = scene.rigid_bodies.iter().map(|body| &body.geometry);
+    colliders
+        .chain(bodies)
+        .filter_map(|geometry| match geometry {
             ColliderGeometry::Mesh(mesh) => Some(&mesh.placement),
             _ => None,
         })
