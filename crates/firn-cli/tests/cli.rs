@@ -600,7 +600,7 @@ fn bench_phases_split_each_substep_into_the_steps_of_the_algorithm() {
         assert!(stdout.contains(phase), "{phase} missing from\n{stdout}");
     }
     let phases = record["phases_ns_per_particle_substep"].as_array().unwrap();
-    assert_eq!(phases.len(), 7);
+    assert_eq!(phases.len(), 8);
     let share: f64 = phases.iter().map(|p| p["share"].as_f64().unwrap()).sum();
     assert!((share - 1.0).abs() < 1e-9, "shares sum to {share}");
     let phase_ns: f64 = phases

@@ -176,6 +176,14 @@ impl RigidBodies {
         })
     }
 
+    /// Adds `body` at its start, from the next substep on.
+    pub fn add(&mut self, body: &RigidBody) -> Result<(), RigidError> {
+        self.world.add(body)?;
+        self.bodies.push(body.clone());
+        self.pushed.push(DVec3::ZERO);
+        Ok(())
+    }
+
     /// The whole state, for a snapshot.
     pub fn to_bytes(&self) -> Vec<u8> {
         self.world.to_bytes()

@@ -1,9 +1,9 @@
 //! Changing a running simulation's materials or wind (an interactive
-//! viewer's parameter panel): which changes are allowed, checked once here
-//! for both backends (`firn-gpu` calls [`scene_with_materials`] and
-//! [`scene_with_wind`] too).
+//! viewer's parameter panel), or throwing a rigid body in: which changes
+//! are allowed, checked once here for both backends (`firn-gpu` calls
+//! [`scene_with_materials`] and [`scene_with_wind`] too).
 
-use firn_core::scene::{Material, Scene, SceneError, Wind};
+use firn_core::scene::{Material, RigidBody, Scene, SceneError, Wind};
 
 use crate::simulation::SimulationError;
 
@@ -38,6 +38,18 @@ pub fn scene_with_wind(scene: &Scene, wind: &Wind) -> Result<Scene, SimulationEr
         .validate()
         .map_err(|error| SimulationError::Wind(Box::new(error)))?;
     Ok(changed)
+}
+
+/// `body` checked as a rigid body joining `scene` while it runs: by the
+/// scene loader's rules for a body ([`Scene::validate`]: its shape, mass and
+/// contact, and that it starts clear of the colliders and the walls; the
+/// other bodies have moved since their start, so it is not held to those).
+pub fn check_new_rigid_body(scene: &Scene, body: &RigidBody) -> Result<(), SimulationError> {
+    let mut alone = scene.clone();
+    alone.rigid_bodies = vec![body.clone()];
+    alone
+        .validate()
+        .map_err(|error| SimulationError::RigidBody(Box::new(error)))
 }
 
 /// The materials may change their parameters, but not their number, names,

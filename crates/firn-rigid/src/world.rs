@@ -194,6 +194,13 @@ impl RigidWorld {
             .insert_with_parent(shape.build(), body, &mut physics.bodies);
     }
 
+    /// Adds `body` at its start (after the scene's: scene order is kept).
+    pub fn add(&mut self, body: &RigidBody) -> Result<(), RigidError> {
+        let handle = self.add_body(body)?;
+        self.bodies.push(handle);
+        Ok(())
+    }
+
     /// Number of rigid bodies.
     pub fn len(&self) -> usize {
         self.bodies.len()

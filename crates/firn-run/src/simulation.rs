@@ -23,7 +23,7 @@ use std::path::Path;
 
 use firn_core::Scene;
 use firn_core::math::lanes::Simd;
-use firn_core::scene::{ColorBy, FlowSettings, Material, SceneKind, Wind};
+use firn_core::scene::{ColorBy, FlowSettings, Material, RigidBody, SceneKind, Wind};
 use firn_flow::{FlowSimulation, FlowSnapshot, FlowView};
 use firn_gpu::draw::ParticleArrays;
 use firn_gpu::snow::Scatter;
@@ -276,6 +276,13 @@ impl Solver {
     /// scene loader refuses.
     pub fn set_wind(&mut self, wind: &Wind) -> Result<(), RunError> {
         self.engine.set_wind(wind)
+    }
+
+    /// Throws `body` into the running snow from the next substep on (the
+    /// viewer's throw). Refused, with nothing changed, on the GPU, for a
+    /// flow, or for a body the scene loader refuses.
+    pub fn add_rigid_body(&mut self, body: RigidBody) -> Result<(), RunError> {
+        self.engine.add_rigid_body(body)
     }
 
     /// Replaces the flow's field parameters; they take effect at the next

@@ -460,6 +460,10 @@ impl Running {
             KeyCommand::ToggleSceneCamera => self.toggles.scene_camera ^= true,
             KeyCommand::Screenshot => self.toggles.screenshot = true,
             KeyCommand::ManualCamera => self.toggles.scene_camera = false,
+            KeyCommand::Throw => self.session.apply(Action::Throw {
+                eye: self.camera.eye(),
+                target: self.camera.target,
+            }),
         }
     }
 

@@ -13,6 +13,7 @@
 //! | `R` | restart |
 //! | `1` `2` `3` | points, billboards, trails |
 //! | `P` or F12 | screenshot (PNG in the working directory) |
+//! | `T` | throw a stone ball along the view into the snow (live, CPU) |
 
 use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
 use winit::keyboard::{Key, NamedKey};
@@ -41,6 +42,8 @@ pub enum KeyCommand {
     ManualCamera,
     /// Write a screenshot.
     Screenshot,
+    /// Throw a rigid ball along the view.
+    Throw,
 }
 
 /// The mouse buttons and keys held.
@@ -155,6 +158,7 @@ impl Input {
             "f" => Some(KeyCommand::FrameAll),
             "c" => Some(KeyCommand::ToggleSceneCamera),
             "p" => Some(KeyCommand::Screenshot),
+            "t" => Some(KeyCommand::Throw),
             "." | "n" => session(Action::Step),
             "r" => session(Action::Restart),
             "1" => session(Action::SetStyle(DrawStyle::Points)),

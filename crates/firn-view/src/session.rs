@@ -8,9 +8,10 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use firn_core::Scene;
-use firn_core::scene::{ColorBy, FlowSettings, Material, SceneKind, Wind};
+use firn_core::scene::{ColorBy, FlowSettings, Material, RigidBody, SceneKind, Wind};
 use firn_gpu::GpuContext;
 use firn_run::{Placement, Solver};
+use glam::Vec3;
 
 use crate::clock::FixedStepClock;
 use crate::draw::DrawStyle;
@@ -56,6 +57,14 @@ pub enum Action {
     SetTimeScale(f64),
     /// Jump to this simulated time (playback only).
     Seek(f64),
+    /// Throw a rigid ball from where the view from `eye` towards `target`
+    /// enters the domain, along it (live, on the CPU).
+    Throw {
+        /// The camera's eye.
+        eye: Vec3,
+        /// The point it looks at.
+        target: Vec3,
+    },
 }
 
 /// The figures the panel shows, updated twice a second.
@@ -239,6 +248,7 @@ impl Session {
             Action::SetColorBy(color_by) => self.color_by = color_by,
             Action::SetTimeScale(scale) => self.clock.set_time_scale(scale),
             Action::Seek(t) => self.playback_time = t.max(0.0),
+            Action::Throw { eye, target } => self.throw(eye, target),
         }
     }
 
@@ -373,6 +383,31 @@ impl Session {
         }
     }
 
+    /// Throws a stone ball of four cells' radius at [`THROW_SPEED`] along
+    /// the view, from where the view enters the domain (clear of its walls).
+    fn throw(&mut self, eye: Vec3, target: Vec3) {
+        let Content::Live(live) = &mut self.content else {
+            self.rejected = Some("a played-back run cannot take a thrown body".into());
+            return;
+        };
+        let domain = &self.scene.domain;
+        let radius = 4.0 * domain.cell_size;
+        let margin = Vec3::splat(radius + domain.cell_size);
+        let direction = (target - eye).normalize_or_zero();
+        let Some(start) = ray_entry(eye, direction, domain.min + margin, domain.max - margin)
+        else {
+            self.rejected = Some("look at the domain to throw into it".into());
+            return;
+        };
+        let ball = RigidBody::sphere(start, radius)
+            .density(THROWN_DENSITY)
+            .moving(direction * THROW_SPEED, Vec3::ZERO);
+        match live.add_rigid_body(ball.clone()) {
+            Ok(()) => self.scene.rigid_bodies.push(ball),
+            Err(error) => self.rejected = Some(error.to_string()),
+        }
+    }
+
     /// Stops the loop with the solver's explanation.
     fn fail(&mut self, reason: String) {
         self.playing = false;
@@ -417,4 +452,29 @@ fn default_style(scene: &Scene) -> DrawStyle {
         Some(RenderStyle::Trails) => DrawStyle::Trails,
         _ => DrawStyle::Points,
     }
+}
+
+/// The speed of a thrown ball, m/s.
+const THROW_SPEED: f32 = 4.0;
+
+/// The density of a thrown ball, kg/m³ (stone).
+const THROWN_DENSITY: f32 = 2500.0;
+
+/// The first point at or after `origin` along the unit `direction` that lies
+/// in the box from `low` to `high`, if the ray meets the box.
+fn ray_entry(origin: Vec3, direction: Vec3, low: Vec3, high: Vec3) -> Option<Vec3> {
+    let (mut near, mut far) = (0.0f32, f32::INFINITY);
+    for axis in 0..3 {
+        if direction[axis] == 0.0 {
+            if origin[axis] < low[axis] || origin[axis] > high[axis] {
+                return None;
+            }
+            continue;
+        }
+        let a = (low[axis] - origin[axis]) / direction[axis];
+        let b = (high[axis] - origin[axis]) / direction[axis];
+        near = near.max(a.min(b));
+        far = far.min(a.max(b));
+    }
+    (near <= far).then(|| origin + direction * near)
 }

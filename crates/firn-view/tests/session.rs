@@ -229,3 +229,37 @@ fn live_spindrift_on_the_gpu_draws_the_drift_apart() {
         drift.len()
     );
 }
+
+/// The live rigid bodies' poses.
+fn bodies(session: &Session) -> Vec<firn_io::BodyPose> {
+    let Content::Live(live) = session.content() else {
+        panic!("a live session")
+    };
+    live.host_particles(session.color_by())
+        .expect("on the CPU")
+        .rigid_bodies
+}
+
+#[test]
+fn a_ball_thrown_along_the_view_flies_into_the_snow() {
+    let mut session = Session::live(scene(SLAB), None).unwrap();
+    let (eye, target) = (Vec3::new(0.5, 0.9, 1.6), Vec3::new(0.5, 0.1, 0.5));
+    session.apply(Action::Throw { eye, target });
+    assert_eq!(session.rejected(), None);
+    assert_eq!(session.scene().rigid_bodies.len(), 1);
+    let start = Vec3::from(bodies(&session)[0].position);
+    assert!(
+        start.z < 1.0 && start.y < 1.0,
+        "thrown from inside the domain: {start}"
+    );
+    play(&mut session, 24, 3);
+    let flown = Vec3::from(bodies(&session)[0].position);
+    let along = (flown - start).dot((target - eye).normalize());
+    assert!(along > 0.05, "the ball flew {along} m along the view");
+    session.apply(Action::Throw {
+        eye,
+        target: eye + Vec3::Z,
+    });
+    assert!(session.rejected().is_some(), "looking away throws nothing");
+    assert_eq!(session.scene().rigid_bodies.len(), 1);
+}

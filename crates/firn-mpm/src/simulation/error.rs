@@ -75,6 +75,10 @@ pub enum SimulationError {
     /// ([`Simulation::set_wind`]); the error's key names the field.
     #[error("{0}")]
     Wind(Box<SceneError>),
+    /// A rigid body that cannot join the running scene
+    /// ([`Simulation::add_rigid_body`]); the error's key names the field.
+    #[error("{0}")]
+    RigidBody(Box<SceneError>),
 }
 
 /// The same "frame would take too many substeps" error on every backend.

@@ -8,7 +8,7 @@ mod memory;
 mod substep;
 
 use firn_core::math::lanes::Simd;
-use firn_core::scene::{Integrator, Material, Scene, Wind};
+use firn_core::scene::{Integrator, Material, RigidBody, Scene, Wind};
 use glam::DVec3;
 
 use crate::binning::Bins;
@@ -241,6 +241,25 @@ impl Simulation {
     /// The rigid bodies, if the scene has any.
     pub(crate) fn rigid_world(&self) -> Option<&RigidBodies> {
         self.rigid.as_ref()
+    }
+
+    /// Throws `body` into the running simulation from the next substep on
+    /// (an interactive viewer's throw): it joins the scene's rigid bodies,
+    /// last. Refused, with nothing changed, when the scene loader would
+    /// refuse the body ([`crate::live::check_new_rigid_body`]), or the
+    /// integrator is semi-implicit.
+    pub fn add_rigid_body(&mut self, body: RigidBody) -> Result<(), SimulationError> {
+        crate::live::check_new_rigid_body(&self.scene, &body)?;
+        match self.rigid.as_mut() {
+            Some(rigid) => rigid.add(&body)?,
+            None => {
+                let mut alone = self.scene.clone();
+                alone.rigid_bodies = vec![body.clone()];
+                self.rigid = RigidBodies::new(&alone)?;
+            }
+        }
+        self.scene.rigid_bodies.push(body);
+        Ok(())
     }
 
     /// The linear impulse the snow gave each rigid body since this

@@ -1,7 +1,7 @@
 //! Snow on the CPU: a [`Simulation`] is its own engine.
 
 use firn_core::Scene;
-use firn_core::scene::{Material, Wind};
+use firn_core::scene::{Material, RigidBody, Wind};
 use firn_mpm::{PhaseTimes, Simulation, SolverStats};
 
 use super::Engine;
@@ -83,5 +83,9 @@ impl Engine for Simulation {
 
     fn set_wind(&mut self, wind: &Wind) -> Result<(), RunError> {
         Ok(Simulation::set_wind(self, wind)?)
+    }
+
+    fn add_rigid_body(&mut self, body: RigidBody) -> Result<(), RunError> {
+        Ok(Simulation::add_rigid_body(self, body)?)
     }
 }

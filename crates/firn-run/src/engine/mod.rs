@@ -12,7 +12,7 @@ mod gpu_flow;
 mod gpu_snow;
 
 use firn_core::Scene;
-use firn_core::scene::{FlowSettings, Material, SceneKind, TimeStep, Wind};
+use firn_core::scene::{FlowSettings, Material, RigidBody, SceneKind, TimeStep, Wind};
 use firn_flow::FlowSimulation;
 use firn_gpu::draw::ParticleArrays;
 use firn_mpm::{PhaseTimes, SolverStats};
@@ -95,6 +95,13 @@ pub(crate) trait Engine: Send + Sync {
     fn set_wind(&mut self, _wind: &Wind) -> Result<(), RunError> {
         Err(RunError::Unsupported(
             "a flow scene has no wind over snow; change its [flow] instead",
+        ))
+    }
+
+    /// Throws a rigid body into the running snow (snow on the CPU only).
+    fn add_rigid_body(&mut self, _body: RigidBody) -> Result<(), RunError> {
+        Err(RunError::Unsupported(
+            "rigid bodies run on the CPU backend only (and not in a flow scene)",
         ))
     }
 
