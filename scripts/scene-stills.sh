@@ -32,6 +32,8 @@ stills=(
   "wheel-rut 33 points"
   "plough-swing 24 points"
   "boot-print 36 points"
+  "crate-drop 30 points"
+  "boulder-roll 39 points"
 )
 
 wanted=("$@")
