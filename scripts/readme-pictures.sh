@@ -31,4 +31,11 @@ cargo run --release --quiet -- run scenes/boot-print.toml --out "$out/boot" --si
 ffmpeg -loglevel error -y -framerate 24 -i "$out/boot/images/points/frame_%05d.png" \
   -vf "fps=12,scale=400:-1:flags=lanczos,split[a][b];[a]palettegen=max_colors=64[p];[b][p]paletteuse=dither=none" \
   docs/images/boot-print.gif
+# The rigid bodies' GIFs, as the boot's.
+for scene in crate-drop boulder-roll; do
+  cargo run --release --quiet -- run "scenes/$scene.toml" --out "$out/$scene" --size 480x270 --quiet
+  ffmpeg -loglevel error -y -framerate 24 -i "$out/$scene/images/points/frame_%05d.png" \
+    -vf "fps=12,scale=400:-1:flags=lanczos,split[a][b];[a]palettegen=max_colors=64[p];[b][p]paletteuse=dither=none" \
+    "docs/images/$scene.gif"
+done
 echo "docs/images updated"
