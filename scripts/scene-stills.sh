@@ -34,6 +34,7 @@ stills=(
   "boot-print 36 points"
   "crate-drop 30 points"
   "boulder-roll 39 points"
+  "ball-row 29 points"
 )
 
 wanted=("$@")
