@@ -148,6 +148,8 @@ impl BodyContacts {
 #[derive(Clone, Debug)]
 pub struct RigidBodies {
     world: RigidWorld,
+    /// The bodies' states as rapier has them now (read once per step).
+    states: Vec<BodyState>,
     bodies: Vec<RigidBody>,
     /// Σ of the linear impulse the snow gave each body since these were
     /// made (from the scene or a snapshot), N s.
@@ -160,8 +162,10 @@ impl RigidBodies {
         if scene.rigid_bodies.is_empty() {
             return Ok(None);
         }
+        let world = RigidWorld::new(scene)?;
         Ok(Some(RigidBodies {
-            world: RigidWorld::new(scene)?,
+            states: world.states(),
+            world,
             bodies: scene.rigid_bodies.clone(),
             pushed: vec![DVec3::ZERO; scene.rigid_bodies.len()],
         }))
@@ -169,8 +173,10 @@ impl RigidBodies {
 
     /// The bodies of `scene` as saved by [`RigidBodies::to_bytes`].
     pub fn from_bytes(scene: &Scene, bytes: &[u8]) -> Result<RigidBodies, RigidError> {
+        let world = RigidWorld::from_bytes(scene, bytes)?;
         Ok(RigidBodies {
-            world: RigidWorld::from_bytes(scene, bytes)?,
+            states: world.states(),
+            world,
             bodies: scene.rigid_bodies.clone(),
             pushed: vec![DVec3::ZERO; scene.rigid_bodies.len()],
         })
@@ -179,6 +185,7 @@ impl RigidBodies {
     /// Adds `body` at its start, from the next substep on.
     pub fn add(&mut self, body: &RigidBody) -> Result<(), RigidError> {
         self.world.add(body)?;
+        self.states = self.world.states();
         self.bodies.push(body.clone());
         self.pushed.push(DVec3::ZERO);
         Ok(())
@@ -191,7 +198,7 @@ impl RigidBodies {
 
     /// Every body's state, in scene order.
     pub fn states(&self) -> Vec<BodyState> {
-        self.world.states()
+        self.states.clone()
     }
 
     /// The linear impulse the snow gave each body since these were made
@@ -205,7 +212,7 @@ impl RigidBodies {
         let bodies = self
             .bodies
             .iter()
-            .zip(self.world.states())
+            .zip(&self.states)
             .map(|(body, state)| {
                 let rotation = state.rotation * body.baked_rotation().inverse();
                 let placed = PlacedCollider {
@@ -235,7 +242,7 @@ impl RigidBodies {
     pub fn max_speed(&self) -> f32 {
         self.bodies
             .iter()
-            .zip(self.world.states())
+            .zip(&self.states)
             .map(|(body, state)| {
                 let reach =
                     body.geometry.reach() + (state.center_of_mass - state.position).length();
@@ -253,5 +260,6 @@ impl RigidBodies {
         }
         let impulses: Vec<BodyImpulse> = sums.iter().map(ImpulseSum::on_body).collect();
         self.world.step(&impulses, dt, colliders, time_end);
+        self.states = self.world.states();
     }
 }
