@@ -1,8 +1,8 @@
 //! `mpirun -np N firn run SCENE` (the `mpi` feature): the same PLY frames,
 //! byte for byte, for 1 to 4 ranks and one process, both transfer schemes
 //! and a curl-noise flow; a run stopped on one rank count resumes on
-//! another with the same bytes; a failing rank stops the run with its
-//! message; the semi-implicit integrator is refused. Skipped without
+//! another with the same bytes, rigid bodies too; a failing rank stops the
+//! run with its message; the semi-implicit integrator is refused. Skipped without
 //! `mpirun` unless `FIRN_REQUIRE_MPI=1`.
 
 #![cfg(feature = "mpi")]
@@ -223,6 +223,51 @@ fn a_run_stopped_on_two_ranks_resumes_on_three_with_the_same_bytes() {
         frames(&alone) == stopped_and_resumed(scene, &split, (2, 2), (3, 4)),
         "the resumed frames differ"
     );
+}
+
+/// The crossing scene with a free box that the right snowball hits,
+/// written into `dir`.
+fn crossing_with_a_box(dir: &Path) -> PathBuf {
+    let text = fs::read_to_string(crossing_scene()).unwrap().replace(
+        "[render]",
+        "[[rigid_bodies]]\nshape = \"box\"\ncenter = [0.72, 0.3, 0.2]\nsize = [0.1, 0.1, 0.1]\ndensity = 400.0\n\n[render]",
+    );
+    let path = dir.join("crossing-with-a-box.toml");
+    fs::write(&path, text).unwrap();
+    path
+}
+
+/// Every frame's rigid body poses in a run's manifest, as JSON text.
+fn body_poses(run: &Path) -> Vec<String> {
+    let text = fs::read_to_string(run.join("manifest.json")).unwrap();
+    let manifest: serde_json::Value = serde_json::from_str(&text).unwrap();
+    manifest["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|frame| frame["rigid_bodies"].to_string())
+        .collect()
+}
+
+#[test]
+fn a_rigid_body_on_two_ranks_resumed_on_three_moves_as_in_one_process() {
+    if !have_mpirun() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let scene = crossing_with_a_box(dir.path());
+    let scene = scene.to_str().unwrap();
+    let alone = dir.path().join("alone");
+    run_alone(scene, &alone, 4);
+    let split = dir.path().join("split");
+    assert!(
+        frames(&alone) == stopped_and_resumed(scene, &split, (2, 2), (3, 4)),
+        "the snow differs"
+    );
+    let poses = body_poses(&alone);
+    assert_eq!(poses.len(), 5, "frames 0 to 4");
+    assert_ne!(poses[0], poses[4], "the box never moved");
+    assert_eq!(body_poses(&split), poses, "the box differs");
 }
 
 /// The flow scene of the MPI tests: a stream with rebirth, a sphere and

@@ -92,12 +92,6 @@ impl Command {
 /// one), if it cannot.
 pub fn refusal(scene: &Scene, ranks: usize) -> Option<String> {
     use firn_core::scene::Integrator;
-    if !scene.rigid_bodies.is_empty() {
-        return Some(format!(
-            "scene `{}` has [[rigid_bodies]], whose impulse sums are not traded between MPI ranks yet\n  fix: run it without mpirun (one process uses every core)",
-            scene.name
-        ));
-    }
     if ranks == 1 || scene.kind.flow().is_some() {
         return None;
     }

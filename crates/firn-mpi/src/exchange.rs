@@ -105,13 +105,15 @@ pub trait Exchange {
         result
     }
 
-    /// The sum of every rank's `counts`, element by element.
+    /// The sum of every rank's `counts`, element by element, modulo 2⁶⁴
+    /// (as MPI's sum of unsigned integers wraps), so that two's-complement
+    /// i64 words add up too.
     fn sum_u64(&self, counts: &[u64]) -> Vec<u64> {
         let words: Vec<u32> = counts.iter().flat_map(|&c| split_u64(c)).collect();
         let mut result = vec![0u64; counts.len()];
         for theirs in self.all_gather(&words) {
             for (total, pair) in result.iter_mut().zip(theirs.chunks_exact(2)) {
-                *total += join_u64(pair[0], pair[1]);
+                *total = total.wrapping_add(join_u64(pair[0], pair[1]));
             }
         }
         result

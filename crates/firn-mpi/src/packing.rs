@@ -125,6 +125,27 @@ fn read_mat3(next: &mut impl FnMut() -> u32) -> Mat3 {
     Mat3::from_cols_array(&std::array::from_fn(|_| f32::from_bits(next())))
 }
 
+/// Bytes on the wire: their count, then four to a word (little-endian,
+/// the last word padded with zeros).
+pub fn bytes_to_words(bytes: &[u8]) -> Vec<u32> {
+    let mut words = Vec::with_capacity(1 + bytes.len().div_ceil(4));
+    words.push(bytes.len() as u32);
+    words.extend(bytes.chunks(4).map(|chunk| {
+        let mut word = [0u8; 4];
+        word[..chunk.len()].copy_from_slice(chunk);
+        u32::from_le_bytes(word)
+    }));
+    words
+}
+
+/// The bytes [`bytes_to_words`] put into `words`.
+pub fn words_to_bytes(words: &[u32]) -> Vec<u8> {
+    let (&count, words) = words.split_first().expect("a byte count first");
+    let mut bytes: Vec<u8> = words.iter().flat_map(|word| word.to_le_bytes()).collect();
+    bytes.truncate(count as usize);
+    bytes
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -159,5 +180,13 @@ mod tests {
         assert_eq!(a.elastic, b.elastic);
         assert_eq!(a.material, b.material);
         assert_eq!(a.velocity, b.velocity);
+    }
+
+    #[test]
+    fn bytes_come_back_whole_at_any_length() {
+        for length in 0..9 {
+            let bytes: Vec<u8> = (0..length).map(|b: u8| b * 29 + 1).collect();
+            assert_eq!(words_to_bytes(&bytes_to_words(&bytes)), bytes);
+        }
     }
 }

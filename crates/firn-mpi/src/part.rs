@@ -19,16 +19,21 @@ pub(crate) struct SnowPart {
 impl SnowPart {
     /// The part of `own` particles at simulated time `time` after `steps`
     /// substeps, whose next Δt the whole run's largest |v_p|² and squared
-    /// wave speed (`bounds`) make.
+    /// wave speed (`bounds`) make, with the whole run's rigid bodies as
+    /// `rigid` saved them (at their start without).
     pub(crate) fn new(
         scene: Scene,
-        time: f64,
-        steps: u64,
+        (time, steps): (f64, u64),
         bounds: [f32; 2],
+        rigid: Option<&[u8]>,
         own: KeyedParticles,
     ) -> SnowPart {
+        // Rank 0 made these bytes from its own solver's bodies, of this
+        // scene, with this program: they read back.
+        let simulation = Simulation::empty(scene, time, steps, rigid)
+            .expect("rank 0's saved rigid bodies read back");
         let mut part = SnowPart {
-            simulation: Simulation::empty(scene, time, steps),
+            simulation,
             keys: Vec::new(),
         };
         part.set_motion_bounds(bounds);

@@ -32,7 +32,7 @@ use firn_mpm::{Particles, PermuteBuffers, Simulation, Snapshot};
 use firn_run::{RunDirectory, RunError, caches, checkpoint};
 
 use crate::exchange::{Exchange, join_u64, split_u64};
-use crate::packing::{KeyedParticles, WORDS_PER_PARTICLE};
+use crate::packing::{KeyedParticles, WORDS_PER_PARTICLE, bytes_to_words, words_to_bytes};
 use crate::part::SnowPart;
 use crate::slabs::{Slabs, neighbour_reach};
 
@@ -117,13 +117,20 @@ impl<E: Exchange> RankSnow<E> {
     /// Starts a split run of `scene` from `snapshot`, which rank 0 holds
     /// (the others pass `None`): rank 0 cuts the slabs by particle count
     /// and sends each rank its particles, keyed by their place in the
-    /// snapshot. Every rank must call it.
+    /// snapshot, and every rank the rigid bodies. Every rank must call it.
     pub fn scatter(exchange: E, scene: Scene, snapshot: Option<Snapshot>) -> RankSnow<E> {
         let layout = GridLayout::new(scene.domain.min, scene.domain.max, scene.domain.cell_size);
-        let outgoing = match snapshot {
-            Some(snapshot) => parts_of(&snapshot, &layout, exchange.size()),
+        let outgoing = match &snapshot {
+            Some(snapshot) => parts_of(snapshot, &layout, exchange.size()),
             None => vec![Vec::new(); exchange.size()],
         };
+        let rigid = snapshot
+            .as_ref()
+            .and_then(|snapshot| snapshot.rigid.as_deref())
+            .map(bytes_to_words)
+            .unwrap_or_default();
+        let rigid = exchange.broadcast(rigid);
+        let rigid = (!rigid.is_empty()).then(|| words_to_bytes(&rigid));
         let message = exchange.exchange(outgoing).swap_remove(0);
         let ranks = exchange.size();
         let (header, records) = message.split_at(6 + ranks + 1);
@@ -135,7 +142,7 @@ impl<E: Exchange> RankSnow<E> {
         let bounds = [f32::from_bits(header[4]), f32::from_bits(header[5])];
         RankSnow {
             exchange,
-            part: SnowPart::new(scene, time, steps, bounds, own),
+            part: SnowPart::new(scene, (time, steps), bounds, rigid.as_deref(), own),
             slabs,
             layout,
             buffers: PermuteBuffers::default(),
@@ -249,8 +256,8 @@ impl<E: Exchange> RankSnow<E> {
             // Refused under MPI (`driver::refusal`): no scene split here has drift.
             drift: Default::default(),
             escaped: Default::default(),
-            // Refused under MPI as well.
-            rigid: None,
+            // Every rank holds the bodies whole, alike.
+            rigid: self.simulation().view().rigid_bytes(),
         })
     }
 
@@ -313,8 +320,8 @@ impl<E: Exchange> RankSnow<E> {
             // Refused under MPI (`driver::refusal`): no scene split here has drift.
             drift: Default::default(),
             escaped: Default::default(),
-            // Refused under MPI as well.
-            rigid: None,
+            // Every rank holds the bodies whole, alike.
+            rigid: self.simulation().view().rigid_bytes(),
         }
     }
 

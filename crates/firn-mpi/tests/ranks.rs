@@ -143,6 +143,48 @@ fn split_runs_give_the_one_process_bits_with_apic_and_wind() {
     assert_same_bits(&crossing(Transfer::Apic, true), 3, "apic with wind");
 }
 
+/// The crossing scene with a free box the right snowball hits on its way.
+fn crossing_with_a_box() -> Scene {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/crossing.toml");
+    let text = std::fs::read_to_string(path).unwrap().replace(
+        "[render]",
+        "[[rigid_bodies]]\nshape = \"box\"\ncenter = [0.72, 0.3, 0.2]\nsize = [0.1, 0.1, 0.1]\nrotation = [0.0, 30.0, 10.0]\ndensity = 400.0\n\n[render]",
+    );
+    let mut scene = Scene::from_toml_str(&text, "crossing-with-a-box").unwrap();
+    scene.solver.transfer = Transfer::Apic;
+    scene
+}
+
+#[test]
+fn split_runs_give_the_one_process_bits_with_a_rigid_body() {
+    let scene = crossing_with_a_box();
+    let frames = 3;
+    let reference = one_process(&scene, frames);
+    // The snow pushes the box: by the last frame the right ball has
+    // carried it 4 cm or more along −x (alone it would only fall).
+    let body = Simulation::from_snapshot(scene.clone(), reference[2].clone())
+        .unwrap()
+        .rigid_bodies()[0];
+    assert!(
+        body.position.x < 0.68,
+        "the snow did not push the box: {body:?}"
+    );
+    for ranks in 1..=4 {
+        let (states, _) = split_run(&scene, ranks, frames);
+        for (frame, (split, whole)) in states.iter().zip(&reference).enumerate() {
+            let frame = frame + 1;
+            assert!(
+                bits(&split.particles) == bits(&whole.particles),
+                "{ranks} ranks: the snow differs from one process in frame {frame}"
+            );
+            assert!(
+                split.rigid.is_some() && split.rigid == whole.rigid,
+                "{ranks} ranks: the box differs from one process in frame {frame}"
+            );
+        }
+    }
+}
+
 /// What does not run split yet is refused on several ranks with the table
 /// to change, and runs on one.
 #[test]

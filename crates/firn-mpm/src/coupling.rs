@@ -12,12 +12,16 @@
 //! so linear and angular momentum are kept exactly by the exchange (the
 //! transfers, APIC, keep them too). The sums are 64-bit fixed point
 //! ([`FIXED_SCALE`]), so they are the same for any thread count, block
-//! order or split between processes.
+//! order or split between processes. In a run split between processes
+//! every part holds the bodies whole: each sums the nodes it counts
+//! ([`NodeOwners`]), the parts add their sums up (integers, so in any
+//! order), and each steps its copy of rapier's world with the same sums.
 
 use firn_core::scene::{Collider, RigidBody, Scene};
 use firn_rigid::{BodyImpulse, BodyState, RigidError, RigidWorld};
-use glam::{DVec3, Vec3};
+use glam::{DVec3, IVec3, Vec3};
 
+use crate::block_sums::NodeOwners;
 use crate::contact::{PlacedCollider, Spin};
 
 /// Fixed-point units per N s of the impulse sums: a resolution of
@@ -93,6 +97,9 @@ struct PlacedBody {
 #[derive(Clone, Debug, Default)]
 pub struct BodyContacts {
     bodies: Vec<PlacedBody>,
+    /// In a part of a split run, which nodes this part counts in the sums
+    /// (each node in one part only); `None` counts every node.
+    owners: Option<NodeOwners>,
 }
 
 impl BodyContacts {
@@ -104,6 +111,16 @@ impl BodyContacts {
     /// Number of bodies.
     pub fn len(&self) -> usize {
         self.bodies.len()
+    }
+
+    /// These contacts in a part of a split run, which adds to the sums only
+    /// the nodes `owners` says it counts (the other parts, which hold the
+    /// same nodes with the same sums, add the rest).
+    pub fn counted_by(self, owners: NodeOwners) -> BodyContacts {
+        BodyContacts {
+            owners: Some(owners),
+            ..self
+        }
     }
 
     /// The bodies that may touch a node in the box from `low` to `high`
@@ -120,13 +137,14 @@ impl BodyContacts {
     }
 
     /// Applies the contact of the bodies `near` (from [`BodyContacts::near`])
-    /// to the velocity `velocity` of a node at `point` with snow mass
-    /// `mass`, adding each body's exchange to its sum in `sums`.
+    /// to the velocity `velocity` of grid node `node` at `point` with snow
+    /// mass `mass`, adding each body's exchange to its sum in `sums` where
+    /// this part counts the node.
     #[inline]
     pub fn collide(
         &self,
         near: &[usize],
-        point: Vec3,
+        (node, point): (IVec3, Vec3),
         mass: f32,
         mut velocity: Vec3,
         sums: &mut [ImpulseSum],
@@ -135,11 +153,20 @@ impl BodyContacts {
             let body = &self.bodies[index];
             let collided = body.collider.collide(point, velocity);
             if collided != velocity {
-                sums[index].add(mass * (collided - velocity), point - body.center_of_mass);
+                if self.counts(node) {
+                    sums[index].add(mass * (collided - velocity), point - body.center_of_mass);
+                }
                 velocity = collided;
             }
         }
         velocity
+    }
+
+    /// Whether this part counts grid node `node` in the sums.
+    fn counts(&self, node: IVec3) -> bool {
+        self.owners
+            .as_ref()
+            .is_none_or(|owners| owners.counts(node))
     }
 }
 
@@ -234,7 +261,10 @@ impl RigidBodies {
                 }
             })
             .collect();
-        BodyContacts { bodies }
+        BodyContacts {
+            bodies,
+            owners: None,
+        }
     }
 
     /// The fastest any body's material moves: |v| + |ω| times its reach

@@ -206,13 +206,14 @@ impl NodeStep<'_> {
                 impulse += f64::from(mass) * (blown - velocity_new).as_dvec3();
                 velocity_new = blown;
             }
-            let position = self
-                .layout
-                .node_position(GridLayout::node_in_block(block, local));
+            let coord = GridLayout::node_in_block(block, local);
+            let position = self.layout.node_position(coord);
             node.velocity_mass = velocity.extend(mass);
             let mut collided = self.colliders.collide(position, velocity_new);
             if !near.is_empty() {
-                collided = self.bodies.collide(&near, position, mass, collided, sums);
+                collided = self
+                    .bodies
+                    .collide(&near, (coord, position), mass, collided, sums);
             }
             node.set_velocity_new(collided);
         }

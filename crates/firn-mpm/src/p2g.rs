@@ -25,7 +25,7 @@ use firn_core::math::isa::{Avx2, Isa, Kernel, PairLanes, PortablePairs};
 use firn_core::math::lanes::{F32s, Mat3s, Simd, Vec3s, lanes_to_rows};
 
 use crate::binning::{Bins, OccupiedBlock};
-use crate::block_sums::{SumTrade, Traded};
+use crate::block_sums::{ForeignBlocks, SumTrade, Traded};
 use crate::disjoint::{NodeWriter, scatter_by_colour};
 use crate::grid::{Grid, GridLayout, Node};
 use crate::local_nodes::{CUBIC_SPAN, LocalNodes, NodeSum, QUADRATIC_SPAN, at};
@@ -36,14 +36,15 @@ use crate::particles::Particles;
 /// block in [`LocalNodes`] (in a part of a split run, `trade` swaps the
 /// sums of the blocks next to other parts, [`add_block_sums`]). Each block
 /// runs compiled for the instruction set ([`Isa::run`]); every instruction
-/// set gives the same bits ([`PicFlipStencil`]).
+/// set gives the same bits ([`PicFlipStencil`]). Returns the blocks
+/// whose sums other parts sent (none in one process).
 pub fn scatter_pic_flip(
     grid: &mut Grid,
     bins: &Bins,
     particles: &Particles,
     simd: Simd,
     trade: Option<&mut dyn SumTrade>,
-) {
+) -> ForeignBlocks {
     let layout = grid.layout;
     let isa = Isa::of(simd);
     add_block_sums(grid, bins, trade, |block, sums| {
@@ -53,7 +54,7 @@ pub fn scatter_pic_flip(
             block: bins.particles_of(block),
             local: sums,
         });
-    });
+    })
 }
 
 /// One block's PIC/FLIP scatter, as a [`Kernel`] to compile per
@@ -154,6 +155,7 @@ impl PicFlipStencil {
 /// row's three nodes are added in one 256-bit register; every lane does
 /// the same IEEE operations either way, so the sums have the same bits.
 /// Each block runs compiled for the instruction set ([`Isa::run`]).
+/// Returns the blocks whose sums other parts sent (none in one process).
 pub fn scatter_apic(
     grid: &mut Grid,
     bins: &Bins,
@@ -161,7 +163,7 @@ pub fn scatter_apic(
     dt: f32,
     simd: Simd,
     trade: Option<&mut dyn SumTrade>,
-) {
+) -> ForeignBlocks {
     let scatter = ApicScatter {
         layout: grid.layout,
         dt,
@@ -174,7 +176,7 @@ pub fn scatter_apic(
             local: sums,
             particles: bins.particles_of(block),
         });
-    });
+    })
 }
 
 /// One block's APIC scatter, as a [`Kernel`] to compile per instruction set.
@@ -399,12 +401,13 @@ impl StencilRow {
 /// the same order whatever the thread count. In a part of a split run
 /// (`trade` given), the sums of the blocks other parts read are made first
 /// and traded, and the other parts' sums are added in their colour's turn.
+/// Returns the blocks whose sums the other parts sent.
 fn add_block_sums<T: NodeSum>(
     grid: &mut Grid,
     bins: &Bins,
     trade: Option<&mut dyn SumTrade>,
     sums_of: impl Fn(&OccupiedBlock, &mut LocalNodes<T>) + Sync,
-) {
+) -> ForeignBlocks {
     let traded = trade.map(|trade| Traded::trade(bins, grid.layout, trade, &sums_of));
     match &traded {
         Some(traded) => grid.allocate(&traded.blocks_with_storage(bins, grid.layout)),
@@ -431,6 +434,7 @@ fn add_block_sums<T: NodeSum>(
                 .for_each(|sums| sums.add_sums_to(&table, &writer));
         }
     }
+    traded.map(|traded| traded.foreign).unwrap_or_default()
 }
 
 /// Mass only, for the one-time density estimate (step 2).

@@ -196,7 +196,7 @@ impl Setup {
         match self.transfer() {
             Transfer::PicFlip => p2g::scatter_pic_flip(&mut grid, &bins, particles, simd, None),
             Transfer::Apic => p2g::scatter_apic(&mut grid, &bins, particles, DT, simd, None),
-        }
+        };
         (grid, bins)
     }
 

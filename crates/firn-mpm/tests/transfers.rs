@@ -86,7 +86,7 @@ fn round_trip(transfer_scheme: Transfer) {
     match transfer_scheme {
         Transfer::PicFlip => p2g::scatter_pic_flip(&mut grid, &bins, &particles, simd, None),
         Transfer::Apic => p2g::scatter_apic(&mut grid, &bins, &particles, 0.0, simd, None),
-    }
+    };
     let forces = if apic {
         GridForces::InMomentum
     } else {

@@ -11,7 +11,8 @@ use crate::slabs::{Slabs, neighbour_reach};
 /// A rank's side of the scatter's trade of block sums
 /// ([`firn_mpm::block_sums`]): a block's sums go to the owners of the
 /// blocks around it, which are among the neighbours; the trade goes to and
-/// from the neighbours only, timed as [`Phase::Sums`].
+/// from the neighbours only, timed as [`Phase::Sums`], as is the sum of
+/// the rigid bodies' exchanges over all ranks.
 pub(super) struct SlabTrade<'a, E: Exchange> {
     pub(super) exchange: &'a E,
     pub(super) slabs: &'a Slabs,
@@ -57,5 +58,16 @@ impl<E: Exchange> SumTrade for SlabTrade<'_, E> {
 
     fn parts(&self) -> usize {
         self.exchange.size()
+    }
+
+    fn part(&self) -> usize {
+        self.exchange.rank()
+    }
+
+    fn add_up(&mut self, values: &mut [u64]) {
+        let started = std::time::Instant::now();
+        let sums = self.exchange.sum_u64(values);
+        values.copy_from_slice(&sums);
+        self.traffic.exchange_seconds[Phase::Sums as usize] += started.elapsed().as_secs_f64();
     }
 }

@@ -81,12 +81,13 @@ impl Simulation {
     pub fn from_snapshot(scene: Scene, snapshot: Snapshot) -> Result<Simulation, SimulationError> {
         snapshot.check(&scene)?;
         let particles = snapshot.particles;
-        let mut simulation =
-            Simulation::with_particles(scene, particles, snapshot.time, snapshot.steps);
-        simulation.rigid = match &snapshot.rigid {
-            Some(bytes) => Some(RigidBodies::from_bytes(&simulation.scene, bytes)?),
-            None => RigidBodies::new(&simulation.scene)?,
-        };
+        let mut simulation = Simulation::empty(
+            scene,
+            snapshot.time,
+            snapshot.steps,
+            snapshot.rigid.as_deref(),
+        )?;
+        simulation.set_particles(particles);
         simulation.drift = snapshot.drift;
         simulation.escaped = snapshot.escaped;
         simulation.stats = GatherStats {
@@ -132,13 +133,20 @@ impl Simulation {
     /// `steps` substeps, for a caller that brings its own
     /// ([`Simulation::set_particles`]): one part of a run split between
     /// processes (firn-mpi), which steps by [`Simulation::step_part`]. Its
-    /// scene has no rigid bodies (firn-mpi refuses them).
-    pub fn empty(scene: Scene, time: f64, steps: u64) -> Simulation {
-        assert!(
-            scene.rigid_bodies.is_empty(),
-            "a part of a split run has no rigid bodies"
-        );
-        Simulation::with_particles(scene, Particles::default(), time, steps)
+    /// rigid bodies, which every part holds whole, are as `rigid` saved
+    /// them ([`Snapshot::rigid`]), or at their start without it.
+    pub fn empty(
+        scene: Scene,
+        time: f64,
+        steps: u64,
+        rigid: Option<&[u8]>,
+    ) -> Result<Simulation, SimulationError> {
+        let mut simulation = Simulation::with_particles(scene, Particles::default(), time, steps);
+        simulation.rigid = match rigid {
+            Some(bytes) => Some(RigidBodies::from_bytes(&simulation.scene, bytes)?),
+            None => RigidBodies::new(&simulation.scene)?,
+        };
+        Ok(simulation)
     }
 
     /// Replaces the particles for the substeps to come.

@@ -22,9 +22,10 @@ use firn_core::scene::{Integrator, TimeStep, Transfer};
 use glam::Vec3;
 
 use super::{LEAVE_TOLERANCE_CELLS, REORDER_INTERVAL, Simulation, SimulationError};
-use crate::block_sums::SumTrade;
+use crate::block_sums::{ForeignBlocks, NodeOwners, SumTrade};
 use crate::contact::{Colliders, PlacedCollider};
-use crate::coupling::{BodyContacts, RigidBodies};
+use crate::coupling::BodyContacts;
+use crate::coupling::ImpulseSum;
 use crate::g2p::{self, GatherStats, UpdateContext};
 use crate::grid_update::{self, GridForces, GridImpulses, WindStep};
 use crate::implicit::ImplicitStep;
@@ -80,21 +81,21 @@ impl Simulation {
         &mut self,
         dt: f32,
         mut clock: PhaseClock,
-        trade: Option<&mut dyn SumTrade>,
+        mut trade: Option<&mut dyn SumTrade>,
         keys: Option<&[u64]>,
     ) -> Result<f32, SimulationError> {
-        self.scatter(dt, trade);
+        let foreign = self.scatter(dt, reborrow(&mut trade));
         clock.lap(&mut self.profile.scatter);
         let placed = self.colliders.placed_at(self.time + f64::from(dt));
         let colliders = Colliders::new(&placed);
         clock.lap(&mut self.profile.colliders);
-        let bodies = self
-            .rigid
-            .as_ref()
-            .map(RigidBodies::contacts)
-            .unwrap_or_default();
+        let part = trade.as_ref().map(|trade| trade.part());
+        let bodies = self.body_contacts(part, &foreign);
         clock.lap(&mut self.profile.rigid_bodies);
-        let impulses = self.update_grid(dt, &colliders, &bodies);
+        let mut impulses = self.update_grid(dt, &colliders, &bodies);
+        if let (Some(trade), Some(_)) = (reborrow(&mut trade), &self.rigid) {
+            add_up_between_parts(&mut impulses.bodies, trade);
+        }
         clock.lap(&mut self.profile.grid_update);
         self.solve_implicit(dt, &placed);
         clock.lap(&mut self.profile.implicit_solve);
@@ -131,10 +132,28 @@ impl Simulation {
         self.bins.rebuild(&layout, &self.particles.position);
     }
 
+    /// The rigid bodies where they are now, as the grid update meets them;
+    /// in part `part` of a split run counting the nodes that part owns
+    /// ([`NodeOwners`]) after a scatter that received the sums of
+    /// `foreign` blocks.
+    fn body_contacts(&self, part: Option<usize>, foreign: &ForeignBlocks) -> BodyContacts {
+        let Some(rigid) = self.rigid.as_ref() else {
+            return BodyContacts::default();
+        };
+        let contacts = rigid.contacts();
+        match part {
+            Some(part) => {
+                contacts.counted_by(NodeOwners::new(part, self.grid.layout, &self.bins, foreign))
+            }
+            None => contacts,
+        }
+    }
+
     /// Stage 2 (steps 1 and 3): the grid's storage for this substep, then
     /// mass, momentum and force (PIC/FLIP) or affine momentum with the
-    /// force impulse (APIC) on it.
-    fn scatter(&mut self, dt: f32, trade: Option<&mut dyn SumTrade>) {
+    /// force impulse (APIC) on it. Returns the blocks whose sums other
+    /// parts sent.
+    fn scatter(&mut self, dt: f32, trade: Option<&mut dyn SumTrade>) -> ForeignBlocks {
         let (grid, bins, particles) = (&mut self.grid, &self.bins, &self.particles);
         match self.scene.solver.transfer {
             Transfer::PicFlip => p2g::scatter_pic_flip(grid, bins, particles, self.simd, trade),
@@ -299,5 +318,30 @@ impl Simulation {
             substeps += 1;
         }
         Ok(substeps)
+    }
+}
+
+/// Adds each body's exchange up over the parts of a split run, so that
+/// every part steps its bodies with the whole run's sums.
+fn add_up_between_parts(sums: &mut [ImpulseSum], trade: &mut dyn SumTrade) {
+    let mut words: Vec<u64> = sums
+        .iter()
+        .flat_map(|sum| sum.linear.into_iter().chain(sum.angular))
+        .map(|word| word as u64)
+        .collect();
+    trade.add_up(&mut words);
+    for (sum, words) in sums.iter_mut().zip(words.chunks_exact(6)) {
+        for axis in 0..3 {
+            sum.linear[axis] = words[axis] as i64;
+            sum.angular[axis] = words[3 + axis] as i64;
+        }
+    }
+}
+
+/// The trade of a split run's part, borrowed for one stage.
+fn reborrow<'a>(trade: &'a mut Option<&mut dyn SumTrade>) -> Option<&'a mut dyn SumTrade> {
+    match trade {
+        Some(trade) => Some(&mut **trade),
+        None => None,
     }
 }
