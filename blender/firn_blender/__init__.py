@@ -1,6 +1,7 @@
-"""firn inside Blender: mark objects as snow, colliders and the domain,
-bake them with firn's Python module, and get the snow back as an animated
-surface mesh and volume. See the README's "Into Blender"."""
+"""firn inside Blender: mark objects as snow, colliders, rigid bodies and
+the domain, bake them with firn's Python module, and get the snow back as
+an animated surface mesh and volume, and the rigid bodies as keyed copies.
+See the README's "Into Blender"."""
 
 import bpy
 

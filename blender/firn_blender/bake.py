@@ -83,12 +83,33 @@ def blender_message(error, origins):
     for prefix, (name, what) in sorted(origins.items(), key=lambda item: -len(item[0])):
         if key == prefix or key.startswith(prefix + ".") or key.startswith(prefix + "["):
             setting = key[len(prefix) + 1 :] or what
-            detail = re.sub(re.escape(prefix) + r"( \(\w+\))?", f"the {what}", detail)
+            if what == "rigid body":
+                setting = export.RIGID_BODY_SETTINGS.get(setting, setting)
+            detail = re.sub(key_pattern(prefix) + r"\.(\w+)", rf"the {what}'s \1", detail)
+            detail = re.sub(key_pattern(prefix) + r"( \(\w+\))?", f"the {what}", detail)
+            detail, hint = named(detail, origins), named(hint, origins)
             text = f"{name} ({what}), {setting}: {detail}"
             if re.search(r"along [xyz]\b|\b[xyz] = ", detail):
                 text += " (in firn's axes: x, y, z are Blender's x, z, -y)"
             return text + (f"; fix: {hint}" if hint else "")
+    detail, hint = named(detail, origins), named(hint, origins)
     return f"firn: {detail}" + (f"; fix: {hint}" if hint else "")
+
+
+def key_pattern(prefix):
+    """A regular expression of firn's key `prefix` standing alone (not the
+    end of a longer key: bodies[0] is not in rigid_bodies[0])."""
+    return r"(?<![\w.])" + re.escape(prefix) + r"(?![\w\[])"
+
+
+def named(text, origins):
+    """`text` with firn's keys of listed parts (colliders[2]) replaced by
+    the Blender objects they came from (Ground (collider))."""
+    for prefix, (name, what) in sorted(origins.items(), key=lambda item: -len(item[0])):
+        if "[" not in prefix:
+            continue
+        text = re.sub(key_pattern(prefix), lambda _, label=f"{name} ({what})": label, text)
+    return text
 
 
 def material_origins(made):

@@ -8,7 +8,11 @@ mesh, written as OBJ in firn's axes and placed at its own bounding box's
 centre, so it lands exactly where the object is. A collider is a plane (a
 flat mesh) or a mesh; when its transform changes over the frame range it
 gets one keyframe per frame of its pose: where its reference point is and
-how it is turned from the first frame (a quaternion in firn's axes)."""
+how it is turned from the first frame (a quaternion in firn's axes). A
+rigid body is its shape at the first frame: a sphere, box, cylinder or
+capsule sized by the object's dimensions, or its evaluated mesh in its own
+(scaled, unturned) axes, placed by the object's rotation and centred on
+its world bounding box's centre, so that firn has it where Blender does."""
 
 import math
 import re
@@ -25,6 +29,29 @@ RUN_FOLDER = "run"
 MESH_FOLDER = "meshes"
 #: Smallest rotation, in radians, that a collider's keys carry.
 ROTATION_TOLERANCE = 1e-5
+#: firn's shape of each primitive rigid body shape.
+PRIMITIVE_SHAPES = {"SPHERE": "sphere", "BOX": "box", "CYLINDER": "cylinder", "CAPSULE": "capsule"}
+#: firn's solid of each mesh rigid body shape.
+MESH_SOLIDS = {"CONVEX_HULL": "hull", "CONVEX_DECOMPOSITION": "decomposition"}
+#: The panel's name of a rigid body's firn key, for messages.
+RIGID_BODY_SETTINGS = {
+    "center": "Location",
+    "radius": "Dimensions",
+    "size": "Dimensions",
+    "height": "Dimensions",
+    "mesh": "Mesh",
+    "sdf_spacing": "Mesh",
+    "solid": "Shape",
+    "shape": "Shape",
+    "quaternion": "Rotation",
+    "density": "Density",
+    "mass": "Mass",
+    "velocity": "Initial Velocity",
+    "angular_velocity": "Initial Angular Velocity",
+    "mode": "Snow Contact",
+    "friction": "Friction",
+    "restitution": "Bounciness",
+}
 
 
 class ExportError(Exception):
@@ -294,6 +321,76 @@ def body_keys(obj, vertices, mesh_file, scale, materials):
     return body
 
 
+def primitive_keys(shape, evaluated, matrix, scale):
+    """The centre and size of a sphere, box, cylinder or capsule body:
+    the object's local bounding box, scaled as the object is. The body's
+    own axes are the object's local x, z, -y (Blender's to firn's, as for
+    world axes), so a cylinder's or capsule's axis, firn's y, is the
+    object's local z."""
+    corners = [Vector(corner) for corner in evaluated.bound_box]
+    lower, upper = bounds(corners)
+    _, _, stretch = matrix.decompose()
+    dx, dy, dz = ((b - a) * abs(s) * scale for a, b, s in zip(lower, upper, stretch, strict=True))
+    keys = {"shape": PRIMITIVE_SHAPES[shape], "center": to_firn(matrix @ Vector(centre(corners)), scale)}
+    if shape == "SPHERE":
+        keys["radius"] = max(dx, dy, dz) / 2
+    elif shape == "BOX":
+        keys["size"] = [dx, dz, dy]
+    else:
+        keys["radius"] = max(dx, dy) / 2
+        keys["height"] = dz
+    return keys
+
+
+def rigid_body_mesh(obj, depsgraph, rotation, scale):
+    """A mesh body's vertices in its own axes (firn's, turned back by the
+    body's `rotation`), its triangles, and where its world bounding box's
+    centre is (firn's axes)."""
+    vertices, triangles = checked_mesh(obj, depsgraph, scale)
+    middle = centre(vertices)
+    back = rotation.inverted()
+    local = [list(back @ Vector(difference(v, middle))) for v in vertices]
+    return local, triangles, middle
+
+
+def rigid_body_keys(obj, depsgraph, scale, meshes):
+    """A `[[rigid_bodies]]` table of a rigid body object at the current
+    frame; adds a mesh body's OBJ to `meshes`."""
+    settings = obj.firn
+    if obj.type != "MESH":
+        raise ExportError(obj.name, "Role", "only mesh objects can be firn rigid bodies")
+    evaluated = obj.evaluated_get(depsgraph)
+    matrix = evaluated.matrix_world
+    rotation = firn_quaternion(matrix.decompose()[1])
+    if settings.body_shape in PRIMITIVE_SHAPES:
+        body = primitive_keys(settings.body_shape, evaluated, matrix, scale)
+    else:
+        local, triangles, middle = rigid_body_mesh(obj, depsgraph, rotation, scale)
+        mesh_file = f"{MESH_FOLDER}/{safe_name(obj.name)}.obj"
+        meshes[mesh_file] = obj_text(local, triangles)
+        body = {"shape": "mesh", "mesh": mesh_file, "center": middle, "solid": MESH_SOLIDS[settings.body_shape]}
+    body["quaternion"] = [rotation.x, rotation.y, rotation.z, rotation.w]
+    if settings.mass_from == "MASS":
+        body["mass"] = settings.mass
+    else:
+        body["density"] = settings.body_density
+    body["velocity"] = to_firn(settings.velocity, scale)
+    body["angular_velocity"] = to_firn(settings.angular_velocity, 1.0)
+    body["mode"] = settings.contact
+    body["friction"] = settings.body_friction
+    body["restitution"] = settings.restitution
+    return body
+
+
+def rigid_body_tables(objects, depsgraph, scale, meshes, origins):
+    """The `[[rigid_bodies]]` tables of `objects`, each named in `origins`."""
+    tables = []
+    for obj in objects:
+        origins[f"rigid_bodies[{len(tables)}]"] = (obj.name, "rigid body")
+        tables.append(rigid_body_keys(obj, depsgraph, scale, meshes))
+    return tables
+
+
 def sequence_keys(obj, pattern, fps):
     """A `[[colliders]]` table of a deforming mesh: its files per frame."""
     settings = obj.firn
@@ -429,11 +526,13 @@ def build(scene, depsgraph_of, run_directory):
             meshes[collider["mesh"]] = obj_text(vertices, triangles)
         origins[f"colliders[{len(keys['colliders'])}]"] = (obj.name, "collider")
         keys["colliders"].append(collider)
+    keys["rigid_bodies"] = rigid_body_tables(role_objects(scene, "RIGID_BODY"), depsgraph, scale, meshes, origins)
     scene.frame_set(current)
     if materials:
         keys["materials"] = materials
-    if not keys["colliders"]:
-        del keys["colliders"]
+    for table in ("colliders", "rigid_bodies"):
+        if not keys[table]:
+            del keys[table]
     if settings.use_wind:
         keys["wind"] = wind_keys(settings, scale)
         origins["wind"] = (scene.name, "wind")
@@ -452,7 +551,7 @@ def gravity(scene, scale):
 def checked_mesh(obj, depsgraph, scale):
     """`obj`'s world mesh in firn's axes; an error when it has no faces."""
     if obj.type != "MESH":
-        raise ExportError(obj.name, "Role", "only mesh objects can be firn snow or colliders")
+        raise ExportError(obj.name, "Role", "only mesh objects can be firn snow, colliders or rigid bodies")
     vertices, triangles = world_mesh(obj, depsgraph, scale)
     if not triangles:
         raise ExportError(obj.name, "Mesh", "the mesh has no faces to fill or to collide with")

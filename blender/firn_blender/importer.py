@@ -2,7 +2,8 @@
 shows one mesh per frame (swapped on frame change), its density as a
 volume object reading the VDB sequence, and optionally the particles and
 the drift as point objects. All of them sit in the collection "firn",
-placed by the transform from firn's axes to Blender's."""
+placed by the transform from firn's axes to Blender's, with a keyed copy
+of each rigid body object (`rigid_bodies`)."""
 
 import json
 import os
@@ -12,6 +13,7 @@ from array import array
 import bpy
 from bpy.app.handlers import persistent
 
+from . import export, rigid_bodies
 from .axes import blender_from_firn, unit_scale
 
 COLLECTION = "firn"
@@ -314,6 +316,8 @@ def load_run(scene, run_directory, frame_start, frames):
         if obj is not None:
             as_points(obj, particle_radius(run_directory))
         made.append(obj)
+    bodies = export.role_objects(scene, "RIGID_BODY")
+    made += rigid_bodies.load_bodies(scene, run_directory, frame_start, bodies, the_collection(scene))
     return [obj for obj in made if obj is not None]
 
 

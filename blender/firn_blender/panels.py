@@ -38,11 +38,27 @@ def draw_object(layout, obj):
         layout.prop(settings, "motion")
         layout.prop(settings, "contact")
         layout.prop(settings, "friction")
+    elif settings.role == "RIGID_BODY":
+        draw_rigid_body(layout, settings)
     elif settings.role == "DOMAIN":
         layout.prop(settings, "cell_size")
         layout.label(text="Walls:")
         layout.prop(settings, "contact")
         layout.prop(settings, "friction")
+
+
+def draw_rigid_body(layout, settings):
+    """A rigid body's settings, grouped as Blender's Rigid Body panel."""
+    layout.prop(settings, "body_shape")
+    column = layout.column(heading="Settings")
+    column.prop(settings, "mass_from")
+    column.prop(settings, "body_density" if settings.mass_from == "DENSITY" else "mass")
+    column.prop(settings, "velocity")
+    column.prop(settings, "angular_velocity")
+    column = layout.column(heading="Surface Response")
+    column.prop(settings, "body_friction")
+    column.prop(settings, "restitution")
+    column.prop(settings, "contact", text="Snow Contact")
 
 
 def draw_bake(layout, scene):

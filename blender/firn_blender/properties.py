@@ -20,6 +20,11 @@ ROLES = [
     ("SNOW", "Snow", "A body of snow: the mesh is filled with particles"),
     ("COLLIDER", "Collider", "A rigid obstacle the snow hits"),
     ("DOMAIN", "Domain", "The box the simulation lives in: its bounds and cell size define the grid"),
+    (
+        "RIGID_BODY",
+        "Rigid Body",
+        "A solid that falls, tumbles and collides, pushed by the snow and pushing it; baked onto a linked copy",
+    ),
 ]
 
 PRESETS = [
@@ -41,6 +46,24 @@ COLLIDER_SHAPES = [
     ("AUTO", "Auto", "A flat mesh becomes an infinite plane, any other mesh a mesh collider"),
     ("PLANE", "Plane", "The infinite plane through the object, solid below its normal"),
     ("MESH", "Mesh", "The object's mesh, as a signed distance field"),
+]
+
+BODY_SHAPES = [
+    ("SPHERE", "Sphere", "A ball as wide as the object's largest dimension"),
+    ("BOX", "Box", "A box of the object's dimensions, turned as the object is"),
+    ("CYLINDER", "Cylinder", "A cylinder along the object's local z: its z dimension long, as wide as x or y"),
+    ("CAPSULE", "Capsule", "A capsule along the object's local z: its z dimension end to end, as wide as x or y"),
+    ("CONVEX_HULL", "Convex Hull", "The evaluated mesh; other solids meet its convex hull, the snow the mesh"),
+    (
+        "CONVEX_DECOMPOSITION",
+        "Convex Decomposition",
+        "The evaluated mesh; other solids meet it as convex pieces (for rings, bowls, chairs), the snow the mesh",
+    ),
+]
+
+MASS_SOURCES = [
+    ("DENSITY", "Density", "The mass follows from the shape's volume"),
+    ("MASS", "Mass", "The mass in kg; the inertia is the shape's at a uniform density"),
 ]
 
 MOTIONS = [
@@ -82,6 +105,32 @@ class FirnObjectSettings(bpy.types.PropertyGroup):
     motion: EnumProperty(name="Motion", items=MOTIONS, default="AUTO")
     contact: EnumProperty(name="Contact", items=CONTACT_MODES, default="separate")
     friction: FloatProperty(name="Friction", default=0.2, min=0.0)
+
+    # Rigid bodies (the contact mode above is theirs too).
+    body_shape: EnumProperty(name="Shape", items=BODY_SHAPES, default="CONVEX_HULL")
+    mass_from: EnumProperty(name="Mass From", items=MASS_SOURCES, default="DENSITY")
+    body_density: FloatProperty(
+        name="Density (kg/m³)", default=500.0, min=0.0, description="500 kg/m³ is wood; ice 900, stone 2600"
+    )
+    mass: FloatProperty(name="Mass (kg)", default=1.0, min=0.0)
+    angular_velocity: FloatVectorProperty(
+        name="Initial Angular Velocity",
+        size=3,
+        description="rad/s in world axes: the direction is the axis (right-hand rule), the length the rate",
+    )
+    body_friction: FloatProperty(
+        name="Friction",
+        default=0.3,
+        min=0.0,
+        description="Coulomb friction against the snow and the other solids (0.3: wood on snow)",
+    )
+    restitution: FloatProperty(
+        name="Bounciness",
+        default=0.0,
+        min=0.0,
+        max=1.0,
+        description="Share of the speed a collision with another solid gives back (the snow does not bounce)",
+    )
 
     # The domain.
     cell_size: FloatProperty(

@@ -5,11 +5,13 @@ operators, under `blender -b` (run by test_addon.py):
         --python blender/tests/bake_scene.py -- --out DIR
 
 A UV sphere of snow thrown at a cube that moves and turns (keyframed),
-over a ground plane, in a box domain; frames 1 to 10 at 24 fps. Writes
-DIR/facts.json with what test_addon.py checks: the errors of two bad
-settings, the scene file, the caches of a bake and of a bake cancelled
-after frame 3 and baked again, the imported objects' frames, and a Cycles
-render of frame 8 with the pixels where the ball's cache projects."""
+over a ground plane, in a box domain, and a small crate (a rigid body,
+its origin on its bottom face) dropped 6 cm onto the ground beside them;
+frames 1 to 10 at 24 fps. Writes DIR/facts.json with what test_addon.py
+checks: the errors of bad settings, the scene file, a mesh body's export,
+the caches of a bake and of a bake cancelled after frame 3 and baked
+again, the imported objects' frames, the crate's keyed motion, and a
+Cycles render of frame 8 with the pixels where the ball's cache projects."""
 
 import json
 import math
@@ -19,6 +21,9 @@ import time
 
 import bpy
 from bpy_extras.object_utils import world_to_camera_view
+
+from firn_blender import export
+from firn_blender.rigid_bodies import BODY_KEY
 
 OUT = sys.argv[sys.argv.index("--") + 2] if "--" in sys.argv else "/tmp/firn-addon"
 SIZE = (96, 72)
@@ -69,7 +74,26 @@ def shot(cell_size=0.04, voxel_size=0.02):
         for key in curve.keyframe_points:
             key.interpolation = "LINEAR"
     scene.firn.voxel_size = voxel_size
-    return {"domain": domain, "ball": ball, "ground": ground, "block": block, "paddle": squashed_paddle()}
+    objects = {"domain": domain, "ball": ball, "ground": ground, "block": block, "paddle": squashed_paddle()}
+    objects["crate"] = crate(ground.data.materials[0])
+    return objects
+
+
+def crate(material):
+    """A rigid box 8 × 6 × 5 cm, turned 30° about z, its origin at the
+    middle of its bottom face, 6 cm above the ground, dark as the ground."""
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(-0.4, 0.35, 0.08), rotation=(0.0, 0.0, math.radians(30.0)))
+    box = bpy.context.object
+    box.name = "Crate"
+    box.scale = (0.08, 0.06, 0.05)
+    for vertex in box.data.vertices:
+        vertex.co.z += 0.5
+    box.data.materials.append(material)
+    box.firn.role = "RIGID_BODY"
+    box.firn.body_shape = "BOX"
+    box.firn.mass_from = "MASS"
+    box.firn.mass = 0.2
+    return box
 
 
 def squashed_paddle():
@@ -140,7 +164,9 @@ def same_caches(first, second):
 
 
 def bad_settings(objects, facts):
-    """A body outside the domain and a cell size of zero: errors, no bake."""
+    """A snow body outside the domain, a cell size of zero, a rigid body
+    of no mass, one starting inside the ground, and a flat mesh body:
+    errors, no bake."""
     ball, domain = objects["ball"], objects["domain"]
     ball.location.z = 1.5
     facts["outside_error"] = bake(os.path.join(OUT, "bad-outside"))
@@ -148,7 +174,73 @@ def bad_settings(objects, facts):
     domain.firn.cell_size = 0.0
     facts["cell_error"] = bake(os.path.join(OUT, "bad-cell"))
     domain.firn.cell_size = 0.04
-    facts["bad_runs"] = [os.path.exists(os.path.join(OUT, name, "run")) for name in ("bad-outside", "bad-cell")]
+    crate = objects["crate"]
+    crate.firn.mass = 0.0
+    facts["mass_error"] = bake(os.path.join(OUT, "bad-mass"))
+    crate.firn.mass = 0.2
+    crate.location.z = 0.0
+    facts["inside_error"] = bake(os.path.join(OUT, "bad-inside"))
+    crate.location.z = 0.08
+    bpy.ops.mesh.primitive_plane_add(size=0.1, location=(0.4, -0.4, 0.3))
+    sheet = bpy.context.object
+    sheet.name = "Sheet"
+    sheet.firn.role = "RIGID_BODY"
+    facts["volume_error"] = bake(os.path.join(OUT, "bad-volume"))
+    bpy.data.objects.remove(sheet)
+    folders = ("bad-outside", "bad-cell", "bad-mass", "bad-inside", "bad-volume")
+    facts["bad_runs"] = [os.path.exists(os.path.join(OUT, name, "run")) for name in folders]
+
+
+def mesh_body(facts):
+    """A squashed, turned icosphere as a convex hull body: its table, its
+    OBJ's vertices and its world vertices in firn's axes (not baked)."""
+    bpy.ops.mesh.primitive_ico_sphere_add(
+        subdivisions=1, radius=0.05, location=(0.4, -0.3, 0.4), rotation=(0.3, -0.5, 0.9)
+    )
+    rock = bpy.context.object
+    rock.name = "Rock"
+    rock.scale = (1.0, 0.6, 1.4)
+    rock.firn.role = "RIGID_BODY"
+    made = export.build(bpy.context.scene, bpy.context.evaluated_depsgraph_get, os.path.join(OUT, "rock"))
+    index = next(i for i in range(len(made.scene["rigid_bodies"])) if made.origins[f"rigid_bodies[{i}]"][0] == "Rock")
+    body = made.scene["rigid_bodies"][index]
+    text = made.meshes[body["mesh"]].decode()
+    facts["rock"] = {
+        "body": body,
+        "obj": [[float(v) for v in line.split()[1:]] for line in text.splitlines() if line.startswith("v ")],
+        "world": [export.to_firn(rock.matrix_world @ v.co, 1.0) for v in rock.data.vertices],
+    }
+    bpy.data.objects.remove(rock)
+
+
+def crate_motion(facts):
+    """The crate's keyed copy at each frame: its origin, its rotation, its
+    lowest corner, its keys; the crate object itself; what the copy shares
+    with it."""
+    scene = bpy.context.scene
+    crate = bpy.data.objects["Crate"]
+    copy = bpy.data.objects["firn Crate"]
+    motion = {"location": [], "rotation": [], "bottom": []}
+    for frame in range(scene.frame_start, scene.frame_end + 1):
+        scene.frame_set(frame)
+        motion["location"].append(list(copy.matrix_world.to_translation()))
+        motion["rotation"].append(list(copy.matrix_world.to_quaternion()))
+        motion["bottom"].append(min((copy.matrix_world @ v.co).z for v in copy.data.vertices))
+    motion["keys"] = [len(curve.keyframe_points) for curve in copy.animation_data.action.fcurves]
+    motion["crate"] = {
+        "location": list(crate.matrix_world.to_translation()),
+        "rotation": list(crate.matrix_world.to_quaternion()),
+        "display": crate.display_type,
+        "hide_render": crate.hide_render,
+    }
+    motion["copy"] = {"shares_mesh": copy.data == crate.data, "role": copy.firn.role}
+    facts["crate"] = motion
+
+
+def copies(facts):
+    """How many keyed copies and their actions there are."""
+    facts["copies"] = sorted(obj.name for obj in bpy.data.objects if BODY_KEY in obj)
+    facts["copy_actions"] = sorted(action.name for action in bpy.data.actions if action.name.startswith("firn"))
 
 
 def sequences(facts):
@@ -230,6 +322,7 @@ def main():
     facts = {}
     bpy.context.scene.firn.import_particles = True
     bad_settings(objects, facts)
+    mesh_body(facts)
     started = time.monotonic()
     facts["bake_error"] = bake(os.path.join(OUT, "whole"))
     facts["bake_seconds"] = time.monotonic() - started
@@ -241,6 +334,7 @@ def main():
     }
     facts["status"] = bpy.context.scene.firn.status
     sequences(facts)
+    crate_motion(facts)
     render(facts)
     started = time.monotonic()
     facts["cancel_error"] = bake(os.path.join(OUT, "cancelled"), cancel_after_frame=3)
@@ -250,6 +344,7 @@ def main():
     facts["cancelled_state"] = manifest["status"]["state"]
     facts["resume_error"] = bake(os.path.join(OUT, "cancelled"))
     facts["resume_status"] = bpy.context.scene.firn.status
+    copies(facts)
     facts["resume_seconds"] = time.monotonic() - started
     facts["resume_differs"] = same_caches(os.path.join(OUT, "whole", "run"), os.path.join(OUT, "cancelled", "run"))
     with open(os.path.join(OUT, "facts.json"), "w", encoding="utf-8") as file:

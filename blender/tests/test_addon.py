@@ -81,7 +81,14 @@ def test_bad_settings_are_blender_errors_naming_the_object_and_nothing_is_baked(
     assert "Snowball (snow body)" in facts["outside_error"]
     assert "sticks out of the domain" in facts["outside_error"]
     assert "Domain: Cell Size" in facts["cell_error"]
-    assert facts["bad_runs"] == [False, False]
+    assert facts["bad_runs"] == [False] * 5
+
+
+def test_bad_rigid_bodies_are_blender_errors_naming_the_object_and_setting(baked):
+    _, facts = baked
+    assert "Crate (rigid body), Mass: the rigid body's mass must be greater than 0" in facts["mass_error"]
+    assert "Crate (rigid body), Location: the rigid body starts inside Ground (collider)" in facts["inside_error"]
+    assert "Sheet (rigid body), Mesh:" in facts["volume_error"] and "encloses no volume" in facts["volume_error"]
 
 
 def test_scene_file_puts_bodies_and_colliders_where_the_objects_are_in_firn_axes(baked):
@@ -112,6 +119,66 @@ def test_scene_file_puts_bodies_and_colliders_where_the_objects_are_in_firn_axes
     assert "quaternion" not in keys[0]
     half = math.radians(15.0)
     assert close(keys[-1]["quaternion"], [0.0, math.sin(half), 0.0, math.cos(half)])
+
+
+def test_scene_file_has_the_rigid_body_where_the_object_is_with_its_shape_and_mass(baked):
+    _, facts = baked
+    (body,) = tomllib.loads(facts["scene_toml"])["rigid_bodies"]
+    x, y, z = facts["objects"]["crate"]["location"]
+    assert body["shape"] == "box" and close(body["size"], [0.08, 0.05, 0.06])
+    # The origin is on the bottom face: the box's centre is 2.5 cm above it.
+    assert close(body["center"], to_firn([x, y, z + 0.025]))
+    # Turned 30° about Blender's z, firn's y.
+    half = math.radians(15.0)
+    assert close(body["quaternion"], [0.0, math.sin(half), 0.0, math.cos(half)])
+    assert body["mass"] == 0.2 and "density" not in body
+    assert body["mode"] == "separate" and body["friction"] == 0.3 and body["restitution"] == 0.0
+
+
+def rotate(quaternion, point):
+    """`point` turned by the unit quaternion [x, y, z, w]."""
+    x, y, z, w = quaternion
+    u = [x, y, z]
+    t = [
+        2 * (u[1] * point[2] - u[2] * point[1]),
+        2 * (u[2] * point[0] - u[0] * point[2]),
+        2 * (u[0] * point[1] - u[1] * point[0]),
+    ]
+    cross = [u[1] * t[2] - u[2] * t[1], u[2] * t[0] - u[0] * t[2], u[0] * t[1] - u[1] * t[0]]
+    return [p + w * a + b for p, a, b in zip(point, t, cross, strict=True)]
+
+
+def test_a_mesh_body_lands_on_its_object_s_vertices_once_firn_places_it(baked):
+    _, facts = baked
+    rock = facts["rock"]
+    body = rock["body"]
+    assert body["shape"] == "mesh" and body["solid"] == "hull" and body["density"] == 500.0
+    # firn turns the file's vertices by the rotation, then puts their
+    # bounding box's centre at `center`.
+    turned = [rotate(body["quaternion"], v) for v in rock["obj"]]
+    middle = [(min(v[a] for v in turned) + max(v[a] for v in turned)) / 2 for a in range(3)]
+    placed = [[p - m + c for p, m, c in zip(v, middle, body["center"], strict=True)] for v in turned]
+    assert len(placed) == len(rock["world"]) == 12
+    assert all(close(a, b, 1e-6) for a, b in zip(placed, rock["world"], strict=True))
+
+
+def test_the_baked_rigid_body_falls_onto_the_ground_on_a_keyed_linked_copy(baked):
+    _, facts = baked
+    crate = facts["crate"]
+    original = crate["crate"]
+    assert original["display"] == "WIRE" and original["hide_render"]
+    assert crate["copy"] == {"shares_mesh": True, "role": "NONE"}
+    assert crate["keys"] == [FRAMES] * 7
+    # At the first frame the copy is on the object.
+    assert close(crate["location"][0], original["location"], 1e-6)
+    assert close(crate["rotation"][0], original["rotation"], 1e-6)
+    heights, bottom = [p[2] for p in crate["location"]], crate["bottom"]
+    # Dropped 6 cm onto the ground plane (z = 0.02): it falls, lands by
+    # frame 4 and rests there, never through the plane.
+    assert heights[0] - heights[1] > 0.005 and heights[1] - heights[2] > 0.02
+    assert all(abs(b - 0.02) < 0.001 for b in bottom[3:]), bottom
+    assert max(heights[3:]) - min(heights[3:]) < 0.001 and min(bottom) > 0.019
+    assert all(math.dist(p[:2], crate["location"][0][:2]) < 0.01 for p in crate["location"])
 
 
 def test_a_deforming_collider_is_baked_as_one_mesh_file_per_frame(baked):
@@ -185,3 +252,8 @@ def test_cancelled_bake_resumes_to_the_bytes_of_an_uncancelled_one(baked):
     assert facts["cancelled_frames"] == [0, 1, 2, 3] and facts["cancelled_state"] == "running"
     assert "(resumed)" in facts["resume_status"]
     assert facts["resume_differs"] == []
+
+
+def test_baking_again_replaces_the_rigid_body_s_keyed_copy(baked):
+    _, facts = baked
+    assert facts["copies"] == ["firn Crate"] and facts["copy_actions"] == ["firn Crate"]
