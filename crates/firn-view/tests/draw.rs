@@ -916,3 +916,51 @@ fn rigid_bodies_are_drawn_in_their_colour_turned_as_their_pose_says() {
         );
     }
 }
+
+#[test]
+fn a_capsule_body_is_drawn_with_round_ends() {
+    let Some(context) = context() else { return };
+    let toml = format!(
+        "{SCENE_TOML}[[rigid_bodies]]\nshape = \"capsule\"\ncenter = [0.5, 0.5, 0.5]\n\
+         radius = 0.08\nheight = 0.4\n"
+    );
+    let scene = Scene::from_toml_str(&toml, "capsule").expect("the scene with a capsule loads");
+    let centre = Vec3::new(0.5, 0.5, 0.5);
+    let pose = firn_io::BodyPose {
+        position: centre.to_array(),
+        rotation: glam::Quat::IDENTITY.to_array(),
+        velocity: [0.0; 3],
+        angular_velocity: [0.0; 3],
+    };
+    let mut stage = stage(Vec::new());
+    stage.bodies = firn_render::scene_view::stage_bodies(&scene, &[pose]);
+    let particles = ParticleSource::Host {
+        positions: &[],
+        values: None,
+        trails: None,
+    };
+    let image = render_as(
+        &context,
+        &scene,
+        FORMAT,
+        &frame(&stage, DrawStyle::Points, ColorBy::Uniform, particles),
+    );
+    save(&image, "capsule");
+    // The body's warm colour, lit or in shade, against the cool sky.
+    let is_body = |point: Vec3| {
+        let [r, _, b] = rgb_at(&image, FRONT.pixel(point + Vec3::new(0.0, 0.0, 0.08)));
+        r > b.saturating_add(15)
+    };
+    // Its axis and the tip of each end are drawn; the corners of the
+    // cylinder around it (inside that cylinder, outside the round ends) are
+    // not.
+    for along in [0.0, 0.18, -0.18] {
+        assert!(
+            is_body(centre + Vec3::new(0.0, along, 0.0)),
+            "the capsule at y {along}"
+        );
+    }
+    for corner in [Vec3::new(0.07, 0.19, 0.0), Vec3::new(-0.07, -0.19, 0.0)] {
+        assert!(!is_body(centre + corner), "a square corner at {corner}");
+    }
+}

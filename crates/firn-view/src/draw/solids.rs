@@ -1,5 +1,6 @@
 //! Colliders and rigid bodies as shaded triangles (`solids.wgsl`): spheres
-//! (a flow's obstacles too) and boxes scale a unit shape, mesh colliders
+//! (a flow's obstacles too), boxes and cylinders scale a unit shape, a
+//! capsule is a cylinder and the two spheres of its ends, mesh colliders
 //! and bodies keep the triangles loaded once and move with their centre,
 //! and planes (clipped to the container) and deforming meshes (their
 //! triangles of the instant, without a distance field) are uploaded afresh
@@ -191,19 +192,18 @@ impl Solids {
         let colliders = stage.colliders.iter().map(|collider| (collider, None));
         let bodies = stage.bodies.iter().map(|body| (body, Some(BODY_ALBEDO)));
         for (solid, albedo) in colliders.chain(bodies) {
-            let Some((triangles, mut instance)) =
+            for (triangles, mut instance) in
                 self.placed(solid, stage.container, &mut frame_vertices)
-            else {
-                continue;
-            };
-            if let Some(albedo) = albedo {
-                instance.albedo = albedo.to_array();
+            {
+                if let Some(albedo) = albedo {
+                    instance.albedo = albedo.to_array();
+                }
+                self.draws.push(SolidDraw {
+                    triangles,
+                    instance: instances.len() as u32,
+                });
+                instances.push(instance);
             }
-            self.draws.push(SolidDraw {
-                triangles,
-                instance: instances.len() as u32,
-            });
-            instances.push(instance);
         }
         self.instances
             .write(device, queue, bytemuck::cast_slice(&instances));
@@ -211,70 +211,85 @@ impl Solids {
             .write(device, queue, bytemuck::cast_slice(&frame_vertices));
     }
 
-    /// The triangles and instance that draw `collider`, turned about its
+    /// The triangles and instances that draw `collider`, turned about its
     /// reference point; a plane's clipped polygon (turned already) and a
-    /// deforming mesh's triangles are appended to `frame_vertices`. `None`
+    /// deforming mesh's triangles are appended to `frame_vertices`. None
     /// for a mesh that was not loaded.
     fn placed(
         &self,
         collider: &StageCollider,
         container: Option<(Vec3, Vec3)>,
         frame_vertices: &mut Vec<SurfaceVertex>,
-    ) -> Option<(Triangles, SolidInstance)> {
+    ) -> Vec<(Triangles, SolidInstance)> {
         let start = frame_vertices.len() as u32;
-        let (triangles, instance) = if let Some(deformed) = &collider.deformed {
+        let parts = if let Some(deformed) = &collider.deformed {
             frame_vertices.extend(mesh_triangles(&deformed.mesh));
-            (
+            vec![(
                 Triangles::ThisFrame(start..frame_vertices.len() as u32),
                 SolidInstance::new(Vec3::ZERO, Vec3::ONE, COLLIDER_ALBEDO, COLLIDER_SHININESS),
-            )
+            )]
         } else if let ColliderGeometry::HalfPlane { point, normal } = collider.geometry {
             let normal = collider.rotation * normal;
             frame_vertices.extend(plane_polygon(point, normal, container));
-            (
+            vec![(
                 Triangles::ThisFrame(start..frame_vertices.len() as u32),
                 SolidInstance::new(Vec3::ZERO, Vec3::ONE, WALL_ALBEDO, WALL_SHININESS),
-            )
+            )]
         } else {
-            self.unturned(&collider.geometry)?
+            self.unturned(&collider.geometry)
         };
         let pivot = collider.geometry.reference_point();
-        Some((triangles, instance.turned(collider.rotation, pivot)))
+        parts
+            .into_iter()
+            .map(|(triangles, instance)| (triangles, instance.turned(collider.rotation, pivot)))
+            .collect()
     }
 
-    /// The triangles and instance of a rigid solid that is not a plane,
-    /// unturned.
-    fn unturned(&self, geometry: &ColliderGeometry) -> Option<(Triangles, SolidInstance)> {
+    /// The triangles and instances of a rigid solid that is not a plane,
+    /// unturned: one part, or a capsule's three (its cylinder and the
+    /// spheres of its ends); none for a mesh that was not loaded.
+    fn unturned(&self, geometry: &ColliderGeometry) -> Vec<(Triangles, SolidInstance)> {
         let solid =
             |offset, scale| SolidInstance::new(offset, scale, COLLIDER_ALBEDO, COLLIDER_SHININESS);
-        Some(match *geometry {
+        match *geometry {
             ColliderGeometry::Sphere { center, radius } => {
-                (Triangles::Sphere, solid(center, Vec3::splat(radius)))
+                vec![(Triangles::Sphere, solid(center, Vec3::splat(radius)))]
             }
-            ColliderGeometry::Box { center, size } => (Triangles::Cube, solid(center, size)),
-            // A capsule is drawn as the cylinder around it.
+            ColliderGeometry::Box { center, size } => vec![(Triangles::Cube, solid(center, size))],
             ColliderGeometry::Cylinder {
                 center,
                 radius,
                 height,
-            }
-            | ColliderGeometry::Capsule {
+            } => vec![(
+                Triangles::Cylinder,
+                solid(center, Vec3::new(radius, height, radius)),
+            )],
+            ColliderGeometry::Capsule {
                 center,
                 radius,
                 height,
-            } => (
-                Triangles::Cylinder,
-                solid(center, Vec3::new(radius, height, radius)),
-            ),
-            ColliderGeometry::Mesh(ref mesh) => {
-                let shift = mesh.center - mesh.placement.center;
-                (
-                    Triangles::Mesh(self.mesh_index(mesh)?),
-                    solid(shift, Vec3::ONE),
-                )
+            } => {
+                let shaft = (height - 2.0 * radius).max(0.0);
+                let end = Vec3::new(0.0, 0.5 * shaft, 0.0);
+                vec![
+                    (
+                        Triangles::Cylinder,
+                        solid(center, Vec3::new(radius, shaft, radius)),
+                    ),
+                    (Triangles::Sphere, solid(center + end, Vec3::splat(radius))),
+                    (Triangles::Sphere, solid(center - end, Vec3::splat(radius))),
+                ]
             }
-            ColliderGeometry::HalfPlane { .. } | ColliderGeometry::MeshSequence(_) => return None,
-        })
+            ColliderGeometry::Mesh(ref mesh) => self
+                .mesh_index(mesh)
+                .map(|index| {
+                    let shift = mesh.center - mesh.placement.center;
+                    (Triangles::Mesh(index), solid(shift, Vec3::ONE))
+                })
+                .into_iter()
+                .collect(),
+            ColliderGeometry::HalfPlane { .. } | ColliderGeometry::MeshSequence(_) => Vec::new(),
+        }
     }
 
     /// Draws the colliders of the last [`Solids::prepare`].
