@@ -6,6 +6,7 @@ use firn_run::RunError;
 
 use super::{Phase, RankSnow};
 use crate::exchange::Exchange;
+use crate::packing::{bytes_to_words, words_to_bytes};
 
 impl<E: Exchange> RankSnow<E> {
     /// Every rank learns whether the substep failed anywhere; the failure
@@ -86,21 +87,12 @@ impl<E: Exchange> RankSnow<E> {
     }
 }
 
-/// A text as words: its length in bytes, then the bytes four to a word.
+/// A text as words ([`bytes_to_words`]).
 fn text_to_words(text: &str) -> Vec<u32> {
-    let bytes = text.as_bytes();
-    let mut words = vec![bytes.len() as u32];
-    words.extend(bytes.chunks(4).map(|chunk| {
-        let mut word = [0u8; 4];
-        word[..chunk.len()].copy_from_slice(chunk);
-        u32::from_le_bytes(word)
-    }));
-    words
+    bytes_to_words(text.as_bytes())
 }
 
 /// The text of [`text_to_words`].
 fn words_to_text(words: &[u32]) -> String {
-    let length = words[0] as usize;
-    let bytes: Vec<u8> = words[1..].iter().flat_map(|w| w.to_le_bytes()).collect();
-    String::from_utf8_lossy(&bytes[..length.min(bytes.len())]).into_owned()
+    String::from_utf8_lossy(&words_to_bytes(words)).into_owned()
 }
