@@ -1,7 +1,8 @@
 # The add-on's pictures in docs/images: a shot baked through the add-on and
-# rendered with Cycles (headless), and a screenshot of its panel (Blender's
-# interface under Xvfb; this bake runs on the background thread with the
-# modal progress, as an artist's does, and is cancelled after the picture).
+# rendered with Cycles (headless), and a screenshot of its panel with the
+# crate (a rigid body) selected (Blender's interface under Xvfb; this bake
+# runs on the background thread with the modal progress, as an artist's
+# does, and is cancelled after the picture).
 #
 #   blender -b --factory-startup --addons firn_blender \
 #       --python scripts/blender/addon_pictures.py -- render docs/images/blender-addon-shot.png
@@ -9,7 +10,9 @@
 #       --python scripts/blender/addon_pictures.py -- screenshot docs/images/blender-addon-panel.png
 #
 # The add-on and the firn module must be installed (scripts/blender/install-addon.sh).
-# The shot is blender/tests/bake_scene.py's, at a finer grid and 2 s of frames.
+# The shot is blender/tests/bake_scene.py's, at a finer grid and 30 frames,
+# the ball thrown flat, and its crate set 1 cm above the cube's top, where the snow
+# going over the cube pushes it off.
 
 import importlib.util
 import math
@@ -25,7 +28,8 @@ CACHE = "/tmp/firn_addon_pictures"
 
 
 def the_shot():
-    """The test's shot at a finer grid, frames 1 to 30."""
+    """The test's shot at a finer grid, frames 1 to 30, the crate on the
+    cube."""
     path = os.path.join(HERE, "..", "..", "blender", "tests", "bake_scene.py")
     spec = importlib.util.spec_from_file_location("bake_scene", path)
     module = importlib.util.module_from_spec(spec)
@@ -36,14 +40,28 @@ def the_shot():
     scene.frame_end = 30
     scene.firn.cache_directory = CACHE
     objects["ball"].firn.velocity = (4.0, 0.0, 0.0)
+    crate = objects["crate"]
+    crate.location = (0.25, 0.1, 0.26)
+    crate.data.materials[0] = wood()
     return objects
 
 
+def wood():
+    """A brown material for the crate (its keyed copy shares its mesh)."""
+    material = bpy.data.materials.new("Crate")
+    material.use_nodes = True
+    shader = material.node_tree.nodes["Principled BSDF"]
+    shader.inputs["Base Color"].default_value = (0.35, 0.12, 0.03, 1.0)
+    shader.inputs["Roughness"].default_value = 0.8
+    return material
+
+
 def camera_and_light(scene):
-    """A camera low over the ground towards the block, a sun and a sky."""
-    bpy.ops.object.camera_add(location=(-0.45, -1.15, 0.75))
+    """A camera low over the ground, side on to the ball's flight, a sun
+    and a sky."""
+    bpy.ops.object.camera_add(location=(0.3, -1.2, 0.5))
     camera = bpy.context.object
-    aim = Vector((0.2, 0.05, 0.12)) - camera.location
+    aim = Vector((0.3, 0.08, 0.17)) - camera.location
     camera.rotation_euler = aim.to_track_quat("-Z", "Y").to_euler()
     scene.camera = camera
     bpy.ops.object.light_add(type="SUN", rotation=(math.radians(40.0), math.radians(10.0), math.radians(30.0)))
@@ -54,12 +72,13 @@ def camera_and_light(scene):
 
 
 def render(objects):
-    """Bakes headless and renders a frame after the impact."""
+    """Bakes headless and renders frame 8: the crate falling off the
+    cube's far side."""
     scene = bpy.context.scene
     objects["block"].hide_render = False
     bpy.ops.firn.bake()
     camera_and_light(scene)
-    scene.frame_set(12)
+    scene.frame_set(8)
     scene.render.engine = "CYCLES"
     scene.cycles.samples = 64
     scene.cycles.use_denoising = False
@@ -69,17 +88,17 @@ def render(objects):
 
 
 def screenshot(objects):
-    """Starts the bake in the interface with the ball's firn panel shown in
-    the largest area, writes a screenshot of that area a third of the way,
-    and cancels."""
+    """Starts the bake in the interface with the crate's firn panel (its
+    rigid body settings) shown in the largest area, writes a screenshot of
+    that area a third of the way, and cancels."""
     bpy.context.scene.firn.cache_directory = os.path.join(CACHE, "interface")
     bpy.context.preferences.view.show_splash = False
     window = bpy.context.window_manager.windows[0]
     properties = max(window.screen.areas, key=lambda a: a.width * a.height)
     properties.type = "PROPERTIES"
-    ball = objects["ball"]
-    bpy.context.view_layer.objects.active = ball
-    ball.select_set(True)
+    crate = objects["crate"]
+    bpy.context.view_layer.objects.active = crate
+    crate.select_set(True)
 
     def start():
         properties.spaces[0].context = "PHYSICS"
