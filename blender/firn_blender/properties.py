@@ -116,6 +116,7 @@ class FirnObjectSettings(bpy.types.PropertyGroup):
     angular_velocity: FloatVectorProperty(
         name="Initial Angular Velocity",
         size=3,
+        subtype="XYZ",
         description="rad/s in world axes: the direction is the axis (right-hand rule), the length the rate",
     )
     body_friction: FloatProperty(
