@@ -279,6 +279,7 @@ pub const SNOW_STEP: Program = Program {
         part!("snow/implicit.wgsl"),
         part!("snow/g2p.wgsl"),
         part!("snow/spindrift.wgsl"),
+        part!("snow/parts.wgsl"),
     ],
 };
 

@@ -189,7 +189,7 @@ impl<E: Exchange> Stepper for RootStepper<E> {
         let RankPart::Snow(rank) = &mut self.part else {
             return None;
         };
-        let scene = rank.simulation().scene();
+        let scene = rank.scene();
         if !scene.output.formats.contains(&CacheFormat::Vtk) {
             return None;
         }

@@ -2,12 +2,75 @@
 //! of the rank's own particles with the key of each, its place in the
 //! whole run's order. The solver knows nothing of parts: every substep the
 //! part hands it the keys and the trade of block sums
-//! ([`Simulation::step_part`]).
+//! ([`Simulation::step_part`]). A [`GpuPart`] holds them on the rank's GPU
+//! instead ([`firn_gpu::snow::parts`]); [`Slab`] is either.
 
 use firn_core::Scene;
-use firn_mpm::{Simulation, SimulationError, SumTrade};
+use firn_gpu::GpuSnow;
+use firn_mpm::{Simulation, SimulationError, Snapshot, SumTrade};
+use firn_run::RunError;
 
 use crate::packing::KeyedParticles;
+
+/// A rank's particles, in the CPU solver or on its GPU.
+pub(crate) enum Slab {
+    /// In a [`Simulation`].
+    Cpu(SnowPart),
+    /// In a [`GpuSnow`].
+    Gpu(Box<GpuPart>),
+}
+
+impl Slab {
+    /// The scene.
+    pub(crate) fn scene(&self) -> &Scene {
+        match self {
+            Slab::Cpu(part) => part.simulation.scene(),
+            Slab::Gpu(part) => &part.scene,
+        }
+    }
+
+    /// Simulated time, s.
+    pub(crate) fn time(&self) -> f64 {
+        match self {
+            Slab::Cpu(part) => part.simulation.time(),
+            Slab::Gpu(part) => part.started().time(),
+        }
+    }
+
+    /// The keys of the own particles, in their order.
+    pub(crate) fn keys(&self) -> &[u64] {
+        match self {
+            Slab::Cpu(part) => &part.keys,
+            Slab::Gpu(part) => &part.keys,
+        }
+    }
+
+    /// The own particles and the run's counters, as a snapshot (read back
+    /// from the GPU).
+    pub(crate) fn snapshot(&self) -> Result<Snapshot, RunError> {
+        match self {
+            Slab::Cpu(part) => Ok(part.simulation.snapshot()),
+            Slab::Gpu(part) => Ok(part.started().snapshot()?),
+        }
+    }
+}
+
+/// A rank's particles on its GPU, with one key per particle (in the GPU's
+/// order, which never changes: one GPU process never reorders its
+/// particles).
+pub(crate) struct GpuPart {
+    /// The run of the particles; `None` only while it starts.
+    pub(crate) gpu: Option<GpuSnow>,
+    pub(crate) keys: Vec<u64>,
+    pub(crate) scene: Scene,
+}
+
+impl GpuPart {
+    /// The run, once started.
+    fn started(&self) -> &GpuSnow {
+        self.gpu.as_ref().expect("a started part")
+    }
+}
 
 /// A simulation of one rank's particles, with one key per particle.
 pub(crate) struct SnowPart {
@@ -44,11 +107,6 @@ impl SnowPart {
     /// The simulation of the own particles.
     pub(crate) fn simulation(&self) -> &Simulation {
         &self.simulation
-    }
-
-    /// The keys of the own particles, in their order.
-    pub(crate) fn keys(&self) -> &[u64] {
-        &self.keys
     }
 
     /// Takes the own particles and their keys out (leaving none), e.g. to

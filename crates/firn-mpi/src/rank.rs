@@ -1,5 +1,5 @@
 //! One rank's share of a split snow run: [`RankSnow`] owns the particles of
-//! its slab and steps them with [`Simulation`], exchanging with the other
+//! its slab and steps them with [`firn_mpm::Simulation`], exchanging with the other
 //! ranks every substep so that the result is the one process's bit for
 //! bit:
 //!
@@ -10,7 +10,7 @@
 //!    place in that sorted array, the particles of lower ranks first;
 //! 3. the substep itself, every block summing its particles in key order
 //!    (the rank's `SnowPart` hands the solver the keys, by which it orders
-//!    each block's particles, [`Simulation::step_part`]), hence in the
+//!    each block's particles, [`firn_mpm::Simulation::step_part`]), hence in the
 //!    one-process order; in its scatter the ranks **trade block sums**:
 //!    each sends the sums of its blocks next to a neighbour's to that
 //!    neighbour (`SlabTrade`, [`firn_mpm::block_sums`]), so every node a
@@ -28,15 +28,16 @@ use firn_io::IoError;
 use firn_mpm::binning::block_key;
 use firn_mpm::grid::GridLayout;
 use firn_mpm::simulation::REORDER_INTERVAL;
-use firn_mpm::{Particles, PermuteBuffers, Simulation, Snapshot};
+use firn_mpm::{Particles, PermuteBuffers, Snapshot};
 use firn_run::{RunDirectory, RunError, caches, checkpoint};
 
 use crate::exchange::{Exchange, join_u64, split_u64};
 use crate::packing::{KeyedParticles, WORDS_PER_PARTICLE, bytes_to_words, words_to_bytes};
-use crate::part::SnowPart;
+use crate::part::{Slab, SnowPart};
 use crate::slabs::{Slabs, neighbour_reach};
 
 mod agreement;
+mod gpu;
 mod slab_trade;
 
 use slab_trade::SlabTrade;
@@ -106,7 +107,7 @@ pub struct RankTraffic {
 /// One rank's part of a split snow run.
 pub struct RankSnow<E: Exchange> {
     exchange: E,
-    part: SnowPart,
+    part: Slab,
     slabs: Slabs,
     layout: GridLayout,
     buffers: PermuteBuffers,
@@ -119,30 +120,24 @@ impl<E: Exchange> RankSnow<E> {
     /// and sends each rank its particles, keyed by their place in the
     /// snapshot, and every rank the rigid bodies. Every rank must call it.
     pub fn scatter(exchange: E, scene: Scene, snapshot: Option<Snapshot>) -> RankSnow<E> {
+        let start = Start::receive(&exchange, &scene, snapshot);
+        let part = SnowPart::new(
+            scene,
+            (start.time, start.steps),
+            start.bounds,
+            start.rigid.as_deref(),
+            start.own,
+        );
+        RankSnow::of(exchange, Slab::Cpu(part), start.slabs)
+    }
+
+    /// A rank of `part` between `slabs`, which has sent nothing yet.
+    fn of(exchange: E, part: Slab, slabs: Slabs) -> RankSnow<E> {
+        let scene = part.scene();
         let layout = GridLayout::new(scene.domain.min, scene.domain.max, scene.domain.cell_size);
-        let outgoing = match &snapshot {
-            Some(snapshot) => parts_of(snapshot, &layout, exchange.size()),
-            None => vec![Vec::new(); exchange.size()],
-        };
-        let rigid = snapshot
-            .as_ref()
-            .and_then(|snapshot| snapshot.rigid.as_deref())
-            .map(bytes_to_words)
-            .unwrap_or_default();
-        let rigid = exchange.broadcast(rigid);
-        let rigid = (!rigid.is_empty()).then(|| words_to_bytes(&rigid));
-        let message = exchange.exchange(outgoing).swap_remove(0);
-        let ranks = exchange.size();
-        let (header, records) = message.split_at(6 + ranks + 1);
-        let time = f64::from_bits(join_u64(header[0], header[1]));
-        let steps = join_u64(header[2], header[3]);
-        let slabs = Slabs::from_words(&header[6..]);
-        let mut own = KeyedParticles::default();
-        own.unpack(records);
-        let bounds = [f32::from_bits(header[4]), f32::from_bits(header[5])];
         RankSnow {
             exchange,
-            part: SnowPart::new(scene, (time, steps), bounds, rigid.as_deref(), own),
+            part,
             slabs,
             layout,
             buffers: PermuteBuffers::default(),
@@ -162,7 +157,7 @@ impl<E: Exchange> RankSnow<E> {
 
     /// The particles this rank owns now.
     pub fn owned(&self) -> usize {
-        self.simulation().particles().len()
+        self.part.keys().len()
     }
 
     /// The keys of the own particles.
@@ -180,47 +175,68 @@ impl<E: Exchange> RankSnow<E> {
         self.traffic
     }
 
-    /// The rank's simulation, of its own particles.
-    pub fn simulation(&self) -> &Simulation {
-        self.part.simulation()
+    /// The scene.
+    pub fn scene(&self) -> &Scene {
+        self.part.scene()
     }
 
-    /// Substeps until time `until`, as [`Simulation::advance_to`]; returns
+    /// Substeps until time `until`, as [`firn_mpm::Simulation::advance_to`]; returns
     /// the number of substeps. Every rank must call it.
     pub fn advance_to(&mut self, until: f64) -> Result<u32, RunError> {
+        if let Slab::Gpu(_) = self.part {
+            return self.advance_gpu_to(until);
+        }
         let mut substeps = 0;
-        while until - self.simulation().time() > 1e-9 {
+        while until - self.part.time() > 1e-9 {
             self.step(until)?;
             substeps += 1;
         }
         Ok(substeps)
     }
 
-    /// One substep of the whole run, never past `until`; returns its Δt.
-    /// Every rank must call it.
+    /// The rank's particles in the CPU solver (a rank on the CPU backend).
+    fn cpu_part(&mut self) -> &mut SnowPart {
+        match &mut self.part {
+            Slab::Cpu(part) => part,
+            Slab::Gpu(_) => panic!("a rank on the GPU backend steps by frames (advance_to)"),
+        }
+    }
+
+    /// One substep of the whole run on the CPU backend, never past
+    /// `until`; returns its Δt. Every rank must call it.
     pub fn step(&mut self, until: f64) -> Result<f32, RunError> {
-        let own = self.part.take();
+        let own = self.cpu_part().take();
         let blocks = self.blocks(&own.particles);
         self.rebalance(&blocks);
         let (mut own, blocks) = self.migrate(own, blocks);
-        if self.simulation().steps().is_multiple_of(REORDER_INTERVAL) {
+        if self
+            .cpu_part()
+            .simulation()
+            .steps()
+            .is_multiple_of(REORDER_INTERVAL)
+        {
             self.renumber(&mut own, &blocks);
         }
-        self.part.set(own);
+        self.cpu_part().set(own);
+        let Slab::Cpu(part) = &mut self.part else {
+            unreachable!("checked by cpu_part")
+        };
         let mut trade = SlabTrade {
             exchange: &self.exchange,
             slabs: &self.slabs,
             layout: self.layout,
-            neighbours: self.slabs.neighbours(self.exchange.rank(), self.reach()),
+            neighbours: self
+                .slabs
+                .neighbours(self.exchange.rank(), neighbour_reach(self.layout.blocks)),
             traffic: &mut self.traffic,
         };
-        let result = self.part.step(until, &mut trade);
+        let result = part.step(until, &mut trade);
         let dt = self.agree(result)?;
-        let (speed, waves) = self.simulation().motion_bounds();
+        let (speed, waves) = self.cpu_part().simulation().motion_bounds();
         let bounds = self.timed(Phase::Agreement, |exchange| {
             exchange.max_f32(&[speed, waves])
         });
-        self.part.set_motion_bounds([bounds[0], bounds[1]]);
+        self.cpu_part().set_motion_bounds([bounds[0], bounds[1]]);
         self.traffic.substeps += 1;
         Ok(dt)
     }
@@ -228,10 +244,10 @@ impl<E: Exchange> RankSnow<E> {
     /// The whole run's state on rank 0, in the one-process order (`None` on
     /// the other ranks). Every rank must call it.
     pub fn gather(&mut self) -> Option<Snapshot> {
-        let particles = self.simulation().particles();
+        let own = self.own_snapshot();
         let mut words = Vec::with_capacity(self.owned() * WORDS_PER_PARTICLE);
         for (p, &key) in self.own_keys().iter().enumerate() {
-            crate::packing::pack(particles, key, p, &mut words);
+            crate::packing::pack(&own.particles, key, p, &mut words);
         }
         let parts = self.timed(Phase::Gathering, |exchange| exchange.gather(&words))?;
         let mut all = KeyedParticles::default();
@@ -246,18 +262,9 @@ impl<E: Exchange> RankSnow<E> {
                 .all(|(place, &key)| key == place as u64),
             "the ranks' particles are not each particle exactly once"
         );
-        let (max_speed_squared, max_wave_speed_squared) = self.simulation().motion_bounds();
         Some(Snapshot {
-            time: self.simulation().time(),
-            steps: self.simulation().steps(),
-            max_speed_squared,
-            max_wave_speed_squared,
             particles: all.particles,
-            // Refused under MPI (`driver::refusal`): no scene split here has drift.
-            drift: Default::default(),
-            escaped: Default::default(),
-            // Every rank holds the bodies whole, alike.
-            rigid: self.simulation().view().rigid_bytes(),
+            ..own
         })
     }
 
@@ -268,8 +275,9 @@ impl<E: Exchange> RankSnow<E> {
     /// to the run directory. Every rank must call it.
     pub fn write_vtk_piece(&mut self, index: u32, run: &RunDirectory) -> Result<String, RunError> {
         let name = RunDirectory::vtk_piece_name(index, self.rank());
+        let own = self.own_snapshot();
         let written = caches::write_snow_vtk_piece(
-            self.simulation().view(),
+            own.view(self.scene()),
             self.owned(),
             index,
             &run.path().join(&name),
@@ -294,7 +302,7 @@ impl<E: Exchange> RankSnow<E> {
         let written =
             firn_io::ensure_writable_dir(path.parent().unwrap_or(run.path())).and_then(|()| {
                 checkpoint::write_piece(
-                    self.own_snapshot().view(self.simulation().scene()),
+                    self.own_snapshot().view(self.scene()),
                     self.own_keys(),
                     frame,
                     scene_json,
@@ -309,20 +317,11 @@ impl<E: Exchange> RankSnow<E> {
 
     /// This rank's own particles and the run's counters, as a snapshot.
     fn own_snapshot(&self) -> Snapshot {
-        let particles = self.simulation().particles().clone();
-        let (max_speed_squared, max_wave_speed_squared) = self.simulation().motion_bounds();
-        Snapshot {
-            time: self.simulation().time(),
-            steps: self.simulation().steps(),
-            max_speed_squared,
-            max_wave_speed_squared,
-            particles,
-            // Refused under MPI (`driver::refusal`): no scene split here has drift.
-            drift: Default::default(),
-            escaped: Default::default(),
-            // Every rank holds the bodies whole, alike.
-            rigid: self.simulation().view().rigid_bytes(),
-        }
+        // Only a GPU lost in the middle of the run fails here; mpirun then
+        // ends every rank.
+        self.part.snapshot().unwrap_or_else(|error| {
+            panic!("rank {} cannot read its particles: {error}", self.rank())
+        })
     }
 
     /// Every rank learns whether every rank's file was `written`; the
@@ -499,4 +498,48 @@ fn parts_of(snapshot: &Snapshot, layout: &GridLayout, ranks: usize) -> Vec<Vec<u
         crate::packing::pack(particles, p as u64, p, &mut parts[slabs.owner(block)]);
     }
     parts
+}
+
+/// What a rank starts a split run from ([`Start::receive`]).
+struct Start {
+    time: f64,
+    steps: u64,
+    /// The largest |v_p|² and squared wave speed of the whole run.
+    bounds: [f32; 2],
+    slabs: Slabs,
+    own: KeyedParticles,
+    /// The rigid bodies' saved world, if the scene has bodies.
+    rigid: Option<Vec<u8>>,
+}
+
+impl Start {
+    /// Rank 0 (which holds `snapshot`; the others pass `None`) cuts the
+    /// slabs by particle count and sends each rank its particles, keyed by
+    /// their place in the snapshot, and every rank the rigid bodies. Every
+    /// rank must call it.
+    fn receive<E: Exchange>(exchange: &E, scene: &Scene, snapshot: Option<Snapshot>) -> Start {
+        let layout = GridLayout::new(scene.domain.min, scene.domain.max, scene.domain.cell_size);
+        let outgoing = match &snapshot {
+            Some(snapshot) => parts_of(snapshot, &layout, exchange.size()),
+            None => vec![Vec::new(); exchange.size()],
+        };
+        let rigid = snapshot
+            .as_ref()
+            .and_then(|snapshot| snapshot.rigid.as_deref())
+            .map(bytes_to_words)
+            .unwrap_or_default();
+        let rigid = exchange.broadcast(rigid);
+        let message = exchange.exchange(outgoing).swap_remove(0);
+        let (header, records) = message.split_at(6 + exchange.size() + 1);
+        let mut own = KeyedParticles::default();
+        own.unpack(records);
+        Start {
+            time: f64::from_bits(join_u64(header[0], header[1])),
+            steps: join_u64(header[2], header[3]),
+            bounds: [f32::from_bits(header[4]), f32::from_bits(header[5])],
+            slabs: Slabs::from_words(&header[6..]),
+            own,
+            rigid: (!rigid.is_empty()).then(|| words_to_bytes(&rigid)),
+        }
+    }
 }

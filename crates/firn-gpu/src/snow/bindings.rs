@@ -111,6 +111,12 @@ bind_group! {
         /// allocated block; from `[4]` on: per chunk of 1024 blocks, its
         /// marked blocks, then its first slot.
         39 => block_chunks: ReadWrite "array<u32>",
+        /// In a run split between processes (`snow/parts.wgsl`): the
+        /// number of grid blocks whose sums are traded, then their slots
+        /// (a 16-byte stand-in in one process).
+        40 => trade_slots: Read "array<u32>",
+        /// Those blocks' sums, packed to send or received to add.
+        41 => traded: ReadWrite "array<u32>",
     }
 }
 

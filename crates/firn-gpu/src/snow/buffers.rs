@@ -220,6 +220,35 @@ pub struct SnowBuffers {
     pub spindrift: wgpu::Buffer,
     /// The semi-implicit solve's buffers.
     pub solve: SolveBuffers,
+    /// The blocks whose sums a part of a split run trades.
+    pub trade: TradeBuffers,
+}
+
+/// The grid sums a part of a split run trades (`shaders/snow/parts.wgsl`):
+/// 16-byte stand-ins in one process.
+pub struct TradeBuffers {
+    /// The number of listed blocks, then their slots.
+    pub slots: wgpu::Buffer,
+    /// Their sums.
+    pub words: wgpu::Buffer,
+    /// Blocks the buffers have room for.
+    pub capacity: u32,
+}
+
+impl TradeBuffers {
+    /// Zeroed buffers with room for `blocks` blocks of `block_words` words.
+    pub fn new(context: &GpuContext, blocks: u32, block_words: u32) -> TradeBuffers {
+        let blocks64 = u64::from(blocks);
+        TradeBuffers {
+            slots: zeroed_storage_buffer(context, "traded slots", 4 * (1 + blocks64)),
+            words: zeroed_storage_buffer(
+                context,
+                "traded sums",
+                4 * blocks64 * u64::from(block_words),
+            ),
+            capacity: blocks,
+        }
+    }
 }
 
 impl SnowBuffers {
@@ -288,6 +317,8 @@ impl SnowBuffers {
             solve_products: &self.solve.products,
             linearized: &self.solve.linearized,
             solve: &self.solve.state,
+            trade_slots: &self.trade.slots,
+            traded: &self.trade.words,
         }
     }
 }

@@ -63,6 +63,7 @@ mod implicit;
 mod layout;
 mod memory;
 mod p2g;
+pub mod parts;
 mod program;
 mod sequences;
 mod spindrift;
@@ -87,14 +88,14 @@ use crate::draw::{ParticleArrays, SnowArrays, StridedArray};
 use crate::error::GpuError;
 use binning::BinningBuffers;
 use blocks::{BlockBuffers, reached_blocks};
-use buffers::{GridBuffers, ParticleBuffers, SnowBuffers, SolveBuffers};
+use buffers::{GridBuffers, ParticleBuffers, SnowBuffers, SolveBuffers, TradeBuffers};
 use fixed_point::Scales;
 use layout::{
     GpuMat3, GpuMaterial, GpuPlastic, NO_PARTICLE, Params, StepState, WAITING_FOR_GRID_BLOCKS,
 };
 use memory::body_blocks;
 use spindrift::{PHASE_SNOW, ReadBack, SpindriftParams, joined, split_phases};
-use substep::Substep;
+use substep::{Substep, traded_block_words};
 use wind::{MAX_WIND_OBSTACLES, WindBuffers};
 
 pub use buffers::ColliderBuffers;
@@ -124,6 +125,8 @@ pub struct GpuSnow {
     escaped_before: Escaped,
     time: f64,
     steps: u64,
+    /// Where the frame being stepped ends, s.
+    frame_end: f64,
     /// The last Δt and the maxima it came from, read back per batch.
     last: StepState,
     /// What the buffers were sized for, the grid's capacity included.
@@ -145,6 +148,29 @@ impl GpuSnow {
         context: Arc<GpuContext>,
         scene: Scene,
         snapshot: &Snapshot,
+    ) -> Result<GpuSnow, GpuError> {
+        GpuSnow::build(context, scene, snapshot, 0)
+    }
+
+    /// One part of a run split between processes, of the particles in
+    /// `snapshot` ([`parts`]): it steps by [`GpuSnow::part_substep`].
+    pub fn part_from_snapshot(
+        context: Arc<GpuContext>,
+        scene: Scene,
+        snapshot: &Snapshot,
+    ) -> Result<GpuSnow, GpuError> {
+        let part = GpuSnow::build(context, scene, snapshot, parts::TRADE_CHUNK_BLOCKS)?;
+        part.check_splittable()?;
+        Ok(part)
+    }
+
+    /// A run of `snapshot` whose trade of sums between parts moves up to
+    /// `trade_blocks` blocks at once (0 in one process).
+    fn build(
+        context: Arc<GpuContext>,
+        scene: Scene,
+        snapshot: &Snapshot,
+        trade_blocks: u32,
     ) -> Result<GpuSnow, GpuError> {
         GpuSnow::check_supported(&scene)?;
         snapshot.check(&scene)?;
@@ -178,6 +204,7 @@ impl GpuSnow {
             wind: WindBuffers::upload(&context, &scene),
             spindrift: spindrift::params_buffer(&context, &scene),
             solve: SolveBuffers::new(&context, estimate.particles, estimate.nodes, implicit),
+            trade: TradeBuffers::new(&context, trade_blocks, traded_block_words(&scene)),
         };
         let state = StepState {
             max_speed_bits: snapshot.max_speed_squared.to_bits(),
@@ -205,6 +232,7 @@ impl GpuSnow {
             escaped_before: snapshot.escaped,
             time: snapshot.time,
             steps: snapshot.steps,
+            frame_end: snapshot.time,
             last: StepState {
                 speed_squared: snapshot.max_speed_squared,
                 wave_speed_squared: snapshot.max_wave_speed_squared,
@@ -284,6 +312,7 @@ impl GpuSnow {
     /// Starts a frame: the time window goes into the parameters, the step
     /// counter and the running flag into the state.
     fn begin_frame(&mut self, until: f64) {
+        self.frame_end = until;
         self.params.lower[3] = self.time as f32;
         self.params.upper[3] = (until - self.time) as f32;
         self.last.elapsed = 0.0;

@@ -31,6 +31,7 @@ use super::grid_update::GridUpdate;
 use super::implicit::{ITERATIONS_PER_READ, ImplicitSolve, SolveGroups, read_header};
 use super::layout::{Params, StepState};
 use super::p2g::{BinnedP2g, P2g, Scatter, binned_fits};
+use super::parts::PartKernels;
 use super::program::{StepProgram, compute_pass};
 use super::spindrift::SpindriftStage;
 use crate::buffers::{read_back, storage_buffer};
@@ -58,6 +59,10 @@ pub struct Substep {
     spindrift: SpindriftStage,
     /// The semi-implicit solve, with that integrator only.
     implicit: Option<ImplicitSolve>,
+    /// The trade of sums between the parts of a split run.
+    parts: PartKernels,
+    /// Words of one block's traded sums (`parts.wgsl`).
+    traded_block_words: u32,
     /// What the semi-implicit solves did so far.
     solver_stats: SolverStats,
     mode: Scatter,
@@ -111,6 +116,8 @@ impl Substep {
             g2p: G2p::new(&program, transfer),
             spindrift: SpindriftStage::new(&program, drifting),
             implicit: implicit.then(|| ImplicitSolve::new(&program)),
+            parts: PartKernels::new(&program),
+            traded_block_words: block_words_of(transfer),
             solver_stats: SolverStats::default(),
             particle_groups: workgroups(params.dims[3], limit),
             params: params_buffer,
@@ -190,6 +197,91 @@ impl Substep {
             .write_buffer(&self.state, offset, bytemuck::bytes_of(&bits));
     }
 
+    /// Sets the largest |v_p|² and squared wave speed the next substep's
+    /// Δt starts from (a part of a split run: the maxima over all parts).
+    pub fn write_motion_bounds(
+        &self,
+        context: &GpuContext,
+        speed_squared: f32,
+        wave_speed_squared: f32,
+    ) {
+        let offset = std::mem::offset_of!(StepState, max_speed_bits) as u64;
+        let bits = [speed_squared.to_bits(), wave_speed_squared.to_bits()];
+        context
+            .queue
+            .write_buffer(&self.state, offset, bytemuck::cast_slice(&bits));
+    }
+
+    /// Words of one block's sums in a trade between parts.
+    pub fn traded_block_words(&self) -> u32 {
+        self.traded_block_words
+    }
+
+    /// Runs the first half of a part's substep, up to and including the
+    /// scatter, and reads the state back.
+    pub fn run_part_scatter(
+        &self,
+        context: &GpuContext,
+        buffers: &SnowBuffers,
+    ) -> Result<StepState, GpuError> {
+        let mut encoder = command_encoder(context);
+        self.record_scatter(&mut encoder, buffers);
+        context.queue.submit([encoder.finish()]);
+        self.read_state(context)
+    }
+
+    /// Runs the second half of a part's substep, from the grid update on
+    /// (the other parts' sums added), and reads the state back.
+    pub fn finish_part_substep(
+        &self,
+        context: &GpuContext,
+        buffers: &SnowBuffers,
+    ) -> Result<StepState, GpuError> {
+        let mut encoder = command_encoder(context);
+        self.grid_update.record(
+            &mut compute_pass(&mut encoder, "snow substep"),
+            &buffers.blocks.indirect,
+        );
+        self.record_after_grid(&mut compute_pass(&mut encoder, "snow substep"));
+        context.queue.submit([encoder.finish()]);
+        self.read_state(context)
+    }
+
+    /// Packs the sums of the blocks in grid `slots` into the traded words
+    /// (`words` `None`), or adds `words` (another part's sums of them)
+    /// into the grid; at most the trade buffers' capacity of blocks.
+    pub fn run_traded(
+        &self,
+        context: &GpuContext,
+        buffers: &SnowBuffers,
+        slots: &[u32],
+        words: Option<&[u32]>,
+    ) -> Result<(), GpuError> {
+        assert!(
+            slots.len() <= buffers.trade.capacity as usize,
+            "a chunk within the trade buffers"
+        );
+        let mut list = Vec::with_capacity(slots.len() + 1);
+        list.push(slots.len() as u32);
+        list.extend_from_slice(slots);
+        let queue = &context.queue;
+        queue.write_buffer(&buffers.trade.slots, 0, bytemuck::cast_slice(&list));
+        if let Some(words) = words {
+            queue.write_buffer(&buffers.trade.words, 0, bytemuck::cast_slice(words));
+        }
+        let mut encoder = command_encoder(context);
+        self.parts
+            .record(context, &mut encoder, slots.len() as u32, words.is_some());
+        queue.submit([encoder.finish()]);
+        Ok(())
+    }
+
+    /// The step state as the GPU has it now.
+    fn read_state(&self, context: &GpuContext) -> Result<StepState, GpuError> {
+        let state = read_back::<StepState>(context, &[(&self.state, 1)])?;
+        Ok(state[0].first().copied().unwrap_or_else(StepState::zeroed))
+    }
+
     /// Records and runs `substeps` substeps over `buffers` (those after the
     /// frame's end do nothing), then reads the state back.
     pub fn run_batch(
@@ -217,8 +309,7 @@ impl Substep {
                 context.queue.submit([encoder.finish()]);
             }
         }
-        let state = read_back::<StepState>(context, &[(&self.state, 1)])?;
-        Ok(state[0].first().copied().unwrap_or_else(StepState::zeroed))
+        self.read_state(context)
     }
 
     /// What the semi-implicit solves did so far (with that integrator).
@@ -285,6 +376,15 @@ impl Substep {
 
     /// Records a substep up to and including the grid update.
     fn record_until_solve(&self, encoder: &mut wgpu::CommandEncoder, buffers: &SnowBuffers) {
+        self.record_scatter(encoder, buffers);
+        self.grid_update.record(
+            &mut compute_pass(encoder, "snow substep"),
+            &buffers.blocks.indirect,
+        );
+    }
+
+    /// Records a substep up to and including the scatter.
+    fn record_scatter(&self, encoder: &mut wgpu::CommandEncoder, buffers: &SnowBuffers) {
         self.blocks
             .record(encoder, &buffers.blocks, self.particle_groups);
         self.begin_step
@@ -303,10 +403,6 @@ impl Substep {
                 self.particle_groups,
             ),
         }
-        self.grid_update.record(
-            &mut compute_pass(encoder, "snow substep"),
-            &buffers.blocks.indirect,
-        );
     }
 
     /// Records the gather and spindrift, after the grid's new velocities.
@@ -322,4 +418,20 @@ fn command_encoder(context: &GpuContext) -> wgpu::CommandEncoder {
         .create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("snow substeps"),
         })
+}
+
+/// Words of one block's sums in a trade between parts (`parts.wgsl`): a
+/// low and a high word per node of each quantity the scatter sums, mass
+/// and momentum, and for PIC/FLIP the force impulse.
+fn block_words_of(transfer: Transfer) -> u32 {
+    let quantities = match transfer {
+        Transfer::Apic => 4,
+        Transfer::PicFlip => 7,
+    };
+    quantities * 2 * 64
+}
+
+/// [`block_words_of`] the scene's transfer.
+pub fn traded_block_words(scene: &firn_core::Scene) -> u32 {
+    block_words_of(scene.solver.transfer)
 }

@@ -59,7 +59,7 @@ impl<E: Exchange> RankSnow<E> {
 
     /// `error` with its particle named by key (its one-process index), and
     /// that key (0 for a failure of the whole substep).
-    fn keyed(&self, error: &SimulationError) -> (u64, SimulationError) {
+    pub(super) fn keyed(&self, error: &SimulationError) -> (u64, SimulationError) {
         match error {
             SimulationError::Unstable {
                 time,
