@@ -4,11 +4,13 @@
 //! one process would (the same caches, manifest and checkpoints, byte for
 //! byte), the other ranks step their parts and follow rank 0's commands.
 
+use std::sync::Arc;
 use std::time::Instant;
 
 use firn_core::Scene;
-use firn_core::scene::Transfer;
+use firn_core::scene::{Backend, Transfer};
 use firn_flow::{FlowSimulation, Simd};
+use firn_gpu::{AdapterPolicy, GpuContext, GpuSnow};
 use firn_mpi::driver::refusal;
 use firn_mpi::exchange::{join_u64, split_u64};
 use firn_mpi::mpi_exchange::{MpiExchange, MpiRun};
@@ -17,6 +19,7 @@ use firn_mpm::Snapshot;
 use firn_run::Placement;
 
 use crate::Failure;
+use crate::backend::gpu_failure;
 use crate::bench::{BenchArgs, SimdChoice, failed, snowball_drop, transfer_name};
 use crate::run::{RunArgs, record, scene_for};
 
@@ -29,10 +32,18 @@ pub fn run(args: &RunArgs, mpi: &MpiRun) -> Result<(), Failure> {
         None => Ok((scene, file)),
     });
     let (scene, scene_file) = agree_on(&exchange, scene)?;
+    let gpu = rank_gpu(&exchange, &scene);
+    let gpu = agree_on(&exchange, gpu)?;
     if exchange.rank() != 0 {
-        return follower(exchange, &scene);
+        return follower(exchange, &scene, gpu);
     }
-    let described = format!("the CPU, split between {ranks} MPI ranks");
+    let described = match &gpu {
+        None => format!("the CPU, split between {ranks} MPI ranks"),
+        Some(context) => format!(
+            "GPUs, split between {ranks} MPI ranks (rank 0 on {})",
+            context.adapter.name
+        ),
+    };
     let result = record(
         args,
         scene,
@@ -40,7 +51,7 @@ pub fn run(args: &RunArgs, mpi: &MpiRun) -> Result<(), Failure> {
         &Placement::Cpu,
         &described,
         |solver| {
-            let stepper = RootStepper::start(exchange.clone(), solver)?;
+            let stepper = RootStepper::start(exchange.clone(), solver, gpu)?;
             Ok(Some(Box::new(stepper)))
         },
     );
@@ -93,10 +104,41 @@ fn agree_on<T>(exchange: &MpiExchange, verdict: Result<T, Failure>) -> Result<T,
     verdict
 }
 
+/// This rank's GPU when the snow runs on GPUs: with `--backend gpu` (or
+/// the scene's `[compute] backend = "gpu"`), or `auto` where the node has
+/// a hardware GPU that runs the scene. The rank's index among its node's
+/// ranks picks the adapter, round (ranks may share one). `None`: the CPU.
+/// Every rank must call it.
+fn rank_gpu(exchange: &MpiExchange, scene: &Scene) -> Result<Option<Arc<GpuContext>>, Failure> {
+    let local = exchange.local_rank();
+    let policy = match scene.compute.backend {
+        Backend::Cpu => return Ok(None),
+        _ if scene.kind.flow().is_some() => return Ok(None),
+        Backend::Gpu => AdapterPolicy::AllowSoftware,
+        Backend::Auto => {
+            let hardware = firn_gpu::choose(AdapterPolicy::HardwareOnly);
+            if firn_run::backend::auto_takes(scene, hardware.as_ref()).is_err()
+                || GpuSnow::check_splittable(scene).is_err()
+            {
+                return Ok(None);
+            }
+            AdapterPolicy::HardwareOnly
+        }
+    };
+    GpuSnow::check_splittable(scene).map_err(|error| gpu_failure(&error))?;
+    GpuContext::new_nth(policy, local)
+        .map(Some)
+        .map_err(|error| gpu_failure(&error))
+}
+
 /// A rank other than 0: follows rank 0 to the end and exits with the
 /// run's exit code, leaving the message to rank 0.
-fn follower(exchange: MpiExchange, scene: &Scene) -> Result<(), Failure> {
-    match follow(exchange, scene) {
+fn follower(
+    exchange: MpiExchange,
+    scene: &Scene,
+    gpu: Option<Arc<GpuContext>>,
+) -> Result<(), Failure> {
+    match follow(exchange, scene, gpu) {
         0 => Ok(()),
         code if code == i32::from(crate::EXIT_BAD_INPUT) => Err(Failure::BadInput(String::new())),
         _ => Err(Failure::Failed(String::new())),

@@ -1,7 +1,8 @@
 //! `mpirun -np N firn run SCENE` (the `mpi` feature): the same PLY frames,
 //! byte for byte, for 1 to 4 ranks and one process, both transfer schemes
 //! and a curl-noise flow; a run stopped on one rank count resumes on
-//! another with the same bytes, rigid bodies too; a failing rank stops the
+//! another with the same bytes, rigid bodies too, and on GPU ranks those of
+//! one GPU process (lavapipe in CI); a failing rank stops the
 //! run with its message; the semi-implicit integrator is refused. Skipped without
 //! `mpirun` unless `FIRN_REQUIRE_MPI=1`.
 
@@ -268,6 +269,60 @@ fn a_rigid_body_on_two_ranks_resumed_on_three_moves_as_in_one_process() {
     assert_eq!(poses.len(), 5, "frames 0 to 4");
     assert_ne!(poses[0], poses[4], "the box never moved");
     assert_eq!(body_poses(&split), poses, "the box differs");
+}
+
+/// Whether a GPU adapter (lavapipe in CI) is here; fails the test if it
+/// must be.
+fn have_gpu() -> bool {
+    firn_gpu::context_for_tests().is_some()
+}
+
+#[test]
+fn gpu_ranks_write_one_gpu_process_frames_and_resume_on_another_count() {
+    if !have_mpirun() || !have_gpu() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let scene = scene_with(dir.path(), "apic");
+    let scene = scene.to_str().unwrap();
+    let alone = dir.path().join("alone");
+    let output = firn(&[
+        "run",
+        scene,
+        "--out",
+        alone.to_str().unwrap(),
+        "--frames",
+        "4",
+        "--backend",
+        "gpu",
+        "--quiet",
+    ]);
+    assert_success(&output, "one GPU process");
+    let split = dir.path().join("split");
+    let out = split.to_str().unwrap();
+    let gpu = ["--backend", "gpu"];
+    let first = mpirun(
+        2,
+        &[&["run", scene, "--out", out, "--frames", "2"][..], &gpu].concat(),
+    );
+    assert_success(&first, "2 GPU ranks");
+    let manifest = fs::read_to_string(split.join("manifest.json")).unwrap();
+    assert!(manifest.contains("\"backend\": \"gpu\""), "{manifest}");
+    let resumed = mpirun(
+        3,
+        &[
+            &["run", scene, "--out", out, "--frames", "4", "--resume"][..],
+            &gpu,
+        ]
+        .concat(),
+    );
+    assert_success(&resumed, "resumed on 3 GPU ranks");
+    let reference = frames(&alone);
+    assert_eq!(reference.len(), 5, "frames 0 to 4");
+    assert!(
+        reference == frames(&split),
+        "the GPU ranks' frames differ from one GPU's"
+    );
 }
 
 /// The flow scene of the MPI tests: a stream with rebirth, a sphere and

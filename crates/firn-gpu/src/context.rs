@@ -177,13 +177,24 @@ impl GpuContext {
     /// Opens a device on the best adapter `policy` allows, with that
     /// adapter's full limits (large scenes need more than WebGPU's defaults).
     pub fn new(policy: AdapterPolicy) -> Result<Arc<GpuContext>, GpuError> {
-        let adapter = enumerate()
+        GpuContext::new_nth(policy, 0)
+    }
+
+    /// Opens a device on the adapter `policy` allows at place `index` among
+    /// them, counting round (`index` modulo their number, best first): one
+    /// MPI rank's GPU among its node's, by its local rank, several ranks
+    /// sharing one where there are more ranks than GPUs.
+    pub fn new_nth(policy: AdapterPolicy, index: usize) -> Result<Arc<GpuContext>, GpuError> {
+        let allowed: Vec<wgpu::Adapter> = enumerate()
             .into_iter()
-            .find(|adapter| {
+            .filter(|adapter| {
                 policy == AdapterPolicy::AllowSoftware || !AdapterReport::of(adapter).is_software
             })
-            .ok_or(GpuError::NoAdapter { policy })?;
-        GpuContext::open(&adapter)
+            .collect();
+        if allowed.is_empty() {
+            return Err(GpuError::NoAdapter { policy });
+        }
+        GpuContext::open(&allowed[index % allowed.len()])
     }
 
     /// Opens a device on `adapter`, which may come from the caller's own

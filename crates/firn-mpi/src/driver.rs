@@ -11,8 +11,11 @@
 //! for byte; volumes, meshes, pictures). The other ranks [`follow`] rank 0's
 //! [`Command`]s.
 
+use std::sync::Arc;
+
 use firn_core::Scene;
 use firn_core::scene::CacheFormat;
+use firn_gpu::GpuContext;
 use firn_run::checkpoint::{self, PieceManifest};
 use firn_run::recording::Stepper;
 use firn_run::simulation::SolverState;
@@ -134,29 +137,44 @@ impl<E: Exchange> RankPart<E> {
 /// flow).
 pub struct RootStepper<E: Exchange> {
     part: RankPart<E>,
+    /// Rank 0's GPU, when every rank steps its slab of the snow on one.
+    gpu: Option<Arc<GpuContext>>,
 }
 
 impl<E: Exchange> RootStepper<E> {
     /// Splits `solver`'s state between the ranks (which wait in
-    /// [`follow`]). `solver` runs on the CPU.
-    pub fn start(exchange: E, solver: &Solver) -> Result<RootStepper<E>, RunError> {
+    /// [`follow`]), a snow run's slabs onto each rank's GPU when `gpu`
+    /// (this rank's) is given. `solver` runs on the CPU: it holds the state
+    /// rank 0 gathers.
+    pub fn start(
+        exchange: E,
+        solver: &Solver,
+        gpu: Option<Arc<GpuContext>>,
+    ) -> Result<RootStepper<E>, RunError> {
         let scene = solver.scene().clone();
         let state = solver.state()?;
         Command::Start.send(&exchange);
-        let part = match state {
-            SolverState::Flow(snapshot) => {
+        let part = match (state, &gpu) {
+            (SolverState::Flow(snapshot), _) => {
                 let (rank, _) = RankFlow::start(exchange, &scene, Some(&snapshot));
                 RankPart::Flow(rank, None)
             }
-            SolverState::Snow(snapshot) => {
+            (SolverState::Snow(snapshot), None) => {
                 RankPart::Snow(Box::new(RankSnow::scatter(exchange, scene, Some(snapshot))))
             }
+            (SolverState::Snow(snapshot), Some(context)) => RankPart::Snow(Box::new(
+                RankSnow::scatter_gpu(exchange, context.clone(), scene, Some(snapshot))?,
+            )),
         };
-        Ok(RootStepper { part })
+        Ok(RootStepper { part, gpu })
     }
 }
 
 impl<E: Exchange> Stepper for RootStepper<E> {
+    fn placement(&self) -> Option<Placement> {
+        self.gpu.clone().map(Placement::Gpu)
+    }
+
     fn advance_to(&mut self, solver: &mut Solver, until: f64) -> Result<u32, RunError> {
         Command::Advance { until }.send(self.part.exchange());
         match &mut self.part {
@@ -254,8 +272,13 @@ fn remove_stale_pieces(run: &RunDirectory, manifest: &PieceManifest) {
 }
 
 /// A rank other than 0: does what rank 0 says until it says stop; returns
-/// the run's exit code. Its pieces go into the scene's run directory.
-pub fn follow<E: Exchange + Clone>(exchange: E, scene: &Scene) -> i32 {
+/// the run's exit code. Its pieces go into the scene's run directory. With
+/// `gpu` (this rank's) it steps its slab of a snow run there.
+pub fn follow<E: Exchange + Clone>(
+    exchange: E,
+    scene: &Scene,
+    gpu: Option<Arc<GpuContext>>,
+) -> i32 {
     let run = RunDirectory::new(scene.output.directory.clone());
     let scene_json = checkpoint::scene_json(scene);
     let mut part: Option<RankPart<E>> = None;
@@ -263,13 +286,18 @@ pub fn follow<E: Exchange + Clone>(exchange: E, scene: &Scene) -> i32 {
         match Command::receive(&exchange) {
             Command::Stop { code } => return code,
             Command::Start => {
-                part = Some(if scene.kind.flow().is_some() {
+                part = if scene.kind.flow().is_some() {
                     let (rank, copy) = RankFlow::start(exchange.clone(), scene, None);
-                    RankPart::Flow(rank, copy.map(Box::new))
+                    Some(RankPart::Flow(rank, copy.map(Box::new)))
+                } else if let Some(context) = &gpu {
+                    // Every rank learns of a failure to start; rank 0 reports it.
+                    RankSnow::scatter_gpu(exchange.clone(), context.clone(), scene.clone(), None)
+                        .ok()
+                        .map(|rank| RankPart::Snow(Box::new(rank)))
                 } else {
                     let rank = RankSnow::scatter(exchange.clone(), scene.clone(), None);
-                    RankPart::Snow(Box::new(rank))
-                });
+                    Some(RankPart::Snow(Box::new(rank)))
+                };
             }
             Command::Advance { until } => match started(&mut part) {
                 RankPart::Snow(rank) => {

@@ -32,6 +32,12 @@ impl MpiExchange {
         }
     }
 
+    /// This rank's place among the ranks on its node (shared memory,
+    /// `MPI_Comm_split_type`), by rank. Every rank must call it.
+    pub fn local_rank(&self) -> usize {
+        self.world.split_shared(self.world.rank()).rank() as usize
+    }
+
     /// Stops every rank of the run with exit code `code` (`MPI_Abort`),
     /// for a rank that cannot go on while the others wait on it.
     pub fn abort(&self, code: i32) -> ! {

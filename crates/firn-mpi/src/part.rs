@@ -15,7 +15,7 @@ use crate::packing::KeyedParticles;
 /// A rank's particles, in the CPU solver or on its GPU.
 pub(crate) enum Slab {
     /// In a [`Simulation`].
-    Cpu(SnowPart),
+    Cpu(Box<SnowPart>),
     /// In a [`GpuSnow`].
     Gpu(Box<GpuPart>),
 }

@@ -128,7 +128,7 @@ impl<E: Exchange> RankSnow<E> {
             start.rigid.as_deref(),
             start.own,
         );
-        RankSnow::of(exchange, Slab::Cpu(part), start.slabs)
+        RankSnow::of(exchange, Slab::Cpu(Box::new(part)), start.slabs)
     }
 
     /// A rank of `part` between `slabs`, which has sent nothing yet.

@@ -1,7 +1,7 @@
 //! A run split between ranks with a GPU each (here threads of one process
 //! sharing Mesa's lavapipe, exchanging as MPI ranks would) gives one GPU
-//! process's bits for 1 to 4 ranks, both transfer schemes; particles
-//! cross the slabs and grid sums are traded. Skipped without a GPU adapter
+//! process's bits for 1 to 4 ranks (APIC; PIC/FLIP on 3); particles cross
+//! the slabs and grid sums are traded. Skipped without a GPU adapter
 //! unless `FIRN_REQUIRE_GPU=1`.
 
 use std::path::Path;
@@ -89,14 +89,14 @@ fn split_gpus(
     (std::mem::take(&mut results[0].0), traffic)
 }
 
-fn assert_one_gpu_bits(transfer: Transfer) {
+fn assert_one_gpu_bits(transfer: Transfer, rank_counts: &[usize]) {
     let Some(context) = firn_gpu::context::context_for_tests() else {
         return;
     };
     let scene = crossing(transfer);
     let frames = 3;
     let reference = one_gpu(&context, &scene, frames);
-    for ranks in 1..=4 {
+    for &ranks in rank_counts {
         let (states, traffic) = split_gpus(&context, &scene, ranks, frames);
         assert_eq!(states.len(), reference.len());
         for (frame, (split, whole)) in states.iter().zip(&reference).enumerate() {
@@ -123,10 +123,11 @@ fn assert_one_gpu_bits(transfer: Transfer) {
 
 #[test]
 fn gpu_ranks_give_one_gpu_process_bits_with_apic() {
-    assert_one_gpu_bits(Transfer::Apic);
+    assert_one_gpu_bits(Transfer::Apic, &[1, 2, 3, 4]);
 }
 
+/// Three ranks only: lavapipe is slow, and the split is the same.
 #[test]
 fn gpu_ranks_give_one_gpu_process_bits_with_pic_flip() {
-    assert_one_gpu_bits(Transfer::PicFlip);
+    assert_one_gpu_bits(Transfer::PicFlip, &[3]);
 }

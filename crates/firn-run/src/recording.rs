@@ -47,6 +47,13 @@ pub trait Stepper {
     /// Brings `solver` to simulated time `until`; returns the substeps taken.
     fn advance_to(&mut self, solver: &mut Solver, until: f64) -> Result<u32, RunError>;
 
+    /// Where the run's work is done, for the manifest, when not where the
+    /// recording's solver is (MPI ranks on GPUs: the solver only holds the
+    /// state rank 0 gathers). `None`: the solver's placement.
+    fn placement(&self) -> Option<Placement> {
+        None
+    }
+
     /// Writes frame `index` (at simulated time `time`) as VTK pieces, one
     /// per part of the run, into `run` in place of the recording's one VTK
     /// file; returns each piece's part and path relative to the run
@@ -172,7 +179,10 @@ impl Recording {
     ) -> Result<Recording, RunError> {
         let scene = solver.scene();
         let scene_json = scene_json(scene);
-        let placement = solver.placement();
+        let placement = stepper
+            .as_ref()
+            .and_then(|stepper| stepper.placement())
+            .unwrap_or_else(|| solver.placement());
         let manifest = Manifest {
             firn_version: env!("CARGO_PKG_VERSION").to_string(),
             scene_file: scene_file.map(|path| path.display().to_string()),

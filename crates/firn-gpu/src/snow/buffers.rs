@@ -35,38 +35,104 @@ pub struct ParticleBuffers {
 
 impl ParticleBuffers {
     /// Uploads the particles, each with its material word
-    /// ([`super::spindrift::material_word`]).
+    /// ([`super::spindrift::material_word`]), into buffers with room for
+    /// `capacity` particles (at least as many as there are).
     pub fn upload(
         context: &GpuContext,
         particles: &Particles,
         material_words: &[u32],
+        capacity: usize,
     ) -> ParticleBuffers {
+        let arrays = ParticleArrays::of(particles, material_words);
+        let room = capacity.max(particles.len());
+        let buffer = |label: &str, element: usize, contents: &[u8]| {
+            let mut bytes = contents.to_vec();
+            bytes.resize(room * element, 0);
+            storage_buffer(context, label, &bytes)
+        };
+        ParticleBuffers {
+            position_mass: buffer(
+                "position and mass",
+                16,
+                bytemuck::cast_slice(&arrays.position_mass),
+            ),
+            velocity_volume: buffer(
+                "velocity and volume",
+                16,
+                bytemuck::cast_slice(&arrays.velocity_volume),
+            ),
+            elastic: buffer(
+                "elastic gradient",
+                MAT3_BYTES,
+                bytemuck::cast_slice(&arrays.elastic),
+            ),
+            affine: buffer(
+                "affine velocity",
+                MAT3_BYTES,
+                bytemuck::cast_slice(&arrays.affine),
+            ),
+            stress: buffer("stress", MAT3_BYTES, bytemuck::cast_slice(&arrays.stress)),
+            plastic: buffer("plastic state", 8, bytemuck::cast_slice(&arrays.plastic)),
+        }
+    }
+
+    /// Writes the particles over the first ones of the buffers, which
+    /// must have room for them.
+    pub fn write(&self, context: &GpuContext, particles: &Particles, material_words: &[u32]) {
+        let arrays = ParticleArrays::of(particles, material_words);
+        let queue = &context.queue;
+        queue.write_buffer(
+            &self.position_mass,
+            0,
+            bytemuck::cast_slice(&arrays.position_mass),
+        );
+        queue.write_buffer(
+            &self.velocity_volume,
+            0,
+            bytemuck::cast_slice(&arrays.velocity_volume),
+        );
+        queue.write_buffer(&self.elastic, 0, bytemuck::cast_slice(&arrays.elastic));
+        queue.write_buffer(&self.affine, 0, bytemuck::cast_slice(&arrays.affine));
+        queue.write_buffer(&self.stress, 0, bytemuck::cast_slice(&arrays.stress));
+        queue.write_buffer(&self.plastic, 0, bytemuck::cast_slice(&arrays.plastic));
+    }
+}
+
+/// Bytes of a `mat3x3<f32>` in storage layout.
+const MAT3_BYTES: usize = size_of::<GpuMat3>();
+
+/// The particles as the GPU stores them, array by array.
+struct ParticleArrays {
+    position_mass: Vec<[f32; 4]>,
+    velocity_volume: Vec<[f32; 4]>,
+    elastic: Vec<GpuMat3>,
+    affine: Vec<GpuMat3>,
+    stress: Vec<GpuMat3>,
+    plastic: Vec<GpuPlastic>,
+}
+
+impl ParticleArrays {
+    /// The arrays of `particles`, each with its material word.
+    fn of(particles: &Particles, material_words: &[u32]) -> ParticleArrays {
         let n = particles.len();
         let matrices =
             |list: &[glam::Mat3]| list.iter().map(|&m| GpuMat3::from(m)).collect::<Vec<_>>();
-        let position_mass: Vec<[f32; 4]> = (0..n)
-            .map(|p| particles.position[p].extend(particles.mass[p]).into())
-            .collect();
-        let velocity_volume: Vec<[f32; 4]> = (0..n)
-            .map(|p| particles.velocity[p].extend(particles.volume0[p]).into())
-            .collect();
-        let plastic: Vec<GpuPlastic> = (0..n)
-            .map(|p| GpuPlastic {
-                plastic_j: particles.plastic_j[p],
-                material: material_words[p],
-            })
-            .collect();
-        ParticleBuffers {
-            position_mass: storage_buffer(context, "position and mass", &position_mass),
-            velocity_volume: storage_buffer(context, "velocity and volume", &velocity_volume),
-            elastic: storage_buffer(context, "elastic gradient", &matrices(&particles.elastic)),
-            affine: storage_buffer(
-                context,
-                "affine velocity",
-                &matrices(&particles.velocity_gradient),
-            ),
-            stress: storage_buffer(context, "stress", &matrices(&particles.stress)),
-            plastic: storage_buffer(context, "plastic state", &plastic),
+        ParticleArrays {
+            position_mass: (0..n)
+                .map(|p| particles.position[p].extend(particles.mass[p]).into())
+                .collect(),
+            velocity_volume: (0..n)
+                .map(|p| particles.velocity[p].extend(particles.volume0[p]).into())
+                .collect(),
+            elastic: matrices(&particles.elastic),
+            affine: matrices(&particles.velocity_gradient),
+            stress: matrices(&particles.stress),
+            plastic: (0..n)
+                .map(|p| GpuPlastic {
+                    plastic_j: particles.plastic_j[p],
+                    material: material_words[p],
+                })
+                .collect(),
         }
     }
 }

@@ -159,9 +159,8 @@ impl GpuSnow {
         scene: Scene,
         snapshot: &Snapshot,
     ) -> Result<GpuSnow, GpuError> {
-        let part = GpuSnow::build(context, scene, snapshot, parts::TRADE_CHUNK_BLOCKS)?;
-        part.check_splittable()?;
-        Ok(part)
+        GpuSnow::check_splittable(&scene)?;
+        GpuSnow::build(context, scene, snapshot, parts::TRADE_CHUNK_BLOCKS)
     }
 
     /// A run of `snapshot` whose trade of sums between parts moves up to
@@ -180,7 +179,8 @@ impl GpuSnow {
         let cubic = scene.solver.transfer == Transfer::PicFlip;
         let blocks =
             reached_blocks(&layout, &particles.position, cubic).max(body_blocks(&scene, &layout));
-        let estimate = MemoryEstimate::for_blocks(&scene, particles.len() as u64, blocks);
+        let estimate =
+            MemoryEstimate::for_blocks(&scene, capacity_of(particles.len(), trade_blocks), blocks);
         estimate.check_fits(&context)?;
         let constants = MaterialConstants::of_each(&scene.materials);
         let materials = storage_buffer(
@@ -197,7 +197,12 @@ impl GpuSnow {
         let buffers = SnowBuffers {
             materials,
             colliders: ColliderBuffers::of(&context, all_colliders.colliders()),
-            particles: ParticleBuffers::upload(&context, &particles, &material_words),
+            particles: ParticleBuffers::upload(
+                &context,
+                &particles,
+                &material_words,
+                estimate.particles as usize,
+            ),
             blocks: BlockBuffers::new(&context, estimate.domain_blocks),
             grid: GridBuffers::new(&context, estimate.nodes, scene.solver.transfer, implicit),
             binning: BinningBuffers::new(&context, estimate.particles, estimate.grid_blocks()),
@@ -584,6 +589,17 @@ fn stages_of(scene: &Scene) -> (bool, bool) {
 /// 32-bit words in a `T`: the stride of an array of `T` in a renderer's terms.
 fn words<T>() -> u32 {
     (size_of::<T>() / 4) as u32
+}
+
+/// Room for particles in a run of `particles`: as many in one process
+/// (`trade_blocks` 0), a quarter more in a part of a split run, which
+/// takes in particles at frames' ends ([`GpuSnow::replace_particles`]).
+fn capacity_of(particles: usize, trade_blocks: u32) -> u64 {
+    let particles = particles as u64;
+    match trade_blocks {
+        0 => particles,
+        _ => particles + particles / 4 + 256,
+    }
 }
 
 /// `Params` of a run: grid, stepping, scales; the frame window is set per frame.

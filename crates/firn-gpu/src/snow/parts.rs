@@ -19,8 +19,12 @@
 //! the result back ([`GpuSnow::set_motion_bounds`]), as it agrees on
 //! failures.
 
+use firn_core::Scene;
+use firn_mpm::Snapshot;
+
 use super::layout::{StepState, WAITING_FOR_GRID_BLOCKS};
 use super::program::{Kernel, StepProgram, compute_pass};
+use super::spindrift::joined;
 use super::{GpuSnow, is_implicit};
 use crate::buffers::read_back;
 use crate::context::GpuContext;
@@ -121,6 +125,26 @@ impl GpuSnow {
         Ok(PartSubstep::Taken { dt: state.dt })
     }
 
+    /// Replaces this part's particles with those of `snapshot` (of the
+    /// same time), between frames: in place where the buffers have room,
+    /// else in a part built anew.
+    pub fn replace_particles(&mut self, snapshot: &Snapshot) -> Result<(), GpuError> {
+        let (particles, material_words) = joined(&snapshot.particles, &snapshot.drift);
+        if particles.len() as u64 > self.memory.particles {
+            let (context, scene) = (self.context.clone(), self.scene.clone());
+            *self = GpuSnow::part_from_snapshot(context, scene, snapshot)?;
+            return Ok(());
+        }
+        self.buffers
+            .particles
+            .write(&self.context, &particles, &material_words);
+        self.particle_count = particles.len();
+        self.params.dims[3] = particles.len() as u32;
+        self.substep
+            .set_particle_count(&self.context, particles.len() as u32);
+        Ok(())
+    }
+
     /// The largest |v_p|² and squared elastic wave speed of this part's
     /// particles after the last substep.
     pub fn motion_bounds(&self) -> (f32, f32) {
@@ -139,14 +163,15 @@ impl GpuSnow {
             .write_motion_bounds(&self.context, speed_squared, wave_speed_squared);
     }
 
-    /// Whether this scene runs as parts of a split GPU run; what it lacks
-    /// otherwise.
-    pub fn check_splittable(&self) -> Result<(), GpuError> {
-        let lacking = if is_implicit(&self.scene) {
+    /// `Ok` when `scene` runs split between GPUs (MPI ranks); otherwise
+    /// what it lacks.
+    pub fn check_splittable(scene: &Scene) -> Result<(), GpuError> {
+        GpuSnow::check_supported(scene)?;
+        let lacking = if is_implicit(scene) {
             Some("the semi-implicit integrator, whose solve spans the whole grid")
-        } else if self.scene.wind.is_some() {
+        } else if scene.wind.is_some() {
             Some("wind, whose drag reads the masses of nodes around each node")
-        } else if !self.scene.rigid_bodies.is_empty() {
+        } else if !scene.rigid_bodies.is_empty() {
             Some("rigid bodies")
         } else {
             None

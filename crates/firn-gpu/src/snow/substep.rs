@@ -212,6 +212,12 @@ impl Substep {
             .write_buffer(&self.state, offset, bytemuck::cast_slice(&bits));
     }
 
+    /// Dispatches the particle kernels over `count` particles from now on.
+    pub fn set_particle_count(&mut self, context: &GpuContext, count: u32) {
+        let limit = context.limits.max_compute_workgroups_per_dimension;
+        self.particle_groups = workgroups(count, limit);
+    }
+
     /// Words of one block's sums in a trade between parts.
     pub fn traded_block_words(&self) -> u32 {
         self.traded_block_words

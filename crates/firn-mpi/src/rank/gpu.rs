@@ -101,8 +101,8 @@ impl<E: Exchange> RankSnow<E> {
 
     /// At a frame's end: the particles that left the slab go to its owner
     /// (the slabs first move when the counts grew uneven), and a rank whose
-    /// particles changed starts its GPU part again from them. Every rank
-    /// learns whether every rank's part started again.
+    /// particles changed hands them to its GPU part. Every rank learns
+    /// whether every rank's part took them.
     fn migrate_gpu(&mut self) -> Result<(), RunError> {
         let now = self.own_snapshot();
         let keys = std::mem::take(&mut self.gpu_part().keys);
@@ -117,26 +117,17 @@ impl<E: Exchange> RankSnow<E> {
         let (own, _) = self.migrate(own, blocks);
         let changed = self.traffic.migrated != migrated || own.len() != held;
         self.gpu_part().keys = own.keys;
-        let restarted = match changed {
-            false => None,
+        let replaced = match changed {
+            false => Ok(()),
             true => {
                 let snapshot = Snapshot {
                     particles: own.particles,
                     ..now
                 };
-                let context = self.gpu().context().clone();
-                let scene = self.scene().clone();
-                Some(GpuSnow::part_from_snapshot(context, scene, &snapshot))
+                self.gpu().replace_particles(&snapshot)
             }
         };
-        match restarted {
-            None => self.agree_started(Ok(())).map(|()| ()),
-            Some(result) => {
-                let gpu = self.agree_started(result)?;
-                self.gpu_part().gpu = Some(gpu);
-                Ok(())
-            }
-        }
+        self.agree_started(replaced)
     }
 
     /// Every rank learns whether every rank's part `started`; the failure
