@@ -44,6 +44,9 @@
 //! the semi-implicit integrator, also the solve's state every few
 //! iterations: `implicit.rs`); the
 //! particles come back only when a frame is written ([`GpuSnow::snapshot`]).
+//! One part of a run split between processes with a GPU each (MPI ranks)
+//! steps one substep at a time and trades grid sums with the others
+//! between its scatter and its grid update ([`parts`]).
 //! The grid is sparse: its nodes are stored by 4³-node block, only for the
 //! blocks the particles reach, so GPU memory follows the snow, not the
 //! domain; the fixed-point sums make the results independent of where a
