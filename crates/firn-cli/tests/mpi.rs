@@ -278,7 +278,7 @@ fn have_gpu() -> bool {
 }
 
 #[test]
-fn gpu_ranks_write_one_gpu_process_frames_and_resume_on_another_count() {
+fn one_to_four_gpu_ranks_write_one_gpu_process_frames_and_resume_on_another_count() {
     if !have_mpirun() || !have_gpu() {
         return;
     }
@@ -323,6 +323,19 @@ fn gpu_ranks_write_one_gpu_process_frames_and_resume_on_another_count() {
         reference == frames(&split),
         "the GPU ranks' frames differ from one GPU's"
     );
+    for ranks in [1, 4] {
+        let other = dir.path().join(format!("split-{ranks}"));
+        let out = other.to_str().unwrap();
+        let run = ["run", scene, "--out", out, "--frames", "2"];
+        assert_success(
+            &mpirun(ranks, &[&run[..], &gpu].concat()),
+            &format!("{ranks} GPU ranks"),
+        );
+        assert!(
+            reference[..3] == frames(&other)[..],
+            "{ranks} GPU ranks' frames differ from one GPU's"
+        );
+    }
 }
 
 /// The flow scene of the MPI tests: a stream with rebirth, a sphere and
