@@ -166,10 +166,10 @@ for size in small large; do
         --grid "$GRID" --transfer both --steps "$steps" --warmup "$warmup" \
         --memory-budget-gib 100 --phases --json "$WORK/bench-$size.json"
     keep "bench-$size" "$WORK/bench-$size.json"
-    grep -h '^firn \|gpu memory\|phases\|^  [a-z ]\+ \+[0-9.]\+ ns' "$WORK/bench-$size.log" 2>/dev/null | tee -a "$SUMMARY" || true
+    grep -h '^firn \|gpu memory\|phases\|^  [a-z_ ]\+ \+[0-9.]\+ ns' "$WORK/bench-$size.log" 2>/dev/null | tee -a "$SUMMARY" || true
 done
-if grep -q 'not measured on the GPU' "$WORK"/bench-*.log 2>/dev/null; then
-    note "per-kernel timings: none (firn bench --phases does not time GPU kernels yet)"
+if grep -q 'phases: not measured' "$WORK"/bench-*.log 2>/dev/null; then
+    note "per-stage timings: none (the adapter has no timestamp queries)"
 fi
 
 # --- the flow at 2^20 particles on the GPU -------------------------------

@@ -34,6 +34,7 @@ use crate::backend::{backend_values, choose_backend, gpu_failure};
 use crate::bench_gpu::GpuMemoryRecord;
 use crate::bench_render::bench_render;
 use crate::bench_sweep::SweepArgs;
+use firn_gpu::snow::stage_times::STAGE_NAMES;
 
 /// Arguments of `firn bench`.
 #[derive(Args, Debug)]
@@ -333,6 +334,30 @@ struct PhaseRecord {
     share: f64,
 }
 
+/// Where the GPU's substeps go, stage by stage, over up to
+/// [`GPU_PHASE_SUBSTEPS`] more substeps timed with timestamp queries
+/// (none where the adapter has none).
+fn gpu_phase_records(solver: &mut Solver) -> Result<Vec<PhaseRecord>, Failure> {
+    let particles = solver.particle_count();
+    let Some(times) = solver.stage_times(GPU_PHASE_SUBSTEPS).map_err(failed)? else {
+        return Ok(Vec::new());
+    };
+    let total = times.seconds.iter().sum::<f64>().max(f64::MIN_POSITIVE);
+    let per_particle_substep = 1e9 / (times.substeps.max(1) as f64 * particles.max(1) as f64);
+    Ok(STAGE_NAMES
+        .iter()
+        .zip(times.seconds)
+        .map(|(&phase, seconds)| PhaseRecord {
+            phase,
+            ns_per_particle_substep: seconds * per_particle_substep,
+            share: seconds / total,
+        })
+        .collect())
+}
+
+/// Substeps [`gpu_phase_records`] times, after the timed run.
+const GPU_PHASE_SUBSTEPS: u32 = 20;
+
 /// The phase profile of `substeps` timed substeps of `particles` particles.
 fn phase_records(times: PhaseTimes, substeps: u32, particles: usize) -> Vec<PhaseRecord> {
     let total = times.total().max(f64::MIN_POSITIVE);
@@ -355,9 +380,9 @@ fn simd_words(simd: Option<&str>) -> String {
 
 /// Prints `phases` as a small table, or why a run on `backend` has none.
 fn print_phase_table(backend: &BackendRecord, phases: &[PhaseRecord]) {
-    if backend.backend != "cpu" {
+    if backend.backend != "cpu" && phases.is_empty() {
         outln!(
-            "  phases: not measured on the GPU; --phases profiles the CPU solver (--backend cpu)"
+            "  phases: not measured: the adapter has no timestamp queries, or the integrator is semi-implicit"
         );
     }
     for phase in phases {
@@ -566,20 +591,24 @@ fn measure_scene(path: &std::path::Path, args: &BenchArgs) -> Result<SceneRecord
     let placement = bench_placement(&mut scene, args)?;
     let (duration, time_step) = (scene.time.duration, scene.time.step.clone());
     let (transfer, integrator) = (scene.solver.transfer, scene.solver.integrator);
-    let (solver, wall_seconds) = run_scene(scene, &placement, args)?;
+    let (mut solver, wall_seconds) = run_scene(scene, &placement, args)?;
     let substeps = solver.steps();
     let particles = solver.particle_count();
     let stats = solver.solver_stats();
     let times = solver.phase_times();
+    let simd = solver.options().simd.map(Simd::name);
+    let backend = BackendRecord::of(&solver, args);
     let implicit_ns_per_node_product = match (times, stats) {
         (Some(times), Some(stats)) => stats
             .seconds_per_node_product(times.implicit_solve)
             .map(|seconds| seconds * 1e9),
         _ => None,
     };
-    let phases = times
-        .map(|times| phase_records(times, substeps as u32, particles))
-        .unwrap_or_default();
+    let phases = match times {
+        Some(times) => phase_records(times, substeps as u32, particles),
+        None if args.phases => gpu_phase_records(&mut solver)?,
+        None => Vec::new(),
+    };
     let record = SceneRecord {
         scene: path.display().to_string(),
         integrator: match integrator {
@@ -601,9 +630,9 @@ fn measure_scene(path: &std::path::Path, args: &BenchArgs) -> Result<SceneRecord
         worst_solver_residual: stats.map(|stats| stats.worst_residual),
         implicit_ns_per_node_product,
         threads: rayon::current_num_threads(),
-        simd: solver.options().simd.map(Simd::name),
+        simd,
         phases_ns_per_particle_substep: phases,
-        backend: BackendRecord::of(&solver, args),
+        backend,
     };
     let iterations = match (record.mean_solver_iterations, record.max_solver_iterations) {
         (Some(mean), Some(max)) => format!(
@@ -655,16 +684,18 @@ fn measure(mut scene: Scene, grid: u32, args: &BenchArgs) -> Result<BenchRecord,
     let mut solver = bench_solver(scene, &placement, args)?;
     let (steps, seconds) = time_substeps(&mut solver, args.warmup, args.steps, None)?;
     let particles = solver.particle_count();
-    let phases = solver
-        .phase_times()
-        .map(|times| phase_records(times, steps, particles))
-        .unwrap_or_default();
     let backend = BackendRecord::of(&solver, args);
     let (memory_bytes, simd) = (solver.memory_bytes(), solver.options().simd);
     let HostState::Snow(state) = solver.host().map_err(failed)? else {
         return Err(Failure::Failed(
             "error: the bench scene is not a snow scene".into(),
         ));
+    };
+    let center_of_mass_y = state.diagnostics().center_of_mass[1];
+    let phases = match solver.phase_times() {
+        Some(times) => phase_records(times, steps, particles),
+        None if args.phases => gpu_phase_records(&mut solver)?,
+        None => Vec::new(),
     };
     Ok(BenchRecord {
         transfer,
@@ -678,7 +709,7 @@ fn measure(mut scene: Scene, grid: u32, args: &BenchArgs) -> Result<BenchRecord,
         memory_mib: memory_bytes as f64 / (1024.0 * 1024.0),
         threads: rayon::current_num_threads(),
         simd: simd.map(Simd::name),
-        center_of_mass_y: state.diagnostics().center_of_mass[1],
+        center_of_mass_y,
         phases_ns_per_particle_substep: phases,
         backend,
     })

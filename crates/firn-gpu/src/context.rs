@@ -120,6 +120,11 @@ fn usable(adapters: Vec<wgpu::Adapter>) -> Vec<wgpu::Adapter> {
         .collect()
 }
 
+/// The features that time a substep's stages: timestamps written between
+/// the commands of an encoder.
+pub const TIMESTAMPS: wgpu::Features =
+    wgpu::Features::TIMESTAMP_QUERY.union(wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS);
+
 /// The most storage buffers one kernel binds (the binned APIC scatter; each
 /// snow kernel binds only the buffers it uses, `snow/program.rs`).
 pub const MIN_STORAGE_BUFFERS: u32 = 23;
@@ -213,7 +218,9 @@ impl GpuContext {
     ) -> Result<Arc<GpuContext>, GpuError> {
         let descriptor = wgpu::DeviceDescriptor {
             label: Some("firn"),
-            required_features: wgpu::Features::empty(),
+            // Only to time the stages (`snow::stage_times`), where the
+            // adapter has them.
+            required_features: adapter.features() & TIMESTAMPS,
             required_limits: limits.clone(),
             experimental_features: wgpu::ExperimentalFeatures::disabled(),
             memory_hints: wgpu::MemoryHints::Performance,

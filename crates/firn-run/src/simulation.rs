@@ -27,6 +27,7 @@ use firn_core::scene::{ColorBy, FlowSettings, Material, RigidBody, SceneKind, Wi
 use firn_flow::{FlowSimulation, FlowSnapshot, FlowView};
 use firn_gpu::draw::ParticleArrays;
 use firn_gpu::snow::Scatter;
+use firn_gpu::snow::stage_times::StageTimes;
 use firn_io::BodyPose;
 use firn_mpm::{PhaseTimes, Simulation, Snapshot, SnowView, SolverStats};
 use glam::Vec3;
@@ -243,6 +244,12 @@ impl Solver {
     /// start or [`Solver::reset_phase_times`] (snow on the CPU only).
     pub fn phase_times(&self) -> Option<PhaseTimes> {
         self.engine.phase_times()
+    }
+
+    /// Runs up to `substeps` more substeps timing each stage on the GPU
+    /// (snow on a GPU with timestamp queries; `None` elsewhere).
+    pub fn stage_times(&mut self, substeps: u32) -> Result<Option<StageTimes>, RunError> {
+        self.engine.stage_times(substeps)
     }
 
     /// Starts the phase profile afresh, e.g. after untimed warm-up substeps

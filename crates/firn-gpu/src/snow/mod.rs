@@ -70,6 +70,7 @@ pub mod parts;
 mod program;
 mod sequences;
 mod spindrift;
+pub mod stage_times;
 mod substep;
 mod wind;
 

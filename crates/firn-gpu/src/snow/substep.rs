@@ -34,6 +34,7 @@ use super::p2g::{BinnedP2g, P2g, Scatter, binned_fits};
 use super::parts::PartKernels;
 use super::program::{StepProgram, compute_pass};
 use super::spindrift::SpindriftStage;
+use super::stage_times::{STAGES, Stage, StageClock, mark};
 use crate::buffers::{read_back, storage_buffer};
 use crate::context::GpuContext;
 use crate::dispatch::workgroups;
@@ -231,7 +232,7 @@ impl Substep {
         buffers: &SnowBuffers,
     ) -> Result<StepState, GpuError> {
         let mut encoder = command_encoder(context);
-        self.record_scatter(&mut encoder, buffers);
+        self.record_scatter(&mut encoder, buffers, None);
         context.queue.submit([encoder.finish()]);
         self.read_state(context)
     }
@@ -310,7 +311,7 @@ impl Substep {
             None => {
                 let mut encoder = command_encoder(context);
                 for _ in 0..substeps {
-                    self.record(&mut encoder, buffers);
+                    self.record(&mut encoder, buffers, None);
                 }
                 context.queue.submit([encoder.finish()]);
             }
@@ -338,7 +339,7 @@ impl Substep {
         };
         let state = &buffers.solve.state;
         let mut encoder = command_encoder(context);
-        self.record_until_solve(&mut encoder, buffers);
+        self.record_until_solve(&mut encoder, buffers, None);
         solve.record_start(&mut encoder, state, groups);
         loop {
             {
@@ -374,41 +375,90 @@ impl Substep {
         self.spindrift.set_enabled(drifting);
     }
 
-    /// Records one substep of the explicit integrator, stage by stage.
-    fn record(&self, encoder: &mut wgpu::CommandEncoder, buffers: &SnowBuffers) {
-        self.record_until_solve(encoder, buffers);
-        self.record_after_grid(&mut compute_pass(encoder, "snow substep"));
+    /// Records one substep of the explicit integrator, stage by stage,
+    /// each stage's end marked on `clock` when given.
+    fn record(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        buffers: &SnowBuffers,
+        clock: Option<&StageClock>,
+    ) {
+        self.record_until_solve(encoder, buffers, clock);
+        self.g2p
+            .record(&mut compute_pass(encoder, "gather"), self.particle_groups);
+        mark(clock, encoder, Stage::Gather);
+        self.spindrift.record(
+            &mut compute_pass(encoder, "spindrift"),
+            self.particle_groups,
+        );
+        mark(clock, encoder, Stage::Spindrift);
     }
 
     /// Records a substep up to and including the grid update.
-    fn record_until_solve(&self, encoder: &mut wgpu::CommandEncoder, buffers: &SnowBuffers) {
-        self.record_scatter(encoder, buffers);
+    fn record_until_solve(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        buffers: &SnowBuffers,
+        clock: Option<&StageClock>,
+    ) {
+        self.record_scatter(encoder, buffers, clock);
         self.grid_update.record(
             &mut compute_pass(encoder, "snow substep"),
             &buffers.blocks.indirect,
         );
+        mark(clock, encoder, Stage::GridUpdate);
     }
 
     /// Records a substep up to and including the scatter.
-    fn record_scatter(&self, encoder: &mut wgpu::CommandEncoder, buffers: &SnowBuffers) {
+    fn record_scatter(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        buffers: &SnowBuffers,
+        clock: Option<&StageClock>,
+    ) {
+        mark(clock, encoder, Stage::Start);
         self.blocks
             .record(encoder, &buffers.blocks, self.particle_groups);
+        mark(clock, encoder, Stage::Blocks);
         self.begin_step
             .record(&mut compute_pass(encoder, "snow substep"));
+        mark(clock, encoder, Stage::BeginStep);
         buffers.grid.clear(encoder);
+        mark(clock, encoder, Stage::Clear);
         match (&self.binned, self.mode) {
             (Some(binned), Scatter::Binned) => {
                 let groups = self.particle_groups;
                 let binning = &buffers.binning;
                 binned.binning.record(encoder, binning, groups);
+                mark(clock, encoder, Stage::Binning);
                 let mut pass = compute_pass(encoder, "binned scatter");
                 binned.scatter.record(&mut pass, &binning.indirect);
             }
-            _ => self.p2g.record(
-                &mut compute_pass(encoder, "snow substep"),
-                self.particle_groups,
-            ),
+            _ => {
+                mark(clock, encoder, Stage::Binning);
+                self.p2g.record(
+                    &mut compute_pass(encoder, "snow substep"),
+                    self.particle_groups,
+                );
+            }
         }
+        mark(clock, encoder, Stage::Scatter);
+    }
+
+    /// Runs one substep of the explicit integrator with each stage's end
+    /// marked on `clock`; returns the state and the stages' seconds.
+    pub fn run_timed(
+        &self,
+        context: &GpuContext,
+        buffers: &SnowBuffers,
+        clock: &StageClock,
+    ) -> Result<(StepState, [f64; STAGES]), GpuError> {
+        let mut encoder = command_encoder(context);
+        self.record(&mut encoder, buffers, Some(clock));
+        clock.resolve(&mut encoder);
+        context.queue.submit([encoder.finish()]);
+        let seconds = clock.read(context)?;
+        Ok((self.read_state(context)?, seconds))
     }
 
     /// Records the gather and spindrift, after the grid's new velocities.

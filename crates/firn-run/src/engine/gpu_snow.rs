@@ -7,6 +7,7 @@ use firn_core::Scene;
 use firn_core::scene::{Material, Wind};
 use firn_gpu::draw::ParticleArrays;
 use firn_gpu::snow::MemoryEstimate;
+use firn_gpu::snow::stage_times::StageTimes;
 use firn_gpu::{GpuContext, GpuSnow};
 use firn_mpm::{Snapshot, SolverStats};
 
@@ -78,6 +79,14 @@ impl Engine for OnGpu<GpuSnow, Snapshot> {
     fn advance_substeps(&mut self, count: u32) -> Result<u32, RunError> {
         let until = substeps_ahead(self.device.scene(), self.device.time(), count);
         self.advance(|device| device.advance_to(until))
+    }
+
+    fn stage_times(&mut self, substeps: u32) -> Result<Option<StageTimes>, RunError> {
+        let until = substeps_ahead(self.device.scene(), self.device.time(), substeps);
+        self.host = None;
+        let times = self.device.stage_times(until, substeps)?;
+        self.steps += u64::from(times.map_or(0, |times| times.substeps));
+        Ok(times)
     }
 
     fn memory_bytes(&self) -> u64 {

@@ -15,6 +15,7 @@ use firn_core::Scene;
 use firn_core::scene::{FlowSettings, Material, RigidBody, SceneKind, TimeStep, Wind};
 use firn_flow::FlowSimulation;
 use firn_gpu::draw::ParticleArrays;
+use firn_gpu::snow::stage_times::StageTimes;
 use firn_mpm::{PhaseTimes, SolverStats};
 
 use crate::backend::Placement;
@@ -85,6 +86,13 @@ pub(crate) trait Engine: Send + Sync {
 
     /// Starts the phase profile afresh, where there is one.
     fn reset_phase_times(&mut self) {}
+
+    /// Runs up to `substeps` more substeps timing the GPU's stages (snow on
+    /// a GPU with timestamps only; `None` elsewhere).
+    fn stage_times(&mut self, substeps: u32) -> Result<Option<StageTimes>, RunError> {
+        let _ = substeps;
+        Ok(None)
+    }
 
     /// Replaces the snow materials (snow only).
     fn set_materials(&mut self, _materials: &[Material]) -> Result<(), RunError> {
