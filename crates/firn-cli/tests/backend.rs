@@ -430,7 +430,8 @@ fn bench_on_the_gpu_records_its_adapter_and_memory() {
         "bytes per particle",
         "within 4 GiB",
         "2^20 particles on 256^3",
-        "phases: not measured on the GPU",
+        "  scatter ",
+        "  gather ",
     ] {
         assert!(
             stdout.contains(fragment),
@@ -445,6 +446,16 @@ fn bench_on_the_gpu_records_its_adapter_and_memory() {
     assert!(record["simd"].is_null());
     assert!(record["ns_per_particle_substep"].as_f64().unwrap() > 0.0);
     assert!(record["steps"].as_u64().unwrap() >= 3);
+    let phases = record["phases_ns_per_particle_substep"].as_array().unwrap();
+    let names: Vec<&str> = phases
+        .iter()
+        .map(|p| p["phase"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        names,
+        firn_gpu::snow::stage_times::STAGE_NAMES,
+        "the GPU's stages"
+    );
     let memory = &record["gpu_memory"];
     let particles = record["particles"].as_u64().unwrap();
     let total = particles * memory["bytes_per_particle"].as_u64().unwrap()
