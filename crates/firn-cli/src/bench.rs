@@ -99,10 +99,12 @@ pub struct BenchArgs {
     /// With --render or --mesh-field: timed repetitions.
     #[arg(long, default_value_t = 3)]
     pub repeats: u32,
-    /// Print where the time of each substep goes, phase by phase (binning,
-    /// scatter, colliders, grid update, implicit solve, gather, clear, rigid
-    /// bodies); the JSON record
-    /// holds the phases either way.
+    /// Print where the time of each substep goes, phase by phase: on the
+    /// CPU (binning, scatter, colliders, grid update, implicit solve,
+    /// gather, clear, rigid bodies; its JSON record holds them either way),
+    /// or on a GPU with timestamp queries, its stages over 20 more substeps
+    /// (blocks, begin_step, clear, binning, scatter, grid_update, gather,
+    /// spindrift).
     #[arg(long)]
     pub phases: bool,
     /// Measure the curl-noise particle flow instead (seed 002): --particles,
