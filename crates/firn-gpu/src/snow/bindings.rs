@@ -111,6 +111,14 @@ bind_group! {
         /// allocated block; from `[4]` on: per chunk of 1024 blocks, its
         /// marked blocks, then its first slot.
         39 => block_chunks: ReadWrite "array<u32>",
+        /// The rigid bodies placed where they are at the start of the
+        /// substep, which the host writes before each (`snow/coupling.wgsl`;
+        /// a 16-byte stand-in without bodies).
+        40 => rigid_bodies: Read "array<PlacedBody>",
+        /// Per rigid body, the snow's momentum gain and its moment about
+        /// the body's centre of mass in the substep: six 64-bit
+        /// fixed-point sums, low word before high word.
+        41 => body_sums: ReadWrite "array<atomic<u32>>",
     }
 }
 

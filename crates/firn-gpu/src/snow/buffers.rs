@@ -10,7 +10,8 @@ use firn_mpm::Particles;
 use super::bindings::StepBindings;
 use super::binning::BinningBuffers;
 use super::blocks::BlockBuffers;
-use super::layout::{GpuMat3, GpuPlastic, SolveHeader, pack_colliders};
+use super::coupling::BodyBuffers;
+use super::layout::{GpuCollider, GpuMat3, GpuPlastic, SolveHeader, pack_colliders};
 use super::sequences::SequenceRegion;
 use super::wind::WindBuffers;
 use crate::buffers::{storage_buffer, zeroed_storage_buffer};
@@ -189,14 +190,29 @@ impl ColliderBuffers {
     /// Packs and uploads `colliders` (for a run: the scene's, then the
     /// walls, as `firn_mpm::contact::ColliderSet::colliders` lists them).
     pub fn of(context: &GpuContext, colliders: &[Collider]) -> ColliderBuffers {
-        let packed = pack_colliders(colliders);
-        ColliderBuffers {
+        ColliderBuffers::with_bodies(context, colliders, &[]).0
+    }
+
+    /// [`ColliderBuffers::of`] `colliders`, and the rigid bodies' shapes
+    /// (`bodies`, as `super::coupling::body_colliders` makes them) packed
+    /// with them: returned in body order, their mesh fields among the
+    /// colliders' fields.
+    pub fn with_bodies(
+        context: &GpuContext,
+        colliders: &[Collider],
+        bodies: &[Collider],
+    ) -> (ColliderBuffers, Vec<GpuCollider>) {
+        let all: Vec<Collider> = colliders.iter().chain(bodies).cloned().collect();
+        let mut packed = pack_colliders(&all);
+        let shapes = packed.colliders.split_off(colliders.len());
+        let buffers = ColliderBuffers {
             colliders: storage_buffer(context, "colliders", &packed.colliders),
             keys: storage_buffer(context, "collider keys", &packed.keys),
             fields: storage_buffer(context, "collider fields", &packed.fields),
             poses: zeroed_storage_buffer(context, "collider poses", 64 * colliders.len() as u64),
             sequences: packed.sequences,
-        }
+        };
+        (buffers, shapes)
     }
 }
 
@@ -220,6 +236,8 @@ pub struct SnowBuffers {
     pub spindrift: wgpu::Buffer,
     /// The semi-implicit solve's buffers.
     pub solve: SolveBuffers,
+    /// The rigid bodies as placed for the substep, and their sums.
+    pub bodies: BodyBuffers,
 }
 
 impl SnowBuffers {
@@ -288,6 +306,8 @@ impl SnowBuffers {
             solve_products: &self.solve.products,
             linearized: &self.solve.linearized,
             solve: &self.solve.state,
+            rigid_bodies: &self.bodies.placed,
+            body_sums: &self.bodies.sums,
         }
     }
 }
