@@ -101,7 +101,8 @@ pub(crate) trait Engine: Send + Sync {
     /// Throws a rigid body into the running snow (snow on the CPU only).
     fn add_rigid_body(&mut self, _body: RigidBody) -> Result<(), RunError> {
         Err(RunError::Unsupported(
-            "rigid bodies run on the CPU backend only (and not in a flow scene)",
+            "a rigid body is thrown into running snow on the CPU backend only (and not into a \
+             flow scene)",
         ))
     }
 
