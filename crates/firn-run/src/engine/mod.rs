@@ -15,6 +15,7 @@ use firn_core::Scene;
 use firn_core::scene::{FlowSettings, Material, RigidBody, SceneKind, TimeStep, Wind};
 use firn_flow::FlowSimulation;
 use firn_gpu::draw::ParticleArrays;
+use firn_io::BodyPose;
 use firn_mpm::{PhaseTimes, SolverStats};
 
 use crate::backend::Placement;
@@ -118,6 +119,12 @@ pub(crate) trait Engine: Send + Sync {
 
     /// The particles in the device's own buffers (GPU only).
     fn device_particles(&self) -> Option<ParticleArrays<'_>> {
+        None
+    }
+
+    /// The rigid bodies' poses beside the device's particles (snow on the
+    /// GPU only).
+    fn device_body_poses(&self) -> Option<Vec<BodyPose>> {
         None
     }
 }
