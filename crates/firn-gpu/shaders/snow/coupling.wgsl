@@ -50,25 +50,59 @@ fn add_to_body(b: u32, momentum: vec3<f32>, arm: vec3<f32>) {
     }
 }
 
-// Applies every body in turn to the velocity of a node at `point` with snow
-// mass `mass`, summing each body's exchange with it
-// (firn_mpm::coupling::BodyContacts::collide). A body is met only by the
-// nodes within its reach and a cell of its reference point: no node
-// farther out touches it.
+// The most rigid bodies a scene has (firn_core::scene::format::
+// MAX_RIGID_BODIES), and the words of a mask with a bit for each.
+const MAX_RIGID_BODIES: u32 = 10000u;
+const BODY_MASK_WORDS: u32 = (MAX_RIGID_BODIES + 31u) / 32u;
+
+// The bodies that may touch a node of the workgroup's block, a bit each.
+var<workgroup> near_bodies: array<atomic<u32>, BODY_MASK_WORDS>;
+
+// Marks in near_bodies the bodies that may touch a node of the block whose
+// first node is `first` (firn_mpm::coupling::BodyContacts::near): those
+// whose ball of reach around the reference point meets the box of the
+// block's nodes. Every invocation of the workgroup calls it before any
+// other work (its barriers need them all), `local` its index.
+fn mark_near_bodies(first: u32, local: u32) {
+    let count = arrayLength(&rigid_bodies);
+    for (var word = local; word < (count + 31u) / 32u; word += BLOCK_NODES) {
+        atomicStore(&near_bodies[word], 0u);
+    }
+    workgroupBarrier();
+    if updates_node(first) {
+        let cell = node_cell(first);
+        let h = params.origin.w;
+        let low = params.origin.xyz + vec3<f32>(cell) * h;
+        let high = params.origin.xyz + vec3<f32>(cell + vec3<u32>(BLOCK_WIDTH - 1u)) * h;
+        for (var b = local; b < count; b += BLOCK_NODES) {
+            let center = rigid_bodies[b].pose.position.xyz;
+            let reach = rigid_bodies[b].center_of_mass.w;
+            let gap = clamp(center, low, high) - center;
+            if dot(gap, gap) <= reach * reach {
+                atomicOr(&near_bodies[b / 32u], 1u << (b % 32u));
+            }
+        }
+    }
+    workgroupBarrier();
+}
+
+// Applies the bodies near the block (mark_near_bodies) in body order to
+// the velocity of a node at `point` with snow mass `mass`, summing each
+// body's exchange with it (firn_mpm::coupling::BodyContacts::collide).
 fn collide_bodies(point: vec3<f32>, mass: f32, velocity_in: vec3<f32>) -> vec3<f32> {
     var velocity = velocity_in;
-    let count = arrayLength(&rigid_bodies);
-    for (var b = 0u; b < count; b++) {
-        let reach = rigid_bodies[b].center_of_mass.w + params.origin.w;
-        let offset = point - rigid_bodies[b].pose.position.xyz;
-        if dot(offset, offset) > reach * reach {
-            continue;
-        }
-        let body = rigid_bodies[b];
-        let collided = collide(body.collider, unpacked_pose(body.pose), point, velocity);
-        if any(collided != velocity) {
-            add_to_body(b, mass * (collided - velocity), point - body.center_of_mass.xyz);
-            velocity = collided;
+    let words = (arrayLength(&rigid_bodies) + 31u) / 32u;
+    for (var word = 0u; word < words; word++) {
+        var bits = atomicLoad(&near_bodies[word]);
+        while bits != 0u {
+            let b = word * 32u + countTrailingZeros(bits);
+            bits &= bits - 1u;
+            let body = rigid_bodies[b];
+            let collided = collide(body.collider, unpacked_pose(body.pose), point, velocity);
+            if any(collided != velocity) {
+                add_to_body(b, mass * (collided - velocity), point - body.center_of_mass.xyz);
+                velocity = collided;
+            }
         }
     }
     return velocity;

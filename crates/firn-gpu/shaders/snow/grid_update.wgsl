@@ -136,16 +136,21 @@ fn update_grid_free_in_wind(@builtin(workgroup_id) group: vec3<u32>, @builtin(nu
     update_node(linear_index(group, groups, local), wind.node_drag > 0.0, false);
 }
 
-// The grid update of a scene with rigid bodies and without wind.
+// The grid update of a scene with rigid bodies and without wind: the
+// workgroup first marks the bodies near its block.
 @compute @workgroup_size(64)
 fn update_grid_coupled(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
                        @builtin(local_invocation_index) local: u32) {
-    update_coupled_node(linear_index(group, groups, local), false);
+    let node = linear_index(group, groups, local);
+    mark_near_bodies(node - local, local);
+    update_coupled_node(node, false);
 }
 
 // The grid update of a scene with rigid bodies and a [wind].
 @compute @workgroup_size(64)
 fn update_grid_coupled_in_wind(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
                                @builtin(local_invocation_index) local: u32) {
-    update_coupled_node(linear_index(group, groups, local), wind.node_drag > 0.0);
+    let node = linear_index(group, groups, local);
+    mark_near_bodies(node - local, local);
+    update_coupled_node(node, wind.node_drag > 0.0);
 }

@@ -8,12 +8,15 @@
 //! centre of mass; its shape and contact were packed once, a mesh's field
 //! among the colliders' fields) and the bodies' fastest material speed,
 //! which bounds the Δt that `begin_step` takes as on the CPU. The grid
-//! update meets every body after the colliders, in body order, and adds
-//! each node's exchange Δp = m (v' − v) and its moment (x − c) × Δp into the
-//! body's six 64-bit fixed-point sums (`firn_mpm::coupling::FIXED_SCALE`
-//! units per N s, as on the CPU) with integer atomics, so the sums do not depend on the order the
-//! nodes run in and a run gives the same bits every time. After the substep
-//! the host reads the sums back with the step state, in one read, and
+//! update meets the bodies after the colliders: each workgroup (one block
+//! of the grid) first marks in workgroup memory, a bit per body, the bodies
+//! whose reach meets its block, as the CPU's blocks do, and each node then
+//! meets those in body order and adds its exchange Δp = m (v' − v) and its
+//! moment (x − c) × Δp into the body's six 64-bit fixed-point sums
+//! (`firn_mpm::coupling::FIXED_SCALE` units per N s, as on the CPU) with
+//! integer atomics, so the sums do not depend on the order the nodes run in
+//! and a run gives the same bits every time. After the substep the host
+//! reads the sums back with the step state, in one read, and
 //! [`RigidBodies::advance`] gives each body the opposite and steps rapier by
 //! the substep's Δt.
 
@@ -168,6 +171,13 @@ mod tests {
     fn words_of(value: f64) -> [u32; 2] {
         let integer = (value * SCALE).round() as i64 as u64;
         [integer as u32, (integer >> 32) as u32]
+    }
+
+    #[test]
+    fn the_kernels_mask_has_a_bit_for_every_body_a_scene_may_have() {
+        let most = firn_core::scene::format::MAX_RIGID_BODIES;
+        let line = format!("const MAX_RIGID_BODIES: u32 = {most}u;");
+        assert!(crate::shaders::SNOW_STEP.source().contains(&line));
     }
 
     #[test]
