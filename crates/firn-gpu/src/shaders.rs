@@ -170,7 +170,7 @@ pub struct UsedBinding {
 /// The bindings each entry point of a program uses ([`Program::reflect`]).
 ///
 /// A kernel's pipeline layout then holds only its own buffers: the snow
-/// step binds 37 buffers in all, more than some adapters let one shader
+/// step binds 42 buffers in all, more than some adapters let one shader
 /// stage see (Metal: 29, storage and uniform together), while no single
 /// kernel uses more than [`crate::context::MIN_STORAGE_BUFFERS`] storage
 /// buffers.
@@ -250,7 +250,8 @@ const SNOW_LIBRARY: [Part; 7] = [
 
 /// The MPM substep, one file per stage in the order the substep runs them
 /// (`src/snow/substep.rs`): the grid's blocks, begin (Δt, stop
-/// conditions), binning, scatter, grid update, semi-implicit solve, gather,
+/// conditions), binning, scatter, the rigid bodies' coupling and the grid
+/// update that runs it, semi-implicit solve, gather,
 /// spindrift; `snow/nodes.wgsl` addresses the sparse grid's nodes.
 pub const SNOW_STEP: Program = Program {
     name: "snow step",
@@ -275,6 +276,7 @@ pub const SNOW_STEP: Program = Program {
         part!("snow/begin_step.wgsl"),
         part!("snow/binning.wgsl"),
         part!("snow/p2g.wgsl"),
+        part!("snow/coupling.wgsl"),
         part!("snow/grid_update.wgsl"),
         part!("snow/implicit.wgsl"),
         part!("snow/g2p.wgsl"),

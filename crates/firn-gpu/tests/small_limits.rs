@@ -1,10 +1,11 @@
 //! The GPU backend on an adapter with Metal's buffer limits: 29 buffers per
 //! shader stage, storage and uniform together (wgpu's Metal backend), where
-//! the snow step's 37 buffers cannot share one layout. Each kernel binds
+//! the snow step's 42 buffers cannot share one layout. Each kernel binds
 //! only the buffers it uses (`snow/program.rs`), so every stage runs there,
 //! with the same bits as on the full adapter: explicit APIC with the binned
-//! and the atomic scatter, PIC/FLIP, the semi-implicit solve, and wind with
-//! spindrift.
+//! and the atomic scatter, PIC/FLIP, the semi-implicit solve, wind with
+//! spindrift, and a rigid body in the wind (the kernel with the most
+//! buffers).
 
 use firn_core::Scene;
 use firn_gpu::snow::Scatter;
@@ -15,8 +16,15 @@ use firn_gpu::{GpuSnow, context_for_tests, context_for_tests_with_limits};
 const METAL_BUFFERS: u32 = 29;
 
 /// A ball of snow thrown through a wind along +x over a slab of fresh powder on the floor,
-/// with spindrift, in a small box; `solver` is the `[solver]` table.
-fn scene(solver: &str, wind: bool) -> Scene {
+/// with spindrift, in a small box, at a rigid ball where `rigid`; `solver` is the
+/// `[solver]` table.
+fn scene(solver: &str, wind: bool, rigid: bool) -> Scene {
+    let rigid = if rigid {
+        "[[rigid_bodies]]\nshape = \"sphere\"\ncenter = [0.4, 0.18, 0.16]\nradius = 0.04\n\
+         density = 1000.0\n"
+    } else {
+        ""
+    };
     let wind = if wind {
         r#"
 [wind]
@@ -70,7 +78,7 @@ shape = "sphere"
 center = [0.1, 0.2, 0.16]
 radius = 0.04
 velocity = [0.5, 0.0, 0.0]
-{wind}"#
+{wind}{rigid}"#
     );
     Scene::from_toml_str(&text, "small-limits.toml").expect("the test scene is valid")
 }
@@ -114,23 +122,26 @@ fn every_stage_runs_with_metals_buffer_limits_and_gives_the_same_bits() {
     })
     .expect("the adapter opens with lower limits");
     let cases = [
-        ("transfer = \"apic\"", false, Scatter::Binned),
-        ("transfer = \"apic\"", false, Scatter::Atomic),
-        ("transfer = \"pic-flip\"", false, Scatter::Binned),
+        ("transfer = \"apic\"", false, false, Scatter::Binned),
+        ("transfer = \"apic\"", false, false, Scatter::Atomic),
+        ("transfer = \"pic-flip\"", false, false, Scatter::Binned),
         (
             "transfer = \"pic-flip\"\nintegrator = \"semi-implicit\"",
             false,
+            false,
             Scatter::Binned,
         ),
-        ("transfer = \"apic\"", true, Scatter::Binned),
+        ("transfer = \"apic\"", true, false, Scatter::Binned),
+        ("transfer = \"pic-flip\"", true, true, Scatter::Binned),
     ];
-    for (solver, wind, scatter) in cases {
-        let scene = scene(solver, wind);
+    for (solver, wind, rigid, scatter) in cases {
+        let scene = scene(solver, wind, rigid);
         let (small_bits, small_drift) = run(&small, &scene, scatter, 0.04);
         let (full_bits, full_drift) = run(&full, &scene, scatter, 0.04);
         assert!(
             small_bits == full_bits && small_drift == full_drift,
-            "{solver} (wind: {wind}, {scatter:?}): the run with Metal's limits differs"
+            "{solver} (wind: {wind}, rigid body: {rigid}, {scatter:?}): the run with Metal's \
+             limits differs"
         );
         if wind {
             assert!(

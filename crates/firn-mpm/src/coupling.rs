@@ -85,12 +85,17 @@ fn to_fixed(value: f32) -> i64 {
 
 /// A body as the grid meets it in one substep.
 #[derive(Clone, Debug)]
-struct PlacedBody {
-    collider: PlacedCollider,
-    center_of_mass: Vec3,
+pub struct PlacedBody {
+    /// The body as a collider placed where it is at the start of the
+    /// substep, always with a [`Spin`]: its reference point moves at
+    /// v + ω × (x − c) and it turns at ω.
+    pub collider: PlacedCollider,
+    /// Its centre of mass c, about which the moments of the exchange are
+    /// taken.
+    pub center_of_mass: Vec3,
     /// The ball around the reference point that holds the whole body:
     /// nodes outside it are never touched.
-    reach: f32,
+    pub reach: f32,
 }
 
 /// The bodies as the grid meets them in one substep.
@@ -121,6 +126,12 @@ impl BodyContacts {
             owners: Some(owners),
             ..self
         }
+    }
+
+    /// The bodies, in scene order (for a backend that meets them itself,
+    /// such as the GPU's grid update).
+    pub fn bodies(&self) -> &[PlacedBody] {
+        &self.bodies
     }
 
     /// The bodies that may touch a node in the box from `low` to `high`

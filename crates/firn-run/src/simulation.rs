@@ -30,6 +30,7 @@ use firn_gpu::snow::Scatter;
 use firn_gpu::snow::stage_times::StageTimes;
 use firn_io::BodyPose;
 use firn_mpm::{PhaseTimes, Simulation, Snapshot, SnowView, SolverStats};
+use firn_rigid::BodyState;
 use glam::Vec3;
 
 use crate::backend::Placement;
@@ -325,6 +326,13 @@ impl Solver {
         self.engine.device_particles()
     }
 
+    /// The rigid bodies' poses of snow on the GPU, which rapier steps on
+    /// the host, with no read-back, for a renderer that draws the device's
+    /// particles (`None` on the CPU, where the host state has them).
+    pub fn device_body_poses(&self) -> Option<Vec<BodyPose>> {
+        self.engine.device_body_poses()
+    }
+
     /// Writes the complete state to `path` as the checkpoint taken after
     /// `frame` of the scene `scene_json`, atomically: the file
     /// [`checkpoint::write`] writes of [`Solver::state`], streamed from the
@@ -422,7 +430,13 @@ impl<'a> HostState<'a> {
 /// The pose and motion of each of the rigid bodies of `snow`, in scene
 /// order, as the manifest records them and pictures draw them.
 pub fn body_poses(snow: SnowView<'_>) -> Vec<BodyPose> {
-    snow.rigid_bodies()
+    poses(&snow.rigid_bodies())
+}
+
+/// The pose and motion of bodies in the states `states`, as
+/// [`body_poses`] gives them.
+pub(crate) fn poses(states: &[BodyState]) -> Vec<BodyPose> {
+    states
         .iter()
         .map(|body| BodyPose {
             position: body.position.to_array(),

@@ -256,6 +256,26 @@ fn the_gpu_takes_its_scatter_and_steps_at_least_the_substeps_asked_for() {
 }
 
 #[test]
+fn the_gpu_gives_its_bodies_poses_without_reading_the_particles_back() {
+    let Some(context) = firn_gpu::context_for_tests() else {
+        return;
+    };
+    let mut snow = Solver::new(common::box_on_slab(), &Placement::Gpu(context)).unwrap();
+    snow.advance_frame().unwrap();
+    assert!(snow.host_particles(ColorBy::Speed).is_none());
+    let poses = snow.device_body_poses().expect("snow on the GPU has them");
+    assert_eq!(poses.len(), 1);
+    assert_eq!(poses, snow.host().unwrap().body_poses());
+    assert!(poses[0].position != [0.45, 0.4, 0.5], "the box moved");
+    assert!(
+        Solver::new(common::slab(), &Placement::Cpu)
+            .unwrap()
+            .device_body_poses()
+            .is_none()
+    );
+}
+
+#[test]
 fn both_backends_count_the_snow_and_not_the_drift() {
     let Some(context) = firn_gpu::context_for_tests() else {
         return;

@@ -387,10 +387,14 @@ impl Running {
             (Content::Playback(playback), None) => playback.drift(),
             (Content::Live(_), None) => None,
         };
+        let device_bodies = match (self.session.content(), &host) {
+            (Content::Live(live), None) => live.device_body_poses().unwrap_or_default(),
+            _ => Vec::new(),
+        };
         let bodies = match (self.session.content(), &host) {
             (_, Some(host)) => host.rigid_bodies.as_slice(),
             (Content::Playback(playback), None) => playback.rigid_bodies(),
-            (Content::Live(_), None) => &[],
+            (Content::Live(_), None) => device_bodies.as_slice(),
         };
         let stage = Stage {
             bodies: stage_bodies(scene, bodies),

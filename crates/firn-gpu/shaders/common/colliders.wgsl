@@ -484,10 +484,14 @@ fn place_colliders(t: f32) {
     }
 }
 
+// The Placement a ColliderPose stores.
+fn unpacked_pose(pose: ColliderPose) -> Placement {
+    return Placement(pose.position.xyz, pose.velocity.xyz, pose.rotation, pose.angular_velocity.xyz, pose.position.w != 0.0, u32(pose.angular_velocity.w), pose.velocity.w);
+}
+
 // Collider c as place_colliders placed it.
 fn posed(c: u32) -> Placement {
-    let pose = collider_poses[c];
-    return Placement(pose.position.xyz, pose.velocity.xyz, pose.rotation, pose.angular_velocity.xyz, pose.position.w != 0.0, u32(pose.angular_velocity.w), pose.velocity.w);
+    return unpacked_pose(collider_poses[c]);
 }
 
 // The collider's surface at `point` as placed: a turned collider's distance

@@ -13,12 +13,17 @@ const WAITING_FOR_MESH_FRAMES: u32 = 1u;
 const WAITING_FOR_GRID_BLOCKS: u32 = 2u;
 
 // Dt = CFL h / (max |v_p| + max c_p), capped, or the fixed dt; the
-// maxima come from the last gather (as firn_mpm::Simulation::next_dt).
+// maxima come from the last gather, max |v_p| raised to the rigid bodies'
+// fastest material speed where that is faster (as
+// firn_mpm::Simulation::next_dt).
 fn next_dt(speed_squared: f32, wave_speed_squared: f32) -> f32 {
     if params.stepping.z > 0.0 {
         return params.stepping.z;
     }
     var speed = sqrt(speed_squared);
+    if params.stepping.w > speed {
+        speed = params.stepping.w;
+    }
     if params.flags.z == 0u {
         speed += sqrt(wave_speed_squared);
     }

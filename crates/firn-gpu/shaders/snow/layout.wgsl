@@ -21,7 +21,9 @@ struct Params {
     lower: vec4<f32>,
     // xyz: highest allowed particle position; w: seconds from the frame start to its end.
     upper: vec4<f32>,
-    // x: CFL number; y: largest dt; z: fixed dt (0: adaptive); w: unused.
+    // x: CFL number; y: largest dt; z: fixed dt (0: adaptive); w: the
+    // fastest material speed of the rigid bodies, which bounds dt too
+    // (coupling.wgsl; 0 without bodies).
     stepping: vec4<f32>,
     // x: mass scale; y: momentum scale (fixed-point units per kg, per kg m/s).
     scales: vec4<f32>,
@@ -62,6 +64,18 @@ struct StepState {
     waiting: u32,
     // Blocks the grid allocated for the current substep (blocks.wgsl).
     grid_blocks: u32,
+}
+
+// A rigid body as the grid update meets it in one substep (coupling.wgsl,
+// as firn_mpm::coupling::PlacedBody): its shape and contact as a collider,
+// placed where rapier has it at the substep's start, turned (pose.position.w
+// = 1), moving at v + omega x (x - c).
+struct PlacedBody {
+    collider: Collider,
+    pose: ColliderPose,
+    // xyz: the centre of mass, about which the moments are summed; w: how
+    // far the body reaches from its reference point.
+    center_of_mass: vec4<f32>,
 }
 
 struct PlasticState {

@@ -117,6 +117,14 @@ bind_group! {
         40 => trade_slots: Read "array<u32>",
         /// Those blocks' sums, packed to send or received to add.
         41 => traded: ReadWrite "array<u32>",
+        /// The rigid bodies placed where they are at the start of the
+        /// substep, which the host writes before each (`snow/coupling.wgsl`;
+        /// a 16-byte stand-in without bodies).
+        42 => rigid_bodies: Read "array<PlacedBody>",
+        /// Per rigid body, the snow's momentum gain and its moment about
+        /// the body's centre of mass in the substep: six 64-bit
+        /// fixed-point sums, low word before high word.
+        43 => body_sums: ReadWrite "array<atomic<u32>>",
     }
 }
 

@@ -10,7 +10,8 @@ use firn_mpm::Particles;
 use super::bindings::StepBindings;
 use super::binning::BinningBuffers;
 use super::blocks::BlockBuffers;
-use super::layout::{GpuMat3, GpuPlastic, SolveHeader, pack_colliders};
+use super::coupling::BodyBuffers;
+use super::layout::{GpuCollider, GpuMat3, GpuPlastic, SolveHeader, pack_colliders};
 use super::sequences::SequenceRegion;
 use super::wind::WindBuffers;
 use crate::buffers::{storage_buffer, zeroed_storage_buffer};
@@ -255,14 +256,29 @@ impl ColliderBuffers {
     /// Packs and uploads `colliders` (for a run: the scene's, then the
     /// walls, as `firn_mpm::contact::ColliderSet::colliders` lists them).
     pub fn of(context: &GpuContext, colliders: &[Collider]) -> ColliderBuffers {
-        let packed = pack_colliders(colliders);
-        ColliderBuffers {
+        ColliderBuffers::with_bodies(context, colliders, &[]).0
+    }
+
+    /// [`ColliderBuffers::of`] `colliders`, and the rigid bodies' shapes
+    /// (`bodies`, as `super::coupling::body_colliders` makes them) packed
+    /// with them: returned in body order, their mesh fields among the
+    /// colliders' fields.
+    pub fn with_bodies(
+        context: &GpuContext,
+        colliders: &[Collider],
+        bodies: &[Collider],
+    ) -> (ColliderBuffers, Vec<GpuCollider>) {
+        let all: Vec<Collider> = colliders.iter().chain(bodies).cloned().collect();
+        let mut packed = pack_colliders(&all);
+        let shapes = packed.colliders.split_off(colliders.len());
+        let buffers = ColliderBuffers {
             colliders: storage_buffer(context, "colliders", &packed.colliders),
             keys: storage_buffer(context, "collider keys", &packed.keys),
             fields: storage_buffer(context, "collider fields", &packed.fields),
             poses: zeroed_storage_buffer(context, "collider poses", 64 * colliders.len() as u64),
             sequences: packed.sequences,
-        }
+        };
+        (buffers, shapes)
     }
 }
 
@@ -288,6 +304,8 @@ pub struct SnowBuffers {
     pub solve: SolveBuffers,
     /// The blocks whose sums a part of a split run trades.
     pub trade: TradeBuffers,
+    /// The rigid bodies as placed for the substep, and their sums.
+    pub bodies: BodyBuffers,
 }
 
 /// The grid sums a part of a split run trades (`shaders/snow/parts.wgsl`):
@@ -385,6 +403,8 @@ impl SnowBuffers {
             solve: &self.solve.state,
             trade_slots: &self.trade.slots,
             traded: &self.trade.words,
+            rigid_bodies: &self.bodies.placed,
+            body_sums: &self.bodies.sums,
         }
     }
 }

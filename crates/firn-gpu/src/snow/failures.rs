@@ -51,7 +51,10 @@ impl GpuSnow {
     /// has been taken).
     pub(super) fn check_step_length(&self, state: &StepState) -> Result<(), GpuError> {
         let time = &self.scene.time;
-        let speed = f32::from_bits(state.max_speed_bits).max(0.0).sqrt();
+        let speed = f32::from_bits(state.max_speed_bits)
+            .max(0.0)
+            .sqrt()
+            .max(self.body_speed());
         let wave_speed = f32::from_bits(state.max_wave_bits).max(0.0).sqrt();
         // The semi-implicit step is not bound by elastic waves.
         let limiting_wave_speed = if is_implicit(&self.scene) {

@@ -6,7 +6,8 @@
 //! wind's drag in scenes with a `[wind]` (`shaders/snow/wind.wgsl`), and the
 //! grid-based collisions with the colliders placed at the substep's end
 //! (Quellcode 12), which the semi-implicit integrator leaves to its solve
-//! ([`super::implicit`]). One invocation per node, one workgroup per
+//! ([`super::implicit`]), then in scenes with rigid bodies their push,
+//! summed for them ([`super::coupling`]). One invocation per node, one workgroup per
 //! allocated block of the grid; v_i and v_i* replace the momentum sums in
 //! the word planes for the gather.
 
@@ -15,7 +16,8 @@ use super::program::{Kernel, StepProgram};
 /// The grid update's kernels: without wind and with the wind's drag
 /// (`update_grid_in_wind`), each with the grid collisions or, for the
 /// semi-implicit solve that applies them itself, without
-/// (`update_grid_free*`); a run records the one its scene needs.
+/// (`update_grid_free*`), or with the colliders and the rigid bodies
+/// (`update_grid_coupled*`); a run records the one its scene needs.
 pub struct GridUpdate {
     calm: Kernel,
     in_wind: Kernel,
@@ -25,13 +27,15 @@ pub struct GridUpdate {
 
 impl GridUpdate {
     /// The kernels of both entry points (both transfer schemes), with the
-    /// grid collisions unless `implicit`, recording the one with the wind's
+    /// grid collisions unless `implicit` and the rigid bodies when
+    /// `coupled` (never both: the scene format refuses rigid bodies with
+    /// the semi-implicit integrator), recording the one with the wind's
     /// drag when `windy`.
-    pub fn new(program: &StepProgram, windy: bool, implicit: bool) -> GridUpdate {
-        let (calm, in_wind) = if implicit {
-            ("update_grid_free", "update_grid_free_in_wind")
-        } else {
-            ("update_grid", "update_grid_in_wind")
+    pub fn new(program: &StepProgram, windy: bool, implicit: bool, coupled: bool) -> GridUpdate {
+        let (calm, in_wind) = match (implicit, coupled) {
+            (true, _) => ("update_grid_free", "update_grid_free_in_wind"),
+            (false, true) => ("update_grid_coupled", "update_grid_coupled_in_wind"),
+            (false, false) => ("update_grid", "update_grid_in_wind"),
         };
         GridUpdate {
             calm: program.kernel(calm),

@@ -121,6 +121,27 @@ pub struct GpuCollider {
     pub sdf_dims: [u32; 4],
 }
 
+/// `ColliderPose` (`shaders/common/colliders.wgsl`): a placed collider as
+/// the contact kernels read it; `position.w` is 1 for a turned one.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuColliderPose {
+    pub position: [f32; 4],
+    pub velocity: [f32; 4],
+    pub rotation: [f32; 4],
+    pub angular_velocity: [f32; 4],
+}
+
+/// `PlacedBody` (`shaders/snow/layout.wgsl`): a rigid body as the grid
+/// update meets it in one substep.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuPlacedBody {
+    pub collider: GpuCollider,
+    pub pose: GpuColliderPose,
+    pub center_of_mass: [f32; 4],
+}
+
 /// `PlasticState`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]

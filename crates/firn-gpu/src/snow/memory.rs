@@ -7,6 +7,7 @@ use glam::IVec3;
 
 use super::blocks::table_bytes;
 use super::buffers::{LINEARIZED_BYTES, SOLVE_PRODUCTS, SOLVE_VECTORS};
+use super::coupling::BYTES_PER_BODY;
 use crate::context::{AdapterReport, GpuContext, largest_binding};
 use crate::error::GpuError;
 
@@ -64,7 +65,8 @@ pub fn body_blocks(scene: &Scene, layout: &GridLayout) -> u64 {
 }
 
 /// The GPU memory a snow scene needs: particles, the sparse grid's nodes
-/// for its capacity in blocks, and the block table over the domain.
+/// for its capacity in blocks, the block table over the domain, and the
+/// rigid bodies.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct MemoryEstimate {
     /// Number of particles.
@@ -81,6 +83,9 @@ pub struct MemoryEstimate {
     pub bytes_per_node: u64,
     /// Whether the semi-implicit solve's buffers are counted.
     pub implicit: bool,
+    /// Number of rigid bodies: each placed body and its sums
+    /// ([`BYTES_PER_BODY`]).
+    pub rigid_bodies: u64,
 }
 
 impl MemoryEstimate {
@@ -116,6 +121,7 @@ impl MemoryEstimate {
                 + BINNING_BYTES_PER_NODE
                 + solve_per_node,
             implicit,
+            rigid_bodies: scene.rigid_bodies.len() as u64,
         }
     }
 
@@ -129,20 +135,27 @@ impl MemoryEstimate {
         self.nodes * self.bytes_per_node + table_bytes(self.domain_blocks)
     }
 
+    /// The rigid bodies' bytes: each placed body and its sums.
+    pub fn body_bytes(&self) -> u64 {
+        self.rigid_bodies * BYTES_PER_BODY
+    }
+
     /// All buffers together, in bytes.
     pub fn total_bytes(&self) -> u64 {
-        self.particles * self.bytes_per_particle + self.grid_bytes()
+        self.particles * self.bytes_per_particle + self.grid_bytes() + self.body_bytes()
     }
 
     /// The largest single buffer: one grid quantity's word (4 bytes per
     /// node), the block table (4 bytes per block of the domain) or one
     /// particle matrix array (48 bytes per particle; the work items take at
-    /// most 8 bytes and a fraction); with the semi-implicit solve, its
-    /// larger buffer of node vectors or its stress differentials.
+    /// most 8 bytes and a fraction) or the placed rigid bodies; with the
+    /// semi-implicit solve, its larger buffer of node vectors or its stress
+    /// differentials.
     pub fn largest_buffer_bytes(&self) -> u64 {
         let explicit = (self.nodes * 4)
             .max(self.domain_blocks * 4)
-            .max(self.particles * 48);
+            .max(self.particles * 48)
+            .max(self.body_bytes());
         if self.implicit {
             explicit
                 .max(self.nodes * SOLVE_VECTORS * 16)
@@ -152,9 +165,10 @@ impl MemoryEstimate {
         }
     }
 
-    /// How many particles fit in `budget` bytes beside this grid.
+    /// How many particles fit in `budget` bytes beside this grid and the
+    /// rigid bodies.
     pub fn particles_within(&self, budget: u64) -> u64 {
-        budget.saturating_sub(self.grid_bytes()) / self.bytes_per_particle
+        budget.saturating_sub(self.grid_bytes() + self.body_bytes()) / self.bytes_per_particle
     }
 }
 

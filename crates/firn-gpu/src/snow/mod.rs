@@ -22,7 +22,9 @@
 //! 4. `p2g`: particle to grid (thesis steps 1 and 3), atomic or binned,
 //!    into 64-bit fixed-point sums ([`fixed_point`]);
 //! 5. `grid_update`: v_i = p_i / m_i, forces, gravity, the wind's drag
-//!    ([`wind`], `[wind]` scenes) and grid collisions (steps 4 and 5);
+//!    ([`wind`], `[wind]` scenes) and grid collisions (steps 4 and 5),
+//!    then the rigid bodies' push (`[[rigid_bodies]]` scenes), summed per
+//!    body in 64-bit fixed point (`coupling.rs`);
 //! 6. `implicit` (semi-implicit integrator): the solve of step 6,
 //!    (M + β Δt² H) v^{n+1} = M v* by conjugate residuals, which applies
 //!    the grid collisions itself;
@@ -40,9 +42,12 @@
 //! [`bindings`], the structs in `shaders/snow/layout.wgsl` and `layout.rs`.
 //!
 //! The host records batches of substeps, sized from the last Δt to just
-//! reach the frame's end, and reads back one 48-byte state per batch (with
+//! reach the frame's end, and reads back one 52-byte state per batch (with
 //! the semi-implicit integrator, also the solve's state every few
-//! iterations: `implicit.rs`); the
+//! iterations: `implicit.rs`). With rigid bodies a batch is one substep:
+//! the host places the bodies before it and reads their sums back with the
+//! state after it, and rapier, on the CPU, steps them by its Δt
+//! (`coupling.rs`). The
 //! particles come back only when a frame is written ([`GpuSnow::snapshot`]).
 //! One part of a run split between processes with a GPU each (MPI ranks)
 //! steps one substep at a time and trades grid sums with the others
@@ -58,6 +63,7 @@ pub mod bindings;
 mod binning;
 mod blocks;
 mod buffers;
+mod coupling;
 mod failures;
 pub mod fixed_point;
 mod g2p;
@@ -80,10 +86,11 @@ use firn_core::Scene;
 use firn_core::scene::{
     ColliderGeometry, Integrator, Material, SceneKind, TimeStep, Transfer, Wind,
 };
+use firn_mpm::coupling::RigidBodies;
 use firn_mpm::grid::GridLayout;
 use firn_mpm::implicit::SolverStats;
 use firn_mpm::snow_model::{MaterialConstants, max_wave_speed_squared};
-use firn_mpm::{Escaped, Snapshot};
+use firn_mpm::{Escaped, SimulationError, Snapshot};
 use glam::{Mat3, Vec3};
 
 use crate::buffers::{read_back, storage_buffer};
@@ -93,6 +100,7 @@ use crate::error::GpuError;
 use binning::BinningBuffers;
 use blocks::{BlockBuffers, reached_blocks};
 use buffers::{GridBuffers, ParticleBuffers, SnowBuffers, SolveBuffers, TradeBuffers};
+use coupling::{BodyBuffers, Coupling, body_colliders};
 use fixed_point::Scales;
 use layout::{
     GpuMat3, GpuMaterial, GpuPlastic, NO_PARTICLE, Params, StepState, WAITING_FOR_GRID_BLOCKS,
@@ -135,6 +143,8 @@ pub struct GpuSnow {
     last: StepState,
     /// What the buffers were sized for, the grid's capacity included.
     memory: MemoryEstimate,
+    /// The scene's rigid bodies, if it has any.
+    coupling: Option<Coupling>,
 }
 
 impl GpuSnow {
@@ -198,9 +208,16 @@ impl GpuSnow {
         params.flags[3] = estimate.grid_blocks() as u32;
         let implicit = is_implicit(&scene);
         let all_colliders = firn_mpm::contact::ColliderSet::new(domain, &scene.colliders);
+        let (colliders, body_shapes) = ColliderBuffers::with_bodies(
+            &context,
+            all_colliders.colliders(),
+            &body_colliders(&scene),
+        );
+        let rigid = rigid_bodies(&scene, snapshot)?;
+        let body_count = rigid.as_ref().map_or(0, |_| body_shapes.len());
         let buffers = SnowBuffers {
             materials,
-            colliders: ColliderBuffers::of(&context, all_colliders.colliders()),
+            colliders,
             particles: ParticleBuffers::upload(
                 &context,
                 &particles,
@@ -214,6 +231,7 @@ impl GpuSnow {
             spindrift: spindrift::params_buffer(&context, &scene),
             solve: SolveBuffers::new(&context, estimate.particles, estimate.nodes, implicit),
             trade: TradeBuffers::new(&context, trade_blocks, traded_block_words(&scene)),
+            bodies: BodyBuffers::new(&context, body_count),
         };
         let state = StepState {
             max_speed_bits: snapshot.max_speed_squared.to_bits(),
@@ -248,6 +266,7 @@ impl GpuSnow {
                 ..state
             },
             memory: estimate,
+            coupling: rigid.map(|rigid| Coupling::new(rigid, body_shapes)),
             scene,
         })
     }
@@ -259,13 +278,6 @@ impl GpuSnow {
             return Err(GpuError::Unsupported {
                 what: "this is a flow scene, not a snow scene".into(),
                 fix: "run it through firn_gpu::GpuFlow".into(),
-            });
-        }
-        if !scene.rigid_bodies.is_empty() {
-            return Err(GpuError::Unsupported {
-                what: "the scene has rigid bodies, which the GPU backend does not couple yet"
-                    .into(),
-                fix: "run with --backend cpu".into(),
             });
         }
         if let Some(wind) = &scene.wind
@@ -291,8 +303,11 @@ impl GpuSnow {
         self.begin_frame(until);
         let mut taken = 0;
         loop {
-            let batch = self.batch_size(until);
-            let state = self
+            let batch = match self.coupling.is_some() {
+                true => self.place_bodies(),
+                false => self.batch_size(until),
+            };
+            let (state, body_sums) = self
                 .substep
                 .run_batch(&self.context, batch, &self.buffers)?;
             let before = self.last;
@@ -302,6 +317,11 @@ impl GpuSnow {
             self.steps += u64::from(batch_steps);
             self.check_trouble(&state)?;
             self.time = f64::from(self.params.lower[3]) + f64::from(state.elapsed);
+            if batch_steps > 0
+                && let Some(coupling) = self.coupling.as_mut()
+            {
+                coupling.advance(&body_sums, state.dt, &self.scene.colliders, self.time);
+            }
             self.check_step_length(&state)?;
             if state.waiting == WAITING_FOR_GRID_BLOCKS {
                 self.resize_grid(u64::from(state.grid_blocks))?;
@@ -316,6 +336,31 @@ impl GpuSnow {
                 return Ok(taken);
             }
         }
+    }
+
+    /// Before a substep of a scene with rigid bodies: writes the bodies
+    /// where rapier has them and their fastest material speed, which
+    /// bounds the substep's Δt; returns the size of the batch to record,
+    /// one substep, since the next substep meets the bodies where this one
+    /// leaves them.
+    fn place_bodies(&mut self) -> u32 {
+        if let Some(coupling) = &self.coupling {
+            coupling.place(&self.context, &self.buffers.bodies);
+            self.params.stepping[3] = coupling.max_speed();
+            self.substep
+                .write_body_speed(&self.context, self.params.stepping[3]);
+        }
+        1
+    }
+
+    /// The rigid bodies' fastest material speed, m/s (0 without bodies).
+    fn body_speed(&self) -> f32 {
+        self.coupling.as_ref().map_or(0.0, Coupling::max_speed)
+    }
+
+    /// The scene's rigid bodies, rapier's world on the CPU, if it has any.
+    pub fn rigid_bodies(&self) -> Option<&RigidBodies> {
+        self.coupling.as_ref().map(Coupling::rigid)
     }
 
     /// Starts a frame: the time window goes into the parameters, the step
@@ -462,7 +507,7 @@ impl GpuSnow {
             particles,
             drift,
             escaped,
-            rigid: None,
+            rigid: self.rigid_bodies().map(RigidBodies::to_bytes),
         })
     }
 
@@ -578,6 +623,17 @@ fn gpu_materials(constants: &[MaterialConstants], materials: &[Material]) -> Vec
             ..GpuMaterial::from(constants)
         })
         .collect()
+}
+
+/// The rigid bodies of `scene` as `snapshot` saved them, or at their start
+/// when it saved none (as `firn_mpm::Simulation::from_snapshot`); `None`
+/// without bodies.
+fn rigid_bodies(scene: &Scene, snapshot: &Snapshot) -> Result<Option<RigidBodies>, GpuError> {
+    let rigid = match &snapshot.rigid {
+        Some(bytes) => Some(RigidBodies::from_bytes(scene, bytes).map_err(SimulationError::from)?),
+        None => RigidBodies::new(scene).map_err(SimulationError::from)?,
+    };
+    Ok(rigid)
 }
 
 /// Whether `scene` runs the semi-implicit integrator.

@@ -2,7 +2,7 @@
 //! layout holds only the buffers its entry point uses, with a bind group of
 //! those buffers.
 //!
-//! The step binds 37 buffers in all ([`StepBindings`]), more than some
+//! The step binds 42 buffers in all ([`StepBindings`]), more than some
 //! adapters let one shader stage see: Metal offers 29 buffer slots per
 //! stage for storage and uniform buffers together. No single kernel uses
 //! more than [`MIN_STORAGE_BUFFERS`](crate::context::MIN_STORAGE_BUFFERS)

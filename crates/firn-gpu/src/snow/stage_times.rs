@@ -123,11 +123,12 @@ pub struct StageTimes {
 impl GpuSnow {
     /// Runs the substeps up to simulated time `until`, at most `limit` of
     /// them, one per submission, timing each stage. `None` where the
-    /// adapter has no timestamps or with the semi-implicit integrator
-    /// (whose solve is submitted in parts).
+    /// adapter has no timestamps, with the semi-implicit integrator (whose
+    /// solve is submitted in parts) and with rigid bodies (whose host side
+    /// runs between substeps).
     pub fn stage_times(&mut self, until: f64, limit: u32) -> Result<Option<StageTimes>, GpuError> {
         let clock = match StageClock::new(&self.context) {
-            Some(clock) if !is_implicit(&self.scene) => clock,
+            Some(clock) if !is_implicit(&self.scene) && self.scene.rigid_bodies.is_empty() => clock,
             _ => return Ok(None),
         };
         self.begin_frame(until);

@@ -13,7 +13,9 @@
 //! 9. `spindrift.rs` (`[wind.spindrift]` only): snow lifts, drift moves.
 //!
 //! [`Substep::run_batch`] records a batch of substeps in one submission and
-//! reads back the step state. With the semi-implicit integrator each
+//! reads back the step state, with the rigid bodies' sums in scenes with
+//! bodies (whose batches are one substep: `super::coupling`). With the
+//! semi-implicit integrator each
 //! substep is submitted in parts instead: up to its solve, then a few
 //! iterations at a time until the solve's state, read back in between,
 //! says it has stopped, then the rest.
@@ -26,6 +28,7 @@ use super::begin_step::BeginStep;
 use super::binning::Binning;
 use super::blocks::Blocks;
 use super::buffers::SnowBuffers;
+use super::coupling::SUM_WORDS;
 use super::g2p::G2p;
 use super::grid_update::GridUpdate;
 use super::implicit::{ITERATIONS_PER_READ, ImplicitSolve, SolveGroups, read_header};
@@ -68,6 +71,8 @@ pub struct Substep {
     solver_stats: SolverStats,
     mode: Scatter,
     particle_groups: (u32, u32, u32),
+    /// Whether the scene has rigid bodies, whose sums each substep clears.
+    coupled: bool,
 }
 
 impl Substep {
@@ -103,6 +108,7 @@ impl Substep {
             scatter: BinnedP2g::new(&program, transfer),
         });
         let limit = context.limits.max_compute_workgroups_per_dimension;
+        let coupled = buffers.bodies.count > 0;
         Substep {
             blocks: Blocks::new(&program, &buffers.blocks, limit),
             begin_step: BeginStep::new(&program),
@@ -113,7 +119,7 @@ impl Substep {
                 Scatter::Atomic
             },
             binned,
-            grid_update: GridUpdate::new(&program, windy, implicit),
+            grid_update: GridUpdate::new(&program, windy, implicit, coupled),
             g2p: G2p::new(&program, transfer),
             spindrift: SpindriftStage::new(&program, drifting),
             implicit: implicit.then(|| ImplicitSolve::new(&program)),
@@ -123,6 +129,7 @@ impl Substep {
             particle_groups: workgroups(params.dims[3], limit),
             params: params_buffer,
             state: state_buffer,
+            coupled,
         }
     }
 
@@ -289,14 +296,25 @@ impl Substep {
         Ok(state[0].first().copied().unwrap_or_else(StepState::zeroed))
     }
 
+    /// Writes the rigid bodies' fastest material speed, which bounds the
+    /// next substep's Δt (`Params::stepping[3]`).
+    pub fn write_body_speed(&self, context: &GpuContext, speed: f32) {
+        let offset = (std::mem::offset_of!(Params, stepping) + 12) as u64;
+        context
+            .queue
+            .write_buffer(&self.params, offset, bytemuck::bytes_of(&speed));
+    }
+
     /// Records and runs `substeps` substeps over `buffers` (those after the
-    /// frame's end do nothing), then reads the state back.
+    /// frame's end do nothing), then reads the state back, with the rigid
+    /// bodies' sums (`body_sums`' words, none without bodies: a batch with
+    /// bodies is one substep).
     pub fn run_batch(
         &mut self,
         context: &GpuContext,
         substeps: u32,
         buffers: &SnowBuffers,
-    ) -> Result<StepState, GpuError> {
+    ) -> Result<(StepState, Vec<u32>), GpuError> {
         match &self.implicit {
             Some(solve) => {
                 for _ in 0..substeps {
@@ -316,7 +334,19 @@ impl Substep {
                 context.queue.submit([encoder.finish()]);
             }
         }
-        self.read_state(context)
+        let state_words = size_of::<StepState>() / 4;
+        let bodies = &buffers.bodies;
+        let mut wanted = vec![(&self.state, state_words)];
+        if self.coupled {
+            wanted.push((&bodies.sums, bodies.count * SUM_WORDS));
+        }
+        let mut words = read_back::<u32>(context, &wanted)?.into_iter();
+        let state = words
+            .next()
+            .filter(|state| state.len() == state_words)
+            .map(|state| bytemuck::pod_read_unaligned(bytemuck::cast_slice(&state)))
+            .unwrap_or_else(StepState::zeroed);
+        Ok((state, words.next().unwrap_or_default()))
     }
 
     /// What the semi-implicit solves did so far (with that integrator).
@@ -417,6 +447,9 @@ impl Substep {
         clock: Option<&StageClock>,
     ) {
         mark(clock, encoder, Stage::Start);
+        if self.coupled {
+            buffers.bodies.clear(encoder);
+        }
         self.blocks
             .record(encoder, &buffers.blocks, self.particle_groups);
         mark(clock, encoder, Stage::Blocks);

@@ -9,12 +9,14 @@ use firn_gpu::draw::ParticleArrays;
 use firn_gpu::snow::MemoryEstimate;
 use firn_gpu::snow::stage_times::StageTimes;
 use firn_gpu::{GpuContext, GpuSnow};
+use firn_io::BodyPose;
+use firn_mpm::coupling::RigidBodies;
 use firn_mpm::{Snapshot, SolverStats};
 
 use super::{Engine, OnGpu, substeps_ahead};
 use crate::backend::Placement;
 use crate::error::RunError;
-use crate::simulation::{HostState, SolverOptions, SolverState};
+use crate::simulation::{HostState, SolverOptions, SolverState, poses};
 
 impl OnGpu<GpuSnow, Snapshot> {
     /// Snow of `scene` continued from `snapshot` on `context`'s device;
@@ -137,5 +139,14 @@ impl Engine for OnGpu<GpuSnow, Snapshot> {
 
     fn device_particles(&self) -> Option<ParticleArrays<'_>> {
         Some(self.device.particle_arrays())
+    }
+
+    fn device_body_poses(&self) -> Option<Vec<BodyPose>> {
+        let states = self
+            .device
+            .rigid_bodies()
+            .map(RigidBodies::states)
+            .unwrap_or_default();
+        Some(poses(&states))
     }
 }

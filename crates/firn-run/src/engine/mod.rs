@@ -16,6 +16,7 @@ use firn_core::scene::{FlowSettings, Material, RigidBody, SceneKind, TimeStep, W
 use firn_flow::FlowSimulation;
 use firn_gpu::draw::ParticleArrays;
 use firn_gpu::snow::stage_times::StageTimes;
+use firn_io::BodyPose;
 use firn_mpm::{PhaseTimes, SolverStats};
 
 use crate::backend::Placement;
@@ -109,7 +110,8 @@ pub(crate) trait Engine: Send + Sync {
     /// Throws a rigid body into the running snow (snow on the CPU only).
     fn add_rigid_body(&mut self, _body: RigidBody) -> Result<(), RunError> {
         Err(RunError::Unsupported(
-            "rigid bodies run on the CPU backend only (and not in a flow scene)",
+            "a rigid body is thrown into running snow on the CPU backend only (and not into a \
+             flow scene)",
         ))
     }
 
@@ -125,6 +127,12 @@ pub(crate) trait Engine: Send + Sync {
 
     /// The particles in the device's own buffers (GPU only).
     fn device_particles(&self) -> Option<ParticleArrays<'_>> {
+        None
+    }
+
+    /// The rigid bodies' poses beside the device's particles (snow on the
+    /// GPU only).
+    fn device_body_poses(&self) -> Option<Vec<BodyPose>> {
         None
     }
 }
