@@ -384,7 +384,7 @@ fn simd_words(simd: Option<&str>) -> String {
 fn print_phase_table(backend: &BackendRecord, phases: &[PhaseRecord]) {
     if backend.backend != "cpu" && phases.is_empty() {
         outln!(
-            "  phases: not measured: the adapter has no timestamp queries, or the integrator is semi-implicit"
+            "  phases: not measured: the adapter has no timestamp queries, the integrator is semi-implicit or the scene has rigid bodies"
         );
     }
     for phase in phases {

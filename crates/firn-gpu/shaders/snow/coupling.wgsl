@@ -16,18 +16,9 @@ const BODY_FIXED_SCALE: f32 = 4294967296.0;
 const BODY_SUM_WORDS: u32 = 12u;
 
 // round(value 2^32) as the (high, low) words of a 64-bit two's complement
-// integer, exact for |value| < 2^31 N s: the magnitude is split (exactly,
-// as in to_fixed), then negated in integers. (to_fixed's float split of a
-// negative value rounds its low word.)
+// integer (to_fixed).
 fn body_fixed(value: f32) -> vec2<u32> {
-    let magnitude = abs(round(value * BODY_FIXED_SCALE));
-    let high = floor(magnitude / TWO_POW_32);
-    let words = vec2<u32>(u32(high), u32(magnitude - high * TWO_POW_32));
-    if value >= 0.0 {
-        return words;
-    }
-    let low = ~words.y + 1u;
-    return vec2<u32>(~words.x + select(0u, 1u, low == 0u), low);
+    return to_fixed(value * BODY_FIXED_SCALE);
 }
 
 // Adds value (N s or N m s) into the 64-bit sum at body_sums[word] (low)

@@ -15,13 +15,18 @@ const QUANTITY_FORCE_Z: u32 = 6u;
 
 const TWO_POW_32: f32 = 4294967296.0;
 
-// x S as (high, low) words of a 64-bit two's complement integer. x S is
-// exact in f32 to 24 bits; the split is exact (a power-of-two division and
-// a subtraction of a multiple of 2^32).
+// round(x S) as (high, low) words of a 64-bit two's complement integer,
+// exactly: the magnitude is split in f32 (a power-of-two division and the
+// subtraction of a multiple of 2^32, both exact), then negated in integers.
 fn to_fixed(scaled: f32) -> vec2<u32> {
-    let high = floor(scaled / TWO_POW_32);
-    let low = scaled - high * TWO_POW_32;
-    return vec2<u32>(bitcast<u32>(i32(high)), u32(low));
+    let magnitude = abs(round(scaled));
+    let high = floor(magnitude / TWO_POW_32);
+    let words = vec2<u32>(u32(high), u32(magnitude - high * TWO_POW_32));
+    if scaled >= 0.0 {
+        return words;
+    }
+    let low = ~words.y + 1u;
+    return vec2<u32>(~words.x + select(0u, 1u, low == 0u), low);
 }
 
 fn from_fixed(high: u32, low: u32) -> f32 {

@@ -2,8 +2,8 @@
 //! written between the stages of one substep (`wgpu::Features`
 //! `TIMESTAMP_QUERY` and `TIMESTAMP_QUERY_INSIDE_ENCODERS`, where the
 //! adapter has them), read back after it. `firn bench --backend gpu
-//! --phases` prints them beside the bytes each stage must move
-//! (docs/gpu.md, "Bytes per kernel").
+//! --phases` prints them; docs/gpu.md ("Bytes per kernel") sets each
+//! stage against the bytes it must move.
 //!
 //! The timed substeps run one per submission, so they cost a round trip
 //! each that the batches of a run do not; the stages' times are what the
