@@ -4,49 +4,24 @@
 //! the slabs and grid sums are traded. Skipped without a GPU adapter
 //! unless `FIRN_REQUIRE_GPU=1`.
 
+mod common;
+
 use std::path::Path;
 use std::sync::Arc;
 use std::thread;
 
+use common::bits;
 use firn_core::Scene;
 use firn_core::scene::Transfer;
 use firn_gpu::{GpuContext, GpuSnow};
 use firn_mpi::{Exchange, RankSnow, RankTraffic, ThreadRanks};
-use firn_mpm::{Particles, Snapshot};
+use firn_mpm::Snapshot;
 
 fn crossing(transfer: Transfer) -> Scene {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/crossing.toml");
     let mut scene = Scene::load(&path).unwrap();
     scene.solver.transfer = transfer;
     scene
-}
-
-/// Every attribute's bits, in array order.
-fn bits(particles: &Particles) -> Vec<u32> {
-    let vectors = [&particles.position, &particles.velocity];
-    let matrices = [
-        &particles.elastic,
-        &particles.stress,
-        &particles.velocity_gradient,
-    ];
-    let scalars = [&particles.mass, &particles.volume0, &particles.plastic_j];
-    let mut all: Vec<u32> = vectors
-        .iter()
-        .flat_map(|list| list.iter().flat_map(|v| v.to_array()))
-        .map(f32::to_bits)
-        .collect();
-    all.extend(
-        matrices
-            .iter()
-            .flat_map(|list| list.iter().flat_map(|m| m.to_cols_array()))
-            .map(f32::to_bits),
-    );
-    all.extend(
-        scalars
-            .iter()
-            .flat_map(|list| list.iter().map(|s| s.to_bits())),
-    );
-    all
 }
 
 fn one_gpu(context: &Arc<GpuContext>, scene: &Scene, frames: u32) -> Vec<Snapshot> {

@@ -2,13 +2,16 @@
 //! MPI ranks would) gives the one process's bits for 1, 2, 3 and 4 ranks,
 //! both transfer schemes, with wind; every particle is kept exactly once.
 
+mod common;
+
 use std::path::Path;
 use std::thread;
 
+use common::bits;
 use firn_core::Scene;
 use firn_core::scene::{Transfer, Wind};
 use firn_mpi::{Exchange, RankSnow, ThreadRanks};
-use firn_mpm::{Particles, Simulation, Snapshot};
+use firn_mpm::{Simulation, Snapshot};
 
 fn crossing(transfer: Transfer, wind: bool) -> Scene {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/crossing.toml");
@@ -18,31 +21,6 @@ fn crossing(transfer: Transfer, wind: bool) -> Scene {
         scene.wind = Some(Wind::uniform(glam::Vec3::new(-1.0, 0.3, 0.0), 15.0));
     }
     scene
-}
-
-/// Every attribute's bits, in array order.
-fn bits(particles: &Particles) -> Vec<u32> {
-    let mut all = Vec::new();
-    let vectors = [&particles.position, &particles.velocity];
-    for vector in vectors {
-        all.extend(vector.iter().flat_map(|v| v.to_array()).map(f32::to_bits));
-    }
-    for matrices in [
-        &particles.elastic,
-        &particles.stress,
-        &particles.velocity_gradient,
-    ] {
-        all.extend(
-            matrices
-                .iter()
-                .flat_map(|m| m.to_cols_array())
-                .map(f32::to_bits),
-        );
-    }
-    for scalars in [&particles.mass, &particles.volume0, &particles.plastic_j] {
-        all.extend(scalars.iter().map(|s| s.to_bits()));
-    }
-    all
 }
 
 /// The whole state after each of `frames` frames, split between `ranks`

@@ -323,12 +323,7 @@ impl GpuSnow {
                 coupling.advance(&body_sums, state.dt, &self.scene.colliders, self.time);
             }
             self.check_step_length(&state)?;
-            if state.waiting == WAITING_FOR_GRID_BLOCKS {
-                self.resize_grid(u64::from(state.grid_blocks))?;
-                continue;
-            }
-            if state.waiting != 0 {
-                self.resume_with_mesh_frames(&state)?;
+            if self.serve_wait(&state)? {
                 continue;
             }
             if state.running == 0 {
@@ -378,6 +373,18 @@ impl GpuSnow {
         self.context
             .queue
             .write_buffer(&self.buffers.spindrift, 0, bytemuck::bytes_of(&spindrift));
+    }
+
+    /// When `begin_step` stopped the substeps to wait (`state.waiting`):
+    /// grows the grid or uploads the mesh frames wanted, so that the frame
+    /// runs on; returns whether it waited.
+    fn serve_wait(&mut self, state: &StepState) -> Result<bool, GpuError> {
+        match state.waiting {
+            0 => return Ok(false),
+            WAITING_FOR_GRID_BLOCKS => self.resize_grid(u64::from(state.grid_blocks))?,
+            _ => self.resume_with_mesh_frames(state)?,
+        }
+        Ok(true)
     }
 
     /// After `begin_step` stopped a batch to wait for mesh frames: uploads

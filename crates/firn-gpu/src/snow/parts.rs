@@ -22,7 +22,7 @@
 use firn_core::Scene;
 use firn_mpm::Snapshot;
 
-use super::layout::{StepState, WAITING_FOR_GRID_BLOCKS};
+use super::layout::StepState;
 use super::program::{Kernel, StepProgram, compute_pass};
 use super::spindrift::joined;
 use super::{GpuSnow, is_implicit};
@@ -193,14 +193,9 @@ impl GpuSnow {
             let state = self
                 .substep
                 .run_part_scatter(&self.context, &self.buffers)?;
-            if state.waiting == WAITING_FOR_GRID_BLOCKS {
-                self.last = state;
-                self.resize_grid(u64::from(state.grid_blocks))?;
-                continue;
-            }
             if state.waiting != 0 {
                 self.last = state;
-                self.resume_with_mesh_frames(&state)?;
+                self.serve_wait(&state)?;
                 continue;
             }
             return Ok((state.running != 0).then_some(state));

@@ -11,7 +11,6 @@
 
 use super::GpuSnow;
 use super::is_implicit;
-use super::layout::WAITING_FOR_GRID_BLOCKS;
 use crate::buffers::read_back;
 use crate::context::{GpuContext, TIMESTAMPS};
 use crate::error::GpuError;
@@ -140,12 +139,7 @@ impl GpuSnow {
                 .run_timed(&self.context, &self.buffers, &clock)?;
             self.last = state;
             self.check_trouble(&state)?;
-            if state.waiting == WAITING_FOR_GRID_BLOCKS {
-                self.resize_grid(u64::from(state.grid_blocks))?;
-                continue;
-            }
-            if state.waiting != 0 {
-                self.resume_with_mesh_frames(&state)?;
+            if self.serve_wait(&state)? {
                 continue;
             }
             if state.steps == before {
